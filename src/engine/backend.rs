@@ -1,0 +1,69 @@
+//! The narrow interface every backend implements (CPU in `cpu.rs`, GPU in `gpu/`), and what a
+//! chunk of steps reports. Observers only ever see a downloaded `State<f64>`.
+
+use serde::{Deserialize, Serialize};
+
+use super::state::State;
+
+/// A particle removed by the sink.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SinkEvent {
+    pub id: u32,
+    pub mass_kg: f64,
+    pub time_s: f64,
+}
+
+/// What a call to `advance` did.
+#[derive(Clone, Debug, Default)]
+pub struct ChunkReport {
+    pub steps: u64,
+    pub particle_steps: u64,
+    pub removed: Vec<SinkEvent>,
+    /// Largest overlap seen in the chunk, as a fraction of the smaller diameter.
+    pub max_overlap_ratio: f64,
+    /// Mean number of contacts per particle at the end of the chunk.
+    pub contacts_per_particle: f64,
+    pub list_builds: u64,
+}
+
+/// Which backend ran and with what.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BackendInfo {
+    /// "cpu" or "gpu".
+    pub kind: String,
+    /// "f64" or "f32".
+    pub precision: String,
+    /// CPU: "rayon, T threads"; GPU: the adapter name.
+    pub adapter: String,
+    pub threads: usize,
+}
+
+/// Errors a running simulation can end with.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error("non-finite {what} of particle {id} at step {step} (t = {time_s:.6} s): the run diverged; lower dt or check the stiffness")]
+    NonFinite { what: &'static str, id: u32, step: u64, time_s: f64 },
+    #[error("overlap of {ratio:.3} d between particles at step {step} exceeds the limit {limit:.3} d: the time step or the stiffness is wrong for this scene")]
+    Overlap { ratio: f64, limit: f64, step: u64 },
+    #[error("particle {id} has more than {slots} simultaneous contacts at step {step}: raise the history size")]
+    HistoryFull { id: u32, slots: usize, step: u64 },
+    #[error("kinetic energy blew up to {energy_j:.3e} J at step {step} (limit {limit_j:.3e} J)")]
+    EnergyBlowUp { energy_j: f64, limit_j: f64, step: u64 },
+    #[error("device error: {0}")]
+    Device(String),
+}
+
+/// A simulation backend.
+pub trait Backend: Send {
+    /// Advances `steps` time steps.
+    ///
+    /// # Errors
+    /// A non-finite value, an overlap beyond the watchdog limit, a full contact table, or a
+    /// device failure; the state is then not to be checkpointed.
+    fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError>;
+    /// Copies the state out, in f64.
+    fn download(&mut self) -> State<f64>;
+    /// Replaces the state (a checkpoint being resumed, or particles inserted between chunks).
+    fn upload(&mut self, state: &State<f64>);
+    fn describe(&self) -> BackendInfo;
+}

@@ -1,0 +1,10 @@
+//! Contact laws: parameters (`law`), the force of one contact as a pure function (`force`), and
+//! the contact duration that sets the time step (`duration`).
+
+mod duration;
+mod force;
+mod law;
+
+pub use duration::{contact_time, ContactPair};
+pub use force::{contact_force, ContactInput};
+pub use law::{ContactLaw, Elasticity, LawKernel, NormalModel};

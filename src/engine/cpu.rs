@@ -1,0 +1,429 @@
+//! The CPU backend: velocity Verlet over rayon, generic over the precision. Each particle gathers
+//! the forces on itself from its full neighbour list and updates only its own contact history,
+//! so results are bitwise identical for any thread count.
+
+use rayon::prelude::*;
+
+use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
+use super::config::EngineConfig;
+use super::contact::{contact_force, ContactInput, LawKernel};
+use super::grid::{self, NeighbourList, Periodic};
+use super::history::{wall_key, Rows, MAX_SLOTS};
+use super::real::{Real, V3};
+use super::state::State;
+use super::walls::WallKernel;
+
+const ALIVE: u8 = 1;
+const DYING: u8 = 2;
+const DEAD: u8 = 0;
+
+/// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
+pub const HISTORY_SLOTS: usize = 16;
+const _: () = assert!(HISTORY_SLOTS <= MAX_SLOTS);
+
+/// Watchdog limits checked every step.
+#[derive(Clone, Copy, Debug)]
+pub struct Watchdog {
+    /// Largest tolerated overlap as a fraction of the smaller diameter.
+    pub max_overlap_ratio: f64,
+}
+
+impl Default for Watchdog {
+    fn default() -> Self {
+        // 20 % of d is far past any physical deformation: only a diverging run gets there.
+        Self { max_overlap_ratio: 0.2 }
+    }
+}
+
+/// The CPU engine in precision `R`.
+pub struct CpuEngine<R: Real> {
+    pub state: State<R>,
+    config: EngineConfig,
+    law_pp: LawKernel<R>,
+    law_pw: LawKernel<R>,
+    walls: Vec<WallKernel<R>>,
+    periodic: Periodic<R>,
+    gravity: V3<R>,
+    dt: R,
+    skin: R,
+    sink_z: Option<R>,
+    list: NeighbourList<R>,
+    /// ALIVE, or DYING (fell through the sink this step, to be reported) or DEAD.
+    alive: Vec<u8>,
+    // Scratch, per particle: new force, new torque, largest overlap ratio, contact count.
+    f_new: Vec<V3<R>>,
+    t_new: Vec<V3<R>>,
+    overlap: Vec<R>,
+    contacts: Vec<u32>,
+    pool: rayon::ThreadPool,
+    threads: usize,
+    pub watchdog: Watchdog,
+}
+
+impl<R: Real> CpuEngine<R> {
+    /// A new engine; `threads` = 0 uses all cores.
+    pub fn new(config: EngineConfig, state: State<R>, threads: usize) -> Self {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+        let threads = pool.current_num_threads();
+        let periodic = Periodic {
+            x: config.periodic_x.map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
+            y: config.periodic_y.map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
+        };
+        Self {
+            law_pp: config.particle_law.kernel(),
+            law_pw: config.wall_law.kernel(),
+            walls: config.walls.iter().map(|w| w.kernel()).collect(),
+            periodic,
+            gravity: V3::from_f64(config.gravity),
+            dt: R::from_f64(config.dt_s),
+            skin: R::from_f64(config.skin_m),
+            sink_z: config.sink_z.map(R::from_f64),
+            list: NeighbourList::default(),
+            alive: Vec::new(),
+            f_new: Vec::new(),
+            t_new: Vec::new(),
+            overlap: Vec::new(),
+            contacts: Vec::new(),
+            pool,
+            threads,
+            watchdog: Watchdog::default(),
+            state,
+            config,
+        }
+    }
+
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    /// Removes dead particles, sorts by cell and rebuilds the neighbour lists.
+    fn rebuild(&mut self) {
+        self.compact();
+        let (periodic, skin) = (self.periodic, self.skin);
+        let state = &mut self.state;
+        let list = &mut self.list;
+        self.pool.install(|| grid::build(state, &periodic, skin, list));
+        self.alive = vec![ALIVE; self.state.len()];
+    }
+
+    /// Drops dead particles from the state (order preserved).
+    fn compact(&mut self) {
+        if self.alive.len() == self.state.len() && self.alive.iter().any(|&a| a != ALIVE) {
+            let keep: Vec<bool> = self.alive.iter().map(|&a| a == ALIVE).collect();
+            self.state.retain(&keep);
+            self.alive = vec![ALIVE; self.state.len()];
+            self.list.ref_pos.clear();
+        }
+    }
+
+    /// Contact forces and torques on every particle, from the current positions and velocities.
+    fn compute_forces(&mut self) -> Result<(), EngineError> {
+        let n = self.state.len();
+        self.f_new.resize(n, V3::zero());
+        self.t_new.resize(n, V3::zero());
+        self.overlap.resize(n, R::zero());
+        self.contacts.resize(n, 0);
+        let slots = self.state.history.slots;
+        // NOTE: the history is taken out of the state while the rest is read by every task; each
+        // task writes only its own particle's rows.
+        let mut hist = std::mem::take(&mut self.state.history);
+        let ctx = ForceContext {
+            s: &self.state,
+            list: &self.list,
+            alive: &self.alive,
+            law_pp: &self.law_pp,
+            law_pw: &self.law_pw,
+            walls: &self.walls,
+            periodic: &self.periodic,
+            dt: self.dt,
+        };
+
+        let full = self.pool.install(|| {
+            let out = self.f_new.par_iter_mut().zip(self.t_new.par_iter_mut()).zip(self.overlap.par_iter_mut()).zip(self.contacts.par_iter_mut());
+            if slots > 0 {
+                out.zip(hist.partner.par_chunks_mut(slots).zip(hist.spring.par_chunks_mut(slots)))
+                    .enumerate()
+                    .map(|(i, ((((f, t), ov), nc), (p, s)))| {
+                        let mut rows = Rows::open(p, s);
+                        let r = ctx.particle(i, Some(&mut rows));
+                        *f = r.0;
+                        *t = r.1;
+                        *ov = r.2;
+                        *nc = r.3;
+                        r.4
+                    })
+                    .find_any(|full| *full)
+                    .map(|_| ())
+            } else {
+                out.enumerate()
+                    .map(|(i, (((f, t), ov), nc))| {
+                        let r = ctx.particle(i, None);
+                        *f = r.0;
+                        *t = r.1;
+                        *ov = r.2;
+                        *nc = r.3;
+                        r.4
+                    })
+                    .find_any(|full| *full)
+                    .map(|_| ())
+            }
+        });
+        self.state.history = hist;
+        if full.is_some() {
+            let id = (0..n).find(|&i| self.contacts[i] as usize > slots).map_or(0, |i| self.state.id[i]);
+            return Err(EngineError::HistoryFull { id, slots, step: self.state.step });
+        }
+        std::mem::swap(&mut self.state.force, &mut self.f_new);
+        if self.state.rotation {
+            std::mem::swap(&mut self.state.torque, &mut self.t_new);
+        }
+        Ok(())
+    }
+
+    /// One velocity-Verlet step.
+    fn step(&mut self, removed: &mut Vec<SinkEvent>) -> Result<f64, EngineError> {
+        let half = self.dt * R::from_f64(0.5);
+        let dt = self.dt;
+        let g = self.gravity;
+        let periodic = self.periodic;
+        let sink = self.sink_z;
+        let rotation = self.state.rotation;
+        let s = &mut self.state;
+        let alive = &mut self.alive;
+        // Half kick with last step's forces, then drift; the sink marks particles that left.
+        self.pool.install(|| {
+            s.vel.par_iter_mut().zip(s.pos.par_iter_mut()).zip(s.force.par_iter()).zip(s.inv_mass.par_iter()).zip(alive.par_iter_mut()).for_each(
+                |((((v, x), &f), &im), a)| {
+                    if im == R::zero() || *a != ALIVE {
+                        return;
+                    }
+                    *v += (f * im + g) * half;
+                    *x += *v * dt;
+                    periodic.wrap(x);
+                    if let Some(zs) = sink {
+                        if x.z < zs {
+                            *a = DYING;
+                        }
+                    }
+                },
+            );
+            if rotation {
+                s.omega.par_iter_mut().zip(s.torque.par_iter()).zip(s.inv_inertia.par_iter()).for_each(|((w, &t), &ii)| {
+                    *w += t * (ii * half);
+                });
+            }
+        });
+        let t_next = s.time + self.config.dt_s;
+        if sink.is_some() && alive.par_iter().any(|&a| a == DYING) {
+            for i in 0..s.len() {
+                if alive[i] == DYING {
+                    removed.push(SinkEvent { id: s.id[i], mass_kg: s.mass[i].to_f64(), time_s: t_next });
+                    alive[i] = DEAD;
+                }
+            }
+        }
+        if grid::needs_rebuild(&self.state, &self.periodic, self.skin, &self.list) {
+            self.rebuild();
+        }
+        self.compute_forces()?;
+        let s = &mut self.state;
+        let alive = &self.alive;
+        self.pool.install(|| {
+            s.vel.par_iter_mut().zip(s.force.par_iter()).zip(s.inv_mass.par_iter()).zip(alive.par_iter()).for_each(|(((v, &f), &im), &a)| {
+                if im == R::zero() || a != ALIVE {
+                    return;
+                }
+                *v += (f * im + g) * half;
+            });
+            if rotation {
+                s.omega.par_iter_mut().zip(s.torque.par_iter()).zip(s.inv_inertia.par_iter()).for_each(|((w, &t), &ii)| {
+                    *w += t * (ii * half);
+                });
+            }
+        });
+        s.time = t_next;
+        s.step += 1;
+        let max_ov = self.pool.install(|| self.overlap.par_iter().cloned().reduce(R::zero, |a, b| a.max(b))).to_f64();
+        if max_ov > self.watchdog.max_overlap_ratio {
+            return Err(EngineError::Overlap { ratio: max_ov, limit: self.watchdog.max_overlap_ratio, step: self.state.step });
+        }
+        Ok(max_ov)
+    }
+
+    fn check_finite(&self) -> Result<(), EngineError> {
+        let s = &self.state;
+        for i in 0..s.len() {
+            if self.alive[i] != ALIVE {
+                continue;
+            }
+            let what = if !s.pos[i].is_finite() {
+                "position"
+            } else if !s.vel[i].is_finite() {
+                "velocity"
+            } else if s.rotation && !s.omega[i].is_finite() {
+                "angular velocity"
+            } else {
+                continue;
+            };
+            return Err(EngineError::NonFinite { what, id: s.id[i], step: s.step, time_s: s.time });
+        }
+        Ok(())
+    }
+}
+
+/// Everything the per-particle force gather reads.
+struct ForceContext<'a, R: Real> {
+    s: &'a State<R>,
+    list: &'a NeighbourList<R>,
+    alive: &'a [u8],
+    law_pp: &'a LawKernel<R>,
+    law_pw: &'a LawKernel<R>,
+    walls: &'a [WallKernel<R>],
+    periodic: &'a Periodic<R>,
+    dt: R,
+}
+
+impl<R: Real> ForceContext<'_, R> {
+    /// Force, torque, largest overlap ratio, contact count and "history full" for particle i.
+    #[inline]
+    fn particle(&self, i: usize, mut rows: Option<&mut Rows<'_, R>>) -> (V3<R>, V3<R>, R, u32, bool) {
+        let s = self.s;
+        let mut f = V3::zero();
+        let mut t = V3::zero();
+        let mut max_ov = R::zero();
+        let mut nc = 0u32;
+        let mut full = false;
+        if self.alive[i] != ALIVE {
+            return (f, t, max_ov, nc, full);
+        }
+        let pi = s.pos[i];
+        let ri = s.radius[i];
+        let mi = s.mass[i];
+        let vi = s.vel[i];
+        let wi = if s.rotation { s.omega[i] } else { V3::zero() };
+        let fixed_i = s.inv_mass[i] == R::zero();
+        let cnt = self.list.count[i] as usize;
+        let row = &self.list.index[i * self.list.stride..i * self.list.stride + cnt];
+        for &j in row {
+            let j = j as usize;
+            if self.alive[j] != ALIVE {
+                continue;
+            }
+            // Fixed particles feel no force: skip pairs of two fixed ones entirely.
+            let fixed_j = s.inv_mass[j] == R::zero();
+            if fixed_i && fixed_j {
+                continue;
+            }
+            let d = self.periodic.delta(s.pos[j], pi); // from j to i
+            let rj = s.radius[j];
+            let dist2 = d.norm2();
+            let sum = ri + rj;
+            if dist2 >= sum * sum {
+                continue;
+            }
+            let dist = dist2.sqrt();
+            let n = d * (R::one() / dist);
+            let overlap = sum - dist;
+            let half_ov = overlap * R::from_f64(0.5);
+            let bi = -(n * (ri - half_ov));
+            let bj = n * (rj - half_ov);
+            let wj = if s.rotation { s.omega[j] } else { V3::zero() };
+            let v_rel = (vi + wi.cross(bi)) - (s.vel[j] + wj.cross(bj));
+            let mj = s.mass[j];
+            // A fixed partner acts as infinitely heavy.
+            let m_eff = if fixed_j { mi } else if fixed_i { mj } else { mi * mj / (mi + mj) };
+            let c = ContactInput { overlap, normal: n, v_rel, r_eff: ri * rj / sum, m_eff };
+            let key = s.id[j];
+            let fc = match rows.as_deref_mut() {
+                Some(rows) => {
+                    let mut spring = rows.get(key);
+                    let fc = contact_force(self.law_pp, &c, &mut spring, self.dt);
+                    full |= !rows.put(key, spring);
+                    fc
+                }
+                None => {
+                    let mut spring = V3::zero();
+                    contact_force(self.law_pp, &c, &mut spring, self.dt)
+                }
+            };
+            f += fc;
+            t += bi.cross(fc);
+            max_ov = max_ov.max(overlap / (ri.min(rj) * R::from_f64(2.0)));
+            nc += 1;
+        }
+        if !fixed_i {
+            for (w, wall) in self.walls.iter().enumerate() {
+                if let Some(wc) = wall.touch(pi, ri) {
+                    let n = wc.normal;
+                    let bi = -(n * (ri - wc.overlap * R::from_f64(0.5)));
+                    let v_rel = vi + wi.cross(bi) - wc.wall_velocity;
+                    let c = ContactInput { overlap: wc.overlap, normal: n, v_rel, r_eff: ri, m_eff: mi };
+                    let key = wall_key(w);
+                    let fc = match rows.as_deref_mut() {
+                        Some(rows) => {
+                            let mut spring = rows.get(key);
+                            let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
+                            full |= !rows.put(key, spring);
+                            fc
+                        }
+                        None => {
+                            let mut spring = V3::zero();
+                            contact_force(self.law_pw, &c, &mut spring, self.dt)
+                        }
+                    };
+                    f += fc;
+                    t += bi.cross(fc);
+                    max_ov = max_ov.max(wc.overlap / (ri * R::from_f64(2.0)));
+                    nc += 1;
+                }
+            }
+        }
+        if fixed_i {
+            f = V3::zero();
+            t = V3::zero();
+        }
+        (f, t, max_ov, nc, full)
+    }
+}
+
+impl<R: Real> Backend for CpuEngine<R> {
+    fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError> {
+        let mut report = ChunkReport::default();
+        let builds0 = self.list.builds;
+        // NOTE: a chunk always starts from a fresh sort and list, so that a run resumed from a
+        // checkpoint (taken between chunks) follows exactly the same operations as one that never
+        // stopped.
+        self.rebuild();
+        for _ in 0..steps {
+            let ov = self.step(&mut report.removed)?;
+            report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
+            report.steps += 1;
+            report.particle_steps += self.alive.iter().filter(|&&a| a == ALIVE).count() as u64;
+        }
+        self.check_finite()?;
+        // Dead particles leave the state before anyone sees it (observers, checkpoints).
+        let n_before = self.state.len();
+        self.compact();
+        if self.state.len() != n_before {
+            self.contacts.clear();
+        }
+        let n = self.contacts.len().max(1);
+        report.contacts_per_particle = self.contacts.iter().map(|&c| c as f64).sum::<f64>() / n as f64;
+        report.list_builds = self.list.builds - builds0;
+        Ok(report)
+    }
+
+    fn download(&mut self) -> State<f64> {
+        self.state.convert()
+    }
+
+    fn upload(&mut self, state: &State<f64>) {
+        self.state = state.convert();
+        self.alive = vec![ALIVE; self.state.len()];
+        self.list = NeighbourList::default();
+    }
+
+    fn describe(&self) -> BackendInfo {
+        BackendInfo { kind: "cpu".into(), precision: R::NAME.into(), adapter: format!("rayon, {} threads", self.threads), threads: self.threads }
+    }
+}

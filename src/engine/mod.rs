@@ -1,0 +1,20 @@
+//! The DEM engine: particle state, contact laws, walls, neighbour search, integration and the
+//! backends that run them. It never touches the store; observers read downloaded state.
+
+pub mod backend;
+pub mod config;
+pub mod contact;
+pub mod cpu;
+pub mod effects;
+pub mod grid;
+pub mod history;
+pub mod real;
+pub mod state;
+pub mod walls;
+
+pub use backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
+pub use config::EngineConfig;
+pub use cpu::CpuEngine;
+pub use effects::Effects;
+pub use real::{Real, V3};
+pub use state::State;

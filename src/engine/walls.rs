@@ -1,0 +1,160 @@
+//! Walls: infinite plane, the inside of a vertical finite cylinder, and a horizontal plate with a
+//! circular orifice whose rim is a real edge. A wall may rotate rigidly about its own symmetry
+//! axis: the geometry is unchanged, only its surface velocity enters the contact, so friction
+//! drags particles along (the silo's rotating bottom).
+
+use serde::{Deserialize, Serialize};
+
+use super::real::{Real, V3};
+
+/// Geometry of a wall (SI units).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum WallShape {
+    /// Particles live on the side `normal` points to.
+    Plane { point: [f64; 3], normal: [f64; 3] },
+    /// Inside of a cylinder with vertical axis through (x, y), between z_min and z_max.
+    Cylinder { axis_xy: [f64; 2], radius: f64, z_min: f64, z_max: f64 },
+    /// Zero-thickness horizontal plate at height z with a circular hole of radius
+    /// `orifice_radius` centred at (x, y); radius 0 is a closed plate.
+    OrificePlate { z: f64, center_xy: [f64; 2], orifice_radius: f64 },
+}
+
+/// Rigid rotation of a wall about a vertical axis through `axis_xy` (rad/s, right-handed about +z).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallRotation {
+    pub axis_xy: [f64; 2],
+    pub omega_rad_per_s: f64,
+}
+
+/// A wall and its motion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wall {
+    pub shape: WallShape,
+    pub rotation: Option<WallRotation>,
+}
+
+/// A contact found with a wall, seen from the particle.
+#[derive(Clone, Copy, Debug)]
+pub struct WallContact<R: Real> {
+    /// Unit normal from the wall to the particle centre.
+    pub normal: V3<R>,
+    pub overlap: R,
+    /// Velocity of the wall's surface at the contact point.
+    pub wall_velocity: V3<R>,
+}
+
+/// A wall in the run's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct WallKernel<R: Real> {
+    kind: u8,
+    a: V3<R>,
+    b: V3<R>,
+    r: R,
+    z0: R,
+    z1: R,
+    rot_center: V3<R>,
+    omega: R,
+}
+
+impl Wall {
+    pub fn kernel<R: Real>(&self) -> WallKernel<R> {
+        let (rot_center, omega) = match self.rotation {
+            Some(r) => (V3::from_f64([r.axis_xy[0], r.axis_xy[1], 0.0]), R::from_f64(r.omega_rad_per_s)),
+            None => (V3::zero(), R::zero()),
+        };
+        match self.shape {
+            WallShape::Plane { point, normal } => {
+                let l = (normal[0].powi(2) + normal[1].powi(2) + normal[2].powi(2)).sqrt();
+                let n = [normal[0] / l, normal[1] / l, normal[2] / l];
+                WallKernel { kind: 0, a: V3::from_f64(point), b: V3::from_f64(n), r: R::zero(), z0: R::zero(), z1: R::zero(), rot_center, omega }
+            }
+            WallShape::Cylinder { axis_xy, radius, z_min, z_max } => WallKernel {
+                kind: 1,
+                a: V3::from_f64([axis_xy[0], axis_xy[1], 0.0]),
+                b: V3::zero(),
+                r: R::from_f64(radius),
+                z0: R::from_f64(z_min),
+                z1: R::from_f64(z_max),
+                rot_center,
+                omega,
+            },
+            WallShape::OrificePlate { z, center_xy, orifice_radius } => WallKernel {
+                kind: 2,
+                a: V3::from_f64([center_xy[0], center_xy[1], z]),
+                b: V3::zero(),
+                r: R::from_f64(orifice_radius),
+                z0: R::from_f64(z),
+                z1: R::zero(),
+                rot_center,
+                omega,
+            },
+        }
+    }
+}
+
+impl<R: Real> WallKernel<R> {
+    /// The contact of a sphere (centre `p`, radius `rad`) with this wall, if they overlap.
+    #[inline]
+    pub fn touch(&self, p: V3<R>, rad: R) -> Option<WallContact<R>> {
+        let (normal, dist, point) = match self.kind {
+            0 => {
+                let d = (p - self.a).dot(self.b);
+                if d >= rad {
+                    return None;
+                }
+                (self.b, d, p - self.b * d)
+            }
+            1 => {
+                if p.z < self.z0 || p.z > self.z1 {
+                    return None;
+                }
+                let dx = p.x - self.a.x;
+                let dy = p.y - self.a.y;
+                let rr = (dx * dx + dy * dy).sqrt();
+                let d = self.r - rr;
+                if d >= rad || rr <= R::zero() {
+                    return None;
+                }
+                let n = V3::new(-dx / rr, -dy / rr, R::zero());
+                (n, d, V3::new(self.a.x + dx / rr * self.r, self.a.y + dy / rr * self.r, p.z))
+            }
+            _ => {
+                let dz = p.z - self.z0;
+                if dz.abs() >= rad {
+                    return None;
+                }
+                let dx = p.x - self.a.x;
+                let dy = p.y - self.a.y;
+                let rr = (dx * dx + dy * dy).sqrt();
+                if rr >= self.r {
+                    // Over the solid part: the plate's face, from whichever side.
+                    let s = if dz >= R::zero() { R::one() } else { -R::one() };
+                    (V3::new(R::zero(), R::zero(), s), dz.abs(), V3::new(p.x, p.y, self.z0))
+                } else {
+                    // Over the hole: the nearest solid point is on the rim (a real edge).
+                    if rr <= R::zero() {
+                        return None;
+                    }
+                    let q = V3::new(self.a.x + dx / rr * self.r, self.a.y + dy / rr * self.r, self.z0);
+                    let d = p - q;
+                    let dist = d.norm();
+                    if dist >= rad || dist <= R::zero() {
+                        return None;
+                    }
+                    (d * (R::one() / dist), dist, q)
+                }
+            }
+        };
+        let wall_velocity = if self.omega != R::zero() {
+            // v = Ω ẑ × (q − c)
+            let rel = point - self.rot_center;
+            V3::new(-self.omega * rel.y, self.omega * rel.x, R::zero())
+        } else {
+            V3::zero()
+        };
+        Some(WallContact { normal, overlap: rad - dist, wall_velocity })
+    }
+}

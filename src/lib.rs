@@ -1,0 +1,7 @@
+//! sweep: parameter studies of granular flow. Campaign files are expanded into jobs, each job runs
+//! a DEM scene on a backend, observers sample the state, results land in SQLite and reports
+//! redraw the papers' figures from them.
+
+pub mod engine;
+pub mod observe;
+pub mod report;

@@ -1,0 +1,68 @@
+//! Which campaign a report is about: by name, or the most recent one of a scene. Read-only.
+
+use anyhow::{bail, Result};
+use rusqlite::{params, Connection, OptionalExtension};
+
+/// A campaign row, as much of it as a report needs.
+#[derive(Debug, Clone)]
+pub struct CampaignRef {
+    /// campaigns.id
+    pub id: i64,
+    /// campaigns.name
+    pub name: String,
+    /// campaigns.scene, e.g. "silo"
+    pub scene: String,
+}
+
+/// The campaign named `name`, or when None the most recent campaign of `scene`.
+///
+/// # Errors
+/// When no campaign matches, when the named one belongs to another scene, or on a database error.
+pub fn find_campaign(conn: &Connection, name: Option<&str>, scene: &str) -> Result<CampaignRef> {
+    let row = |r: &rusqlite::Row<'_>| {
+        Ok(CampaignRef {
+            id: r.get(0)?,
+            name: r.get(1)?,
+            scene: r.get(2)?,
+        })
+    };
+    let Some(name) = name else {
+        let found = conn
+            .query_row(
+                "SELECT id, name, scene FROM campaigns WHERE scene = ?1 \
+                 ORDER BY created_at DESC, id DESC LIMIT 1",
+                params![scene],
+                row,
+            )
+            .optional()?;
+        return match found {
+            Some(c) => Ok(c),
+            None => bail!("no campaign with scene '{scene}' in the database: launch one first"),
+        };
+    };
+    let found = conn
+        .query_row(
+            "SELECT id, name, scene FROM campaigns WHERE name = ?1",
+            params![name],
+            row,
+        )
+        .optional()?;
+    match found {
+        Some(c) if c.scene == scene => Ok(c),
+        Some(c) => bail!(
+            "campaign '{}' is a '{}' campaign; this figure needs a '{scene}' campaign",
+            c.name,
+            c.scene
+        ),
+        None => {
+            let mut stmt = conn.prepare("SELECT name FROM campaigns ORDER BY name")?;
+            let names = stmt
+                .query_map([], |r| r.get::<_, String>(0))?
+                .collect::<rusqlite::Result<Vec<_>>>()?;
+            if names.is_empty() {
+                bail!("no campaign named '{name}': the database has no campaigns")
+            }
+            bail!("no campaign named '{name}': known campaigns are {}", names.join(", "))
+        }
+    }
+}

@@ -1,0 +1,408 @@
+//! A small figure description (panels, axes, series) drawn with plotters into an SVG and a PNG
+//! of the same figure. It owns layout, styling and the bundled font; it knows nothing about the
+//! database or about any paper.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use anyhow::{anyhow, Context, Result};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// The font used for every text of a figure, bundled so PNGs need no system font.
+const FONT_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/DejaVuSans.ttf"));
+const FONT: &str = "sans-serif";
+
+/// Categorical colours (Tableau 10): distinguishable and readable on white.
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// How an axis maps values to positions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scale {
+    /// Evenly spaced values.
+    Linear,
+    /// Evenly spaced decades; non-positive values are not drawn.
+    Log,
+}
+
+/// One axis of a panel.
+#[derive(Debug, Clone)]
+pub struct Axis {
+    /// Text under (x) or beside (y) the axis, with the unit in parentheses.
+    pub label: String,
+    /// Linear or logarithmic.
+    pub scale: Scale,
+    /// Fixed (min, max); None fits the data with a margin.
+    pub range: Option<(f64, f64)>,
+}
+
+impl Axis {
+    /// A linear axis fitted to the data.
+    pub fn linear(label: impl Into<String>) -> Self {
+        Self { label: label.into(), scale: Scale::Linear, range: None }
+    }
+
+    /// A logarithmic axis fitted to the positive data.
+    pub fn log(label: impl Into<String>) -> Self {
+        Self { label: label.into(), scale: Scale::Log, range: None }
+    }
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeriesKind {
+    /// Filled circles, with error bars when given.
+    Points,
+    /// A solid polyline through the points in order.
+    Line,
+}
+
+/// A set of (x, y) points drawn in one style and colour.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend text; None keeps the series out of the legend.
+    pub label: Option<String>,
+    /// Points or line.
+    pub kind: SeriesKind,
+    /// Index into the palette (wraps around).
+    pub color: usize,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates, same length as `x`.
+    pub y: Vec<f64>,
+    /// Half-lengths of symmetric vertical error bars, same length as `x`; None for no bars.
+    pub y_err: Option<Vec<Option<f64>>>,
+}
+
+impl Series {
+    /// Markers at (x, y).
+    pub fn points(label: Option<String>, color: usize, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Self { label, kind: SeriesKind::Points, color, x, y, y_err: None }
+    }
+
+    /// A line through (x, y).
+    pub fn line(label: Option<String>, color: usize, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Self { label, kind: SeriesKind::Line, color, x, y, y_err: None }
+    }
+
+    /// Adds vertical error bars (half-widths; None for a point without one).
+    pub fn with_errors(mut self, y_err: Vec<Option<f64>>) -> Self {
+        self.y_err = Some(y_err);
+        self
+    }
+
+    /// The drawable points: finite, and positive on log axes. (x, y, y_err)
+    fn visible(&self, x_scale: Scale, y_scale: Scale) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        (0..self.x.len().min(self.y.len())).filter_map(move |i| {
+            let (x, y) = (self.x[i], self.y[i]);
+            let err = self.y_err.as_ref().and_then(|e| e.get(i).copied().flatten()).unwrap_or(0.0);
+            let ok = x.is_finite()
+                && y.is_finite()
+                && err.is_finite()
+                && (x_scale == Scale::Linear || x > 0.0)
+                && (y_scale == Scale::Linear || y > 0.0);
+            ok.then_some((x, y, err.abs()))
+        })
+    }
+}
+
+/// Where a panel's legend sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Legend {
+    /// No legend.
+    Hidden,
+    /// Inside the plot, top left.
+    UpperLeft,
+    /// Inside the plot, top right.
+    UpperRight,
+    /// Inside the plot, bottom left.
+    LowerLeft,
+    /// Inside the plot, bottom right.
+    LowerRight,
+}
+
+/// One plot: two axes and the series drawn against them.
+#[derive(Debug, Clone)]
+pub struct Panel {
+    /// Caption above the plot.
+    pub title: Option<String>,
+    /// Horizontal axis.
+    pub x: Axis,
+    /// Vertical axis.
+    pub y: Axis,
+    /// Drawn in order (later on top).
+    pub series: Vec<Series>,
+    /// Legend placement.
+    pub legend: Legend,
+}
+
+impl Panel {
+    /// An empty panel with the given axes and the legend at the top left.
+    pub fn new(x: Axis, y: Axis) -> Self {
+        Self { title: None, x, y, series: Vec::new(), legend: Legend::UpperLeft }
+    }
+}
+
+/// A grid of panels written as `<stem>.svg` and `<stem>.png`.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    /// Caption above all panels.
+    pub title: Option<String>,
+    /// Panels in reading order, filling rows of `columns`.
+    pub panels: Vec<Panel>,
+    /// Panels per row (at least 1).
+    pub columns: usize,
+    /// Size of one panel in pixels (width, height); the image is the grid of them.
+    pub panel_size: (u32, u32),
+}
+
+impl Figure {
+    /// Size of the whole image in pixels (width, height).
+    pub fn size(&self) -> (u32, u32) {
+        let cols = self.columns.clamp(1, self.panels.len().max(1));
+        let rows = self.panels.len().max(1).div_ceil(cols);
+        let title = if self.title.is_some() { TITLE_HEIGHT } else { 0 };
+        (self.panel_size.0 * cols as u32, self.panel_size.1 * rows as u32 + title)
+    }
+
+    /// Writes `<dir>/<stem>.svg` and `<dir>/<stem>.png` and returns their paths.
+    ///
+    /// # Errors
+    /// When the font cannot be loaded or a file cannot be written.
+    pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
+        ensure_font()?;
+        let size = self.size();
+        let svg = dir.join(format!("{stem}.svg"));
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        self.draw(&root).with_context(|| format!("drawing {}", svg.display()))?;
+        root.present().map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
+        drop(root);
+        let png = dir.join(format!("{stem}.png"));
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        self.draw(&root).with_context(|| format!("drawing {}", png.display()))?;
+        root.present().map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
+        Ok(vec![svg, png])
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        root.fill(&WHITE).map_err(plot_err)?;
+        let area = match &self.title {
+            Some(t) => root
+                .titled(t, (FONT, 26).into_font().color(&BLACK))
+                .map_err(plot_err)?,
+            None => root.clone(),
+        };
+        let cols = self.columns.clamp(1, self.panels.len().max(1));
+        let rows = self.panels.len().max(1).div_ceil(cols);
+        for (panel, cell) in self.panels.iter().zip(area.split_evenly((rows, cols))) {
+            draw_panel(&cell, panel)?;
+        }
+        Ok(())
+    }
+}
+
+const TITLE_HEIGHT: u32 = 40;
+
+/// Registers the bundled font with plotters once per process.
+fn ensure_font() -> Result<()> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(anyhow!("the bundled font assets/DejaVuSans.ttf could not be loaded"))
+    }
+}
+
+fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
+    anyhow!("plotting failed: {e}")
+}
+
+/// The range of one axis: the fixed one, or the data's extent (with error bars) plus a margin.
+fn axis_range(axis: &Axis, values: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
+    if let Some((lo, hi)) = axis.range {
+        return (lo, hi);
+    }
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (a, b)| {
+        (lo.min(a), hi.max(b))
+    });
+    match axis.scale {
+        Scale::Linear => {
+            if !lo.is_finite() {
+                return (0.0, 1.0);
+            }
+            let span = if hi > lo { hi - lo } else { lo.abs().max(1e-12) };
+            (lo - 0.05 * span, hi + 0.05 * span)
+        }
+        Scale::Log => {
+            let lo = if lo.is_finite() && lo > 0.0 { lo } else { hi / 10.0 };
+            if !(lo.is_finite() && hi.is_finite() && lo > 0.0) {
+                return (0.1, 10.0);
+            }
+            let ratio = if hi > lo { (hi / lo).powf(0.05) } else { 2.0 };
+            (lo / ratio, hi * ratio)
+        }
+    }
+}
+
+/// Tick labels with about four significant digits, without trailing zeros.
+fn tick_label(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return "0".into();
+    }
+    let mag = v.abs().log10().floor();
+    if !(-3.0..5.0).contains(&mag) {
+        return format!("{v:.1e}");
+    }
+    let decimals = (3.0 - mag).clamp(0.0, 7.0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<()> {
+    let (xs, ys) = (panel.x.scale, panel.y.scale);
+    let pts = || panel.series.iter().flat_map(move |s| s.visible(xs, ys));
+    let (x0, x1) = axis_range(&panel.x, pts().map(|(x, _, _)| (x, x)));
+    let y_ext = |(_, y, e): (f64, f64, f64)| {
+        // On a log axis a bar reaching zero or below would stretch the axis without end.
+        let lo = if ys == Scale::Log && y - e <= 0.0 { y } else { y - e };
+        (lo, y + e)
+    };
+    let (y0, y1) = axis_range(&panel.y, pts().map(y_ext));
+    match (xs, ys) {
+        (Scale::Linear, Scale::Linear) => draw_in(area, panel, x0..x1, y0..y1),
+        (Scale::Log, Scale::Linear) => draw_in(area, panel, (x0..x1).log_scale(), y0..y1),
+        (Scale::Linear, Scale::Log) => draw_in(area, panel, x0..x1, (y0..y1).log_scale()),
+        (Scale::Log, Scale::Log) => {
+            draw_in(area, panel, (x0..x1).log_scale(), (y0..y1).log_scale())
+        }
+    }
+}
+
+fn draw_in<DB, X, Y>(area: &DrawingArea<DB, Shift>, panel: &Panel, x: X, y: Y) -> Result<()>
+where
+    DB: DrawingBackend,
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let mut builder = ChartBuilder::on(area);
+    builder.margin(14).x_label_area_size(58).y_label_area_size(84);
+    if let Some(t) = &panel.title {
+        builder.caption(t, (FONT, 22));
+    }
+    let mut chart = builder.build_cartesian_2d(x, y).map_err(plot_err)?;
+    let y_bottom = chart.y_range().start;
+    let fmt = |v: &f64| tick_label(*v);
+    chart
+        .configure_mesh()
+        .x_desc(panel.x.label.as_str())
+        .y_desc(panel.y.label.as_str())
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .label_style((FONT, 16))
+        .axis_desc_style((FONT, 19))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .draw()
+        .map_err(plot_err)?;
+
+    let (xs, ys) = (panel.x.scale, panel.y.scale);
+    for series in &panel.series {
+        let color = PALETTE[series.color % PALETTE.len()];
+        let pts: Vec<(f64, f64, f64)> = series.visible(xs, ys).collect();
+        let anno = match series.kind {
+            SeriesKind::Line => chart
+                .draw_series(LineSeries::new(pts.iter().map(|&(x, y, _)| (x, y)), color.stroke_width(2)))
+                .map_err(plot_err)?,
+            SeriesKind::Points => {
+                let bars = pts.iter().filter(|p| p.2 > 0.0).map(|&(x, y, e)| {
+                    let lo = if ys == Scale::Log && y - e <= 0.0 { y_bottom } else { y - e };
+                    PathElement::new(vec![(x, lo), (x, y + e)], color.stroke_width(1))
+                });
+                chart.draw_series(bars).map_err(plot_err)?;
+                let caps = pts.iter().filter(|p| p.2 > 0.0).flat_map(|&(x, y, e)| {
+                    [y - e, y + e].into_iter().filter(|&v| ys == Scale::Linear || v > 0.0).map(move |v| {
+                        EmptyElement::at((x, v)) + PathElement::new(vec![(-4, 0), (4, 0)], color.stroke_width(1))
+                    })
+                });
+                chart.draw_series(caps).map_err(plot_err)?;
+                chart
+                    .draw_series(pts.iter().map(|&(x, y, _)| Circle::new((x, y), 4, color.filled())))
+                    .map_err(plot_err)?
+            }
+        };
+        if let Some(label) = &series.label {
+            let kind = series.kind;
+            anno.label(label.as_str()).legend(move |(lx, ly)| match kind {
+                SeriesKind::Line => {
+                    PathElement::new(vec![(lx, ly), (lx + 22, ly)], color.stroke_width(2)).into_dyn()
+                }
+                SeriesKind::Points => Circle::new((lx + 11, ly), 4, color.filled()).into_dyn(),
+            });
+        }
+    }
+
+    let position = match panel.legend {
+        Legend::Hidden => return Ok(()),
+        Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+        Legend::UpperRight => SeriesLabelPosition::UpperRight,
+        Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+        Legend::LowerRight => SeriesLabelPosition::LowerRight,
+    };
+    if panel.series.iter().any(|s| s.label.is_some()) {
+        chart
+            .configure_series_labels()
+            .position(position)
+            .label_font((FONT, 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(160, 160, 160))
+            .draw()
+            .map_err(plot_err)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(12.5), "12.5");
+        assert_eq!(tick_label(40.0), "40");
+        assert_eq!(tick_label(0.0125), "0.0125");
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(2.5e-5), "2.5e-5");
+    }
+
+    #[test]
+    fn auto_range_includes_error_bars_and_margin() {
+        let axis = Axis::linear("y");
+        let (lo, hi) = axis_range(&axis, [(1.0, 3.0), (2.0, 5.0)].into_iter());
+        assert!(lo < 1.0 && lo > 0.7 && hi > 5.0 && hi < 5.3, "{lo} {hi}");
+        let (lo, hi) = axis_range(&Axis::log("y"), [(1e-3, 1e-3), (1.0, 1.0)].into_iter());
+        assert!(lo < 1e-3 && lo > 5e-4 && hi > 1.0 && hi < 2.0, "{lo} {hi}");
+        assert_eq!(axis_range(&Axis::linear("y"), std::iter::empty()), (0.0, 1.0));
+    }
+}
