@@ -2,6 +2,12 @@
 //! a DEM scene on a backend, observers sample the state, results land in SQLite and reports
 //! redraw the papers' figures from them.
 
+pub mod bench;
+pub mod campaign;
+pub mod checkpoint;
 pub mod engine;
+pub mod scene;
+pub mod store;
 pub mod observe;
 pub mod report;
+pub mod runner;

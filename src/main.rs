@@ -1,1 +1,19 @@
-fn main() {}
+//! The `sweep` command: parses the command line and dispatches to one subcommand.
+
+mod cli;
+
+fn main() {
+    let code = match cli::run() {
+        Ok(code) => code,
+        Err(e) => {
+            // A closed pipe (sweep status | head) is not an error.
+            if e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)) {
+                0
+            } else {
+                eprintln!("sweep: error: {e:#}");
+                2
+            }
+        }
+    };
+    std::process::exit(code);
+}

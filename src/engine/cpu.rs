@@ -13,6 +13,8 @@ use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
 
+/// Smallest piece of work a rayon task takes: small runs stay on one thread.
+const MIN_LEN: usize = 512;
 const ALIVE: u8 = 1;
 const DYING: u8 = 2;
 const DEAD: u8 = 0;
@@ -50,10 +52,9 @@ pub struct CpuEngine<R: Real> {
     list: NeighbourList<R>,
     /// ALIVE, or DYING (fell through the sink this step, to be reported) or DEAD.
     alive: Vec<u8>,
-    // Scratch, per particle: new force, new torque, largest overlap ratio, contact count.
+    // Scratch, per particle: new force, new torque, contact count.
     f_new: Vec<V3<R>>,
     t_new: Vec<V3<R>>,
-    overlap: Vec<R>,
     contacts: Vec<u32>,
     pool: rayon::ThreadPool,
     threads: usize,
@@ -82,7 +83,6 @@ impl<R: Real> CpuEngine<R> {
             alive: Vec::new(),
             f_new: Vec::new(),
             t_new: Vec::new(),
-            overlap: Vec::new(),
             contacts: Vec::new(),
             pool,
             threads,
@@ -117,11 +117,10 @@ impl<R: Real> CpuEngine<R> {
     }
 
     /// Contact forces and torques on every particle, from the current positions and velocities.
-    fn compute_forces(&mut self) -> Result<(), EngineError> {
+    fn compute_forces(&mut self) -> Result<R, EngineError> {
         let n = self.state.len();
         self.f_new.resize(n, V3::zero());
         self.t_new.resize(n, V3::zero());
-        self.overlap.resize(n, R::zero());
         self.contacts.resize(n, 0);
         let slots = self.state.history.slots;
         // NOTE: the history is taken out of the state while the rest is read by every task; each
@@ -139,37 +138,36 @@ impl<R: Real> CpuEngine<R> {
         };
 
         let full = self.pool.install(|| {
-            let out = self.f_new.par_iter_mut().zip(self.t_new.par_iter_mut()).zip(self.overlap.par_iter_mut()).zip(self.contacts.par_iter_mut());
+            let out = self.f_new.par_iter_mut().zip(self.t_new.par_iter_mut()).zip(self.contacts.par_iter_mut());
             if slots > 0 {
                 out.zip(hist.partner.par_chunks_mut(slots).zip(hist.spring.par_chunks_mut(slots)))
                     .enumerate()
-                    .map(|(i, ((((f, t), ov), nc), (p, s)))| {
+                    .with_min_len(MIN_LEN)
+                    .map(|(i, (((f, t), nc), (p, s)))| {
                         let mut rows = Rows::open(p, s);
                         let r = ctx.particle(i, Some(&mut rows));
                         *f = r.0;
                         *t = r.1;
-                        *ov = r.2;
                         *nc = r.3;
-                        r.4
+                        (r.4, r.2)
                     })
-                    .find_any(|full| *full)
-                    .map(|_| ())
+                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
             } else {
                 out.enumerate()
-                    .map(|(i, (((f, t), ov), nc))| {
+                    .with_min_len(MIN_LEN)
+                    .map(|(i, ((f, t), nc))| {
                         let r = ctx.particle(i, None);
                         *f = r.0;
                         *t = r.1;
-                        *ov = r.2;
                         *nc = r.3;
-                        r.4
+                        (r.4, r.2)
                     })
-                    .find_any(|full| *full)
-                    .map(|_| ())
+                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
             }
         });
         self.state.history = hist;
-        if full.is_some() {
+        let (full, max_ov) = full;
+        if full {
             let id = (0..n).find(|&i| self.contacts[i] as usize > slots).map_or(0, |i| self.state.id[i]);
             return Err(EngineError::HistoryFull { id, slots, step: self.state.step });
         }
@@ -177,73 +175,89 @@ impl<R: Real> CpuEngine<R> {
         if self.state.rotation {
             std::mem::swap(&mut self.state.torque, &mut self.t_new);
         }
-        Ok(())
+        Ok(max_ov)
     }
 
-    /// One velocity-Verlet step.
-    fn step(&mut self, removed: &mut Vec<SinkEvent>) -> Result<f64, EngineError> {
-        let half = self.dt * R::from_f64(0.5);
+    /// Kick by `kick` (dt/2 at a chunk's first step, dt after: the previous step's closing
+    /// half kick and this step's opening one fused), then drift; flags particles that fell
+    /// through the sink. Returns (some particle died, the lists need a rebuild).
+    fn kick_drift(&mut self, kick: R) -> (bool, bool) {
         let dt = self.dt;
         let g = self.gravity;
         let periodic = self.periodic;
         let sink = self.sink_z;
-        let rotation = self.state.rotation;
+        let half2 = self.skin * self.skin * R::from_f64(0.25);
         let s = &mut self.state;
         let alive = &mut self.alive;
-        // Half kick with last step's forces, then drift; the sink marks particles that left.
+        let refs = &self.list.ref_pos;
+        let stale = refs.len() != s.pos.len();
         self.pool.install(|| {
-            s.vel.par_iter_mut().zip(s.pos.par_iter_mut()).zip(s.force.par_iter()).zip(s.inv_mass.par_iter()).zip(alive.par_iter_mut()).for_each(
-                |((((v, x), &f), &im), a)| {
-                    if im == R::zero() || *a != ALIVE {
-                        return;
-                    }
-                    *v += (f * im + g) * half;
-                    *x += *v * dt;
-                    periodic.wrap(x);
-                    if let Some(zs) = sink {
-                        if x.z < zs {
-                            *a = DYING;
-                        }
-                    }
-                },
-            );
-            if rotation {
-                s.omega.par_iter_mut().zip(s.torque.par_iter()).zip(s.inv_inertia.par_iter()).for_each(|((w, &t), &ii)| {
-                    *w += t * (ii * half);
+            if s.rotation {
+                (s.omega.par_iter_mut(), s.torque.par_iter(), s.inv_inertia.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(w, &t, &ii)| {
+                    *w += t * (ii * kick);
                 });
             }
-        });
-        let t_next = s.time + self.config.dt_s;
-        if sink.is_some() && alive.par_iter().any(|&a| a == DYING) {
-            for i in 0..s.len() {
-                if alive[i] == DYING {
-                    removed.push(SinkEvent { id: s.id[i], mass_kg: s.mass[i].to_f64(), time_s: t_next });
-                    alive[i] = DEAD;
-                }
-            }
-        }
-        if grid::needs_rebuild(&self.state, &self.periodic, self.skin, &self.list) {
-            self.rebuild();
-        }
-        self.compute_forces()?;
+            (s.vel.par_iter_mut(), s.pos.par_iter_mut(), s.force.par_iter(), s.inv_mass.par_iter(), alive.par_iter_mut())
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(MIN_LEN)
+                .map(|(i, (v, x, &f, &im, a))| {
+                    if im == R::zero() || *a != ALIVE {
+                        return (false, false);
+                    }
+                    *v += (f * im + g) * kick;
+                    *x += *v * dt;
+                    periodic.wrap(x);
+                    let died = matches!(sink, Some(zs) if x.z < zs);
+                    if died {
+                        *a = DYING;
+                    }
+                    let moved = stale || periodic.delta(refs[i], *x).norm2() > half2;
+                    (died, moved)
+                })
+                .reduce(|| (false, false), |p, q| (p.0 || q.0, p.1 || q.1))
+        })
+    }
+
+    /// The closing half kick of a chunk, so that velocities are at full steps between chunks.
+    fn close_kick(&mut self) {
+        let half = self.dt * R::from_f64(0.5);
+        let g = self.gravity;
         let s = &mut self.state;
         let alive = &self.alive;
         self.pool.install(|| {
-            s.vel.par_iter_mut().zip(s.force.par_iter()).zip(s.inv_mass.par_iter()).zip(alive.par_iter()).for_each(|(((v, &f), &im), &a)| {
-                if im == R::zero() || a != ALIVE {
-                    return;
+            (s.vel.par_iter_mut(), s.force.par_iter(), s.inv_mass.par_iter(), alive.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(v, &f, &im, &a)| {
+                if im != R::zero() && a == ALIVE {
+                    *v += (f * im + g) * half;
                 }
-                *v += (f * im + g) * half;
             });
-            if rotation {
-                s.omega.par_iter_mut().zip(s.torque.par_iter()).zip(s.inv_inertia.par_iter()).for_each(|((w, &t), &ii)| {
+            if s.rotation {
+                (s.omega.par_iter_mut(), s.torque.par_iter(), s.inv_inertia.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(w, &t, &ii)| {
                     *w += t * (ii * half);
                 });
             }
         });
-        s.time = t_next;
-        s.step += 1;
-        let max_ov = self.pool.install(|| self.overlap.par_iter().cloned().reduce(R::zero, |a, b| a.max(b))).to_f64();
+    }
+
+    /// One velocity-Verlet step (with the closing half kick deferred, see `kick_drift`).
+    fn step(&mut self, kick: R, removed: &mut Vec<SinkEvent>) -> Result<f64, EngineError> {
+        let (died, moved) = self.kick_drift(kick);
+        let t_next = self.state.time + self.config.dt_s;
+        if died {
+            let s = &self.state;
+            for i in 0..s.len() {
+                if self.alive[i] == DYING {
+                    removed.push(SinkEvent { id: s.id[i], mass_kg: s.mass[i].to_f64(), time_s: t_next });
+                    self.alive[i] = DEAD;
+                }
+            }
+        }
+        if moved {
+            self.rebuild();
+        }
+        let max_ov = self.compute_forces()?.to_f64();
+        self.state.time = t_next;
+        self.state.step += 1;
         if max_ov > self.watchdog.max_overlap_ratio {
             return Err(EngineError::Overlap { ratio: max_ov, limit: self.watchdog.max_overlap_ratio, step: self.state.step });
         }
@@ -394,11 +408,15 @@ impl<R: Real> Backend for CpuEngine<R> {
         // checkpoint (taken between chunks) follows exactly the same operations as one that never
         // stopped.
         self.rebuild();
-        for _ in 0..steps {
-            let ov = self.step(&mut report.removed)?;
+        let half = self.dt * R::from_f64(0.5);
+        for k in 0..steps {
+            let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;
             report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
             report.steps += 1;
             report.particle_steps += self.alive.iter().filter(|&&a| a == ALIVE).count() as u64;
+        }
+        if steps > 0 {
+            self.close_kick();
         }
         self.check_finite()?;
         // Dead particles leave the state before anyone sees it (observers, checkpoints).

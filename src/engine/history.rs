@@ -73,19 +73,18 @@ pub struct Rows<'a, R: Real> {
 }
 
 /// Largest number of simultaneous contacts per particle the table can hold.
-pub const MAX_SLOTS: usize = 32;
+pub const MAX_SLOTS: usize = 16;
 
 impl<'a, R: Real> Rows<'a, R> {
     pub fn open(partner: &'a mut [u32], spring: &'a mut [V3<R>]) -> Self {
+        // Rows are kept packed (contacts first, then EMPTY), so the old contacts are a prefix.
         let mut old_partner = [EMPTY; MAX_SLOTS];
         let mut old_spring = [V3::zero(); MAX_SLOTS];
         let mut old_len = 0;
-        for s in 0..partner.len() {
-            if partner[s] != EMPTY {
-                old_partner[old_len] = partner[s];
-                old_spring[old_len] = spring[s];
-                old_len += 1;
-            }
+        while old_len < partner.len() && partner[old_len] != EMPTY {
+            old_partner[old_len] = partner[old_len];
+            old_spring[old_len] = spring[old_len];
+            old_len += 1;
         }
         Self { partner, spring, old_partner, old_spring, old_len, len: 0 }
     }
@@ -117,7 +116,8 @@ impl<'a, R: Real> Rows<'a, R> {
 
 impl<R: Real> Drop for Rows<'_, R> {
     fn drop(&mut self) {
-        for s in self.len..self.partner.len() {
+        // Only the slots that held contacts before can be non-empty past the new length.
+        for s in self.len..self.old_len.max(self.len) {
             self.partner[s] = EMPTY;
             self.spring[s] = V3::zero();
         }

@@ -62,7 +62,10 @@ pub fn find_campaign(conn: &Connection, name: Option<&str>, scene: &str) -> Resu
             if names.is_empty() {
                 bail!("no campaign named '{name}': the database has no campaigns")
             }
-            bail!("no campaign named '{name}': known campaigns are {}", names.join(", "))
+            bail!(
+                "no campaign named '{name}': known campaigns are {}",
+                names.join(", ")
+            )
         }
     }
 }

@@ -11,7 +11,10 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// The font used for every text of a figure, bundled so PNGs need no system font.
-const FONT_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/DejaVuSans.ttf"));
+const FONT_BYTES: &[u8] = include_bytes!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/DejaVuSans.ttf"
+));
 const FONT: &str = "sans-serif";
 
 /// Categorical colours (Tableau 10): distinguishable and readable on white.
@@ -51,12 +54,20 @@ pub struct Axis {
 impl Axis {
     /// A linear axis fitted to the data.
     pub fn linear(label: impl Into<String>) -> Self {
-        Self { label: label.into(), scale: Scale::Linear, range: None }
+        Self {
+            label: label.into(),
+            scale: Scale::Linear,
+            range: None,
+        }
     }
 
     /// A logarithmic axis fitted to the positive data.
     pub fn log(label: impl Into<String>) -> Self {
-        Self { label: label.into(), scale: Scale::Log, range: None }
+        Self {
+            label: label.into(),
+            scale: Scale::Log,
+            range: None,
+        }
     }
 }
 
@@ -89,12 +100,26 @@ pub struct Series {
 impl Series {
     /// Markers at (x, y).
     pub fn points(label: Option<String>, color: usize, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Self { label, kind: SeriesKind::Points, color, x, y, y_err: None }
+        Self {
+            label,
+            kind: SeriesKind::Points,
+            color,
+            x,
+            y,
+            y_err: None,
+        }
     }
 
     /// A line through (x, y).
     pub fn line(label: Option<String>, color: usize, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Self { label, kind: SeriesKind::Line, color, x, y, y_err: None }
+        Self {
+            label,
+            kind: SeriesKind::Line,
+            color,
+            x,
+            y,
+            y_err: None,
+        }
     }
 
     /// Adds vertical error bars (half-widths; None for a point without one).
@@ -104,10 +129,18 @@ impl Series {
     }
 
     /// The drawable points: finite, and positive on log axes. (x, y, y_err)
-    fn visible(&self, x_scale: Scale, y_scale: Scale) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+    fn visible(
+        &self,
+        x_scale: Scale,
+        y_scale: Scale,
+    ) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
         (0..self.x.len().min(self.y.len())).filter_map(move |i| {
             let (x, y) = (self.x[i], self.y[i]);
-            let err = self.y_err.as_ref().and_then(|e| e.get(i).copied().flatten()).unwrap_or(0.0);
+            let err = self
+                .y_err
+                .as_ref()
+                .and_then(|e| e.get(i).copied().flatten())
+                .unwrap_or(0.0);
             let ok = x.is_finite()
                 && y.is_finite()
                 && err.is_finite()
@@ -151,7 +184,13 @@ pub struct Panel {
 impl Panel {
     /// An empty panel with the given axes and the legend at the top left.
     pub fn new(x: Axis, y: Axis) -> Self {
-        Self { title: None, x, y, series: Vec::new(), legend: Legend::UpperLeft }
+        Self {
+            title: None,
+            x,
+            y,
+            series: Vec::new(),
+            legend: Legend::UpperLeft,
+        }
     }
 }
 
@@ -173,8 +212,15 @@ impl Figure {
     pub fn size(&self) -> (u32, u32) {
         let cols = self.columns.clamp(1, self.panels.len().max(1));
         let rows = self.panels.len().max(1).div_ceil(cols);
-        let title = if self.title.is_some() { TITLE_HEIGHT } else { 0 };
-        (self.panel_size.0 * cols as u32, self.panel_size.1 * rows as u32 + title)
+        let title = if self.title.is_some() {
+            TITLE_HEIGHT
+        } else {
+            0
+        };
+        (
+            self.panel_size.0 * cols as u32,
+            self.panel_size.1 * rows as u32 + title,
+        )
     }
 
     /// Writes `<dir>/<stem>.svg` and `<dir>/<stem>.png` and returns their paths.
@@ -186,13 +232,18 @@ impl Figure {
         let size = self.size();
         let svg = dir.join(format!("{stem}.svg"));
         let root = SVGBackend::new(&svg, size).into_drawing_area();
-        self.draw(&root).with_context(|| format!("drawing {}", svg.display()))?;
-        root.present().map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
+        self.draw(&root)
+            .with_context(|| format!("drawing {}", svg.display()))?;
+        root.present()
+            .map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
         drop(root);
         let png = dir.join(format!("{stem}.png"));
         let root = BitMapBackend::new(&png, size).into_drawing_area();
-        self.draw(&root).with_context(|| format!("drawing {}", png.display()))?;
-        root.present().map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
+        self.draw(&root)
+            .with_context(|| format!("drawing {}", png.display()))?;
+        root.present()
+            .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
+        drop(root);
         Ok(vec![svg, png])
     }
 
@@ -224,7 +275,9 @@ fn ensure_font() -> Result<()> {
     if ok {
         Ok(())
     } else {
-        Err(anyhow!("the bundled font assets/DejaVuSans.ttf could not be loaded"))
+        Err(anyhow!(
+            "the bundled font assets/DejaVuSans.ttf could not be loaded"
+        ))
     }
 }
 
@@ -245,11 +298,19 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = (f64, f64)>) -> (f64, f6
             if !lo.is_finite() {
                 return (0.0, 1.0);
             }
-            let span = if hi > lo { hi - lo } else { lo.abs().max(1e-12) };
+            let span = if hi > lo {
+                hi - lo
+            } else {
+                lo.abs().max(1e-12)
+            };
             (lo - 0.05 * span, hi + 0.05 * span)
         }
         Scale::Log => {
-            let lo = if lo.is_finite() && lo > 0.0 { lo } else { hi / 10.0 };
+            let lo = if lo.is_finite() && lo > 0.0 {
+                lo
+            } else {
+                hi / 10.0
+            };
             if !(lo.is_finite() && hi.is_finite() && lo > 0.0) {
                 return (0.1, 10.0);
             }
@@ -283,7 +344,11 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) 
     let (x0, x1) = axis_range(&panel.x, pts().map(|(x, _, _)| (x, x)));
     let y_ext = |(_, y, e): (f64, f64, f64)| {
         // On a log axis a bar reaching zero or below would stretch the axis without end.
-        let lo = if ys == Scale::Log && y - e <= 0.0 { y } else { y - e };
+        let lo = if ys == Scale::Log && y - e <= 0.0 {
+            y
+        } else {
+            y - e
+        };
         (lo, y + e)
     };
     let (y0, y1) = axis_range(&panel.y, pts().map(y_ext));
@@ -306,7 +371,10 @@ where
     Y::CoordDescType: ValueFormatter<f64>,
 {
     let mut builder = ChartBuilder::on(area);
-    builder.margin(14).x_label_area_size(58).y_label_area_size(84);
+    builder
+        .margin(14)
+        .x_label_area_size(58)
+        .y_label_area_size(84);
     if let Some(t) = &panel.title {
         builder.caption(t, (FONT, 22));
     }
@@ -332,33 +400,49 @@ where
         let pts: Vec<(f64, f64, f64)> = series.visible(xs, ys).collect();
         let anno = match series.kind {
             SeriesKind::Line => chart
-                .draw_series(LineSeries::new(pts.iter().map(|&(x, y, _)| (x, y)), color.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    pts.iter().map(|&(x, y, _)| (x, y)),
+                    color.stroke_width(2),
+                ))
                 .map_err(plot_err)?,
             SeriesKind::Points => {
                 let bars = pts.iter().filter(|p| p.2 > 0.0).map(|&(x, y, e)| {
-                    let lo = if ys == Scale::Log && y - e <= 0.0 { y_bottom } else { y - e };
+                    let lo = if ys == Scale::Log && y - e <= 0.0 {
+                        y_bottom
+                    } else {
+                        y - e
+                    };
                     PathElement::new(vec![(x, lo), (x, y + e)], color.stroke_width(1))
                 });
                 chart.draw_series(bars).map_err(plot_err)?;
                 let caps = pts.iter().filter(|p| p.2 > 0.0).flat_map(|&(x, y, e)| {
-                    [y - e, y + e].into_iter().filter(|&v| ys == Scale::Linear || v > 0.0).map(move |v| {
-                        EmptyElement::at((x, v)) + PathElement::new(vec![(-4, 0), (4, 0)], color.stroke_width(1))
-                    })
+                    [y - e, y + e]
+                        .into_iter()
+                        .filter(|&v| ys == Scale::Linear || v > 0.0)
+                        .map(move |v| {
+                            EmptyElement::at((x, v))
+                                + PathElement::new(vec![(-4, 0), (4, 0)], color.stroke_width(1))
+                        })
                 });
                 chart.draw_series(caps).map_err(plot_err)?;
                 chart
-                    .draw_series(pts.iter().map(|&(x, y, _)| Circle::new((x, y), 4, color.filled())))
+                    .draw_series(
+                        pts.iter()
+                            .map(|&(x, y, _)| Circle::new((x, y), 4, color.filled())),
+                    )
                     .map_err(plot_err)?
             }
         };
         if let Some(label) = &series.label {
             let kind = series.kind;
-            anno.label(label.as_str()).legend(move |(lx, ly)| match kind {
-                SeriesKind::Line => {
-                    PathElement::new(vec![(lx, ly), (lx + 22, ly)], color.stroke_width(2)).into_dyn()
-                }
-                SeriesKind::Points => Circle::new((lx + 11, ly), 4, color.filled()).into_dyn(),
-            });
+            anno.label(label.as_str())
+                .legend(move |(lx, ly)| match kind {
+                    SeriesKind::Line => {
+                        PathElement::new(vec![(lx, ly), (lx + 22, ly)], color.stroke_width(2))
+                            .into_dyn()
+                    }
+                    SeriesKind::Points => Circle::new((lx + 11, ly), 4, color.filled()).into_dyn(),
+                });
         }
     }
 
@@ -403,6 +487,9 @@ mod tests {
         assert!(lo < 1.0 && lo > 0.7 && hi > 5.0 && hi < 5.3, "{lo} {hi}");
         let (lo, hi) = axis_range(&Axis::log("y"), [(1e-3, 1e-3), (1.0, 1.0)].into_iter());
         assert!(lo < 1e-3 && lo > 5e-4 && hi > 1.0 && hi < 2.0, "{lo} {hi}");
-        assert_eq!(axis_range(&Axis::linear("y"), std::iter::empty()), (0.0, 1.0));
+        assert_eq!(
+            axis_range(&Axis::linear("y"), std::iter::empty()),
+            (0.0, 1.0)
+        );
     }
 }

@@ -110,6 +110,17 @@ pub fn sci(v: Option<f64>, decimals: usize) -> String {
     }
 }
 
+/// A number with up to three decimals and no trailing zeros, for labels ("0.3", "11.8").
+pub fn short(v: f64) -> String {
+    let s = format!("{v:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// A length in metres written in millimetres for labels, via [`short`] ("11.8").
+pub fn mm(d_m: f64) -> String {
+    short(d_m * 1e3)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,5 +140,9 @@ mod tests {
         assert_eq!(csv_num(None), "");
         assert_eq!(fixed(Some(1.23456), 2), "1.23");
         assert_eq!(sci(Some(2900.0), 3), "2.900e3");
+        assert_eq!(
+            (short(0.30000000000000004), short(1.0), mm(0.0118)),
+            ("0.3".into(), "1".into(), "11.8".into())
+        );
     }
 }

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Builds sweep and runs the quick silo campaign (a few minutes on 2 cores), then draws fig3 and
+# fig4 from the database.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release
+./target/release/sweep launch campaigns/silo_QvsF_quick.json --db quick.db
+./target/release/sweep report --figure fig3 --db quick.db --out figures
+./target/release/sweep report --figure fig4 --db quick.db --out figures

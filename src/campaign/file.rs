@@ -1,0 +1,112 @@
+//! The campaign file format (JSON, unknown keys refused). `sweep schema` prints its JSON Schema.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::error::CampaignError;
+use crate::observe::discharge::DischargeSettings;
+
+/// Scene kinds a campaign can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SceneKind {
+    /// Silo with a rotating bottom (PRE 2020); parameters: see `SiloParams`.
+    Silo,
+}
+
+/// Floating-point precision of the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// Reference precision (CPU only).
+    #[default]
+    F64,
+    /// Fast precision (CPU and GPU).
+    F32,
+}
+
+impl Precision {
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::F32 => "f32",
+        }
+    }
+}
+
+/// Observers and their settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct Observers {
+    /// M(t), clogs and Q (silo).
+    pub discharge: DischargeSettings,
+}
+
+/// How jobs run (none of these change results except `precision`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunSettings {
+    /// Precision (part of a job's identity: it changes results).
+    pub precision: Precision,
+    /// A checkpoint is written every this many simulated seconds (and on SIGINT/SIGTERM).
+    pub checkpoint_interval_s: f64,
+    /// A failed job is retried by `sweep resume` up to this many attempts in all.
+    pub max_attempts: u32,
+}
+
+impl Default for RunSettings {
+    fn default() -> Self {
+        Self { precision: Precision::F64, checkpoint_interval_s: 0.5, max_attempts: 3 }
+    }
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// A campaign file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CampaignFile {
+    /// Unique name of the campaign in the database.
+    pub name: String,
+    pub scene: SceneKind,
+    /// Free text, kept with the campaign.
+    #[serde(default)]
+    pub description: String,
+    /// Parameters shared by every job (scene parameter names; unset ones take the paper's value).
+    #[serde(default)]
+    pub base: serde_json::Map<String, serde_json::Value>,
+    /// Cartesian product: every combination of these lists is a job.
+    #[serde(default)]
+    pub sweep: BTreeMap<String, Vec<serde_json::Value>>,
+    /// Lists of equal length that move together (the k-th values form one point), crossed
+    /// with `sweep`.
+    #[serde(default)]
+    pub zip: BTreeMap<String, Vec<serde_json::Value>>,
+    /// Independent replicas of every point (different seeds).
+    #[serde(default = "one")]
+    pub replicas: u32,
+    #[serde(default)]
+    pub observers: Observers,
+    #[serde(default)]
+    pub run: RunSettings,
+}
+
+impl CampaignFile {
+    /// Parses a campaign from text; `file` names it in errors.
+    ///
+    /// # Errors
+    /// Not JSON, a wrong type, a missing field or an unknown key, with its JSON path.
+    pub fn parse_str(text: &str, file: &str) -> Result<Self, CampaignError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let path = if path == "." { "(top level)".to_string() } else { path };
+            CampaignError::Parse { file: file.to_string(), path, message: inner.to_string() }
+        })
+    }
+}

@@ -1,0 +1,80 @@
+//! `sweep plan FILE`: each job's effects and estimated cost, without running anything. Wall
+//! times come from this machine's `sweep bench` results in the database.
+
+use std::collections::BTreeSet;
+
+use sweep::engine::Effects;
+use sweep::scene::silo::{SiloPhase, SiloScene};
+
+use super::DbArg;
+
+#[derive(clap::Args)]
+pub struct Arguments {
+    /// Campaign file (JSON).
+    pub file: std::path::PathBuf,
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Engine threads per job the estimate assumes (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
+
+pub fn run(a: Arguments) -> anyhow::Result<i32> {
+    let (file, jobs) = match sweep::campaign::load(&a.file) {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("sweep: error: {e}");
+            return Ok(2);
+        }
+    };
+    let threads = if a.threads > 0 { a.threads } else { std::thread::available_parallelism().map_or(1, |n| n.get()) };
+    let rate: Option<f64> = if a.db.db.exists() {
+        let conn = sweep::store::open(&a.db.db)?;
+        conn.query_row(
+            "SELECT particle_steps_per_s FROM bench_runs WHERE scene = 'silo-bed' AND backend = 'cpu' AND precision = ?1 AND threads = ?2 ORDER BY id DESC LIMIT 1",
+            rusqlite::params![file.run.precision.name(), threads as i64],
+            |r| r.get(0),
+        )
+        .ok()
+    } else {
+        None
+    };
+    println!("campaign {}: {} job(s), precision {}, {} thread(s) per job", file.name, jobs.len(), file.run.precision.name(), threads);
+    match rate {
+        Some(r) => println!("throughput from `sweep bench` (silo-bed, cpu, {}): {r:.3e} particle-steps/s", file.run.precision.name()),
+        None => println!(
+            "no `sweep bench` result for silo-bed/cpu/{}/{} threads in {}: run `sweep bench --scene silo-bed --precision {} --threads {threads}` to get wall-time estimates",
+            file.run.precision.name(),
+            threads,
+            a.db.db.display(),
+            file.run.precision.name()
+        ),
+    }
+    let mut fills = BTreeSet::new();
+    let mut total_ps = 0.0;
+    println!("{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  {}", "job", "dt_s", "N", "steps", "particle-st", "wall_s", "parameters");
+    for (k, j) in jobs.iter().enumerate() {
+        let scene = SiloScene::new(j.silo.clone()).map_err(|e| anyhow::anyhow!(e))?;
+        let steps_discharge = (j.silo.discharge_time_s / scene.dt).ceil();
+        // The fill stage is shared by jobs with the same fill parameters: count it once.
+        let fill = if fills.insert(j.fill_key().0) { (j.silo.settle_max_time_s.min(1.0) / scene.dt).ceil() } else { 0.0 };
+        // Without re-insertion the silo empties towards `stop_remaining_fraction`: on average
+        // about the mean of the start and the end counts are simulated.
+        let n = j.silo.particle_count as f64;
+        let n_mean = if j.silo.reinsert { n } else { n * (1.0 + j.silo.stop_remaining_fraction.max(0.5)) / 2.0 };
+        let ps = n * fill + n_mean * steps_discharge;
+        total_ps += ps;
+        let wall = rate.map_or("?".to_string(), |r| format!("{:.0}", ps / r));
+        println!("{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}", k + 1, scene.dt, j.silo.particle_count, fill + steps_discharge, ps, wall, j.label);
+        if k == 0 {
+            let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false);
+            println!("      effects: {}", serde_json::to_string(&effects)?);
+        }
+    }
+    println!(
+        "total: {:.3e} particle-steps{}",
+        total_ps,
+        rate.map_or(String::new(), |r| format!(", about {:.1} h on this machine with one job at a time ({:.0} s)", total_ps / r / 3600.0, total_ps / r))
+    );
+    Ok(0)
+}

@@ -1,0 +1,274 @@
+//! The silo results a figure reads: discharge summaries of a campaign's done jobs, M(t) series,
+//! and replicas of one (D, f) combined into one flow rate with its 95 % confidence interval.
+//! Read-only; no plotting here.
+
+use anyhow::Result;
+use rusqlite::{params, Connection};
+
+use crate::observe::fits::mean_ci95;
+
+/// One done job's discharge summary, joined with its campaign label.
+#[derive(Debug, Clone)]
+pub struct DischargeRow {
+    /// jobs.id
+    pub job_id: i64,
+    /// campaign_jobs.label
+    pub label: String,
+    /// Orifice diameter D, m.
+    pub orifice_diameter_m: f64,
+    /// Bottom rotation frequency f, Hz.
+    pub rotation_frequency_hz: f64,
+    /// Particle diameter d, m.
+    pub particle_diameter_m: f64,
+    /// Bulk density ρ_b, kg/m³.
+    pub bulk_density_kg_per_m3: f64,
+    /// Mean flow rate Q over flowing intervals, kg/s; None when there was none long enough.
+    pub q_kg_per_s: Option<f64>,
+    /// Half-width of the 95 % confidence interval of Q, kg/s.
+    pub q_ci95_kg_per_s: Option<f64>,
+    /// jobs.params_json, for parameters the summary does not repeat (gravity).
+    pub params_json: String,
+}
+
+/// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
+///
+/// Jobs not done are left out even if they left a partial summary, so that a figure shows
+/// exactly the finished jobs and `missing` names the rest.
+///
+/// # Errors
+/// On a database error.
+pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
+                s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
+                s.q_ci95_kg_per_s, j.params_json \
+         FROM campaign_jobs cj \
+         JOIN jobs j ON j.id = cj.job_id \
+         JOIN discharge_summary s ON s.job_id = j.id \
+         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
+         ORDER BY s.orifice_diameter_m, s.rotation_frequency_hz, j.id",
+    )?;
+    let rows = stmt
+        .query_map(params![campaign_id], |r| {
+            Ok(DischargeRow {
+                job_id: r.get(0)?,
+                label: r.get(1)?,
+                orifice_diameter_m: r.get(2)?,
+                rotation_frequency_hz: r.get(3)?,
+                particle_diameter_m: r.get(4)?,
+                bulk_density_kg_per_m3: r.get(5)?,
+                q_kg_per_s: r.get(6)?,
+                q_ci95_kg_per_s: r.get(7)?,
+                params_json: r.get(8)?,
+            })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// M(t) of one job as (t_s, mass_kg), in time order.
+///
+/// # Errors
+/// On a database error.
+pub fn mass_series(conn: &Connection, job_id: i64) -> Result<Vec<(f64, f64)>> {
+    let mut stmt =
+        conn.prepare("SELECT t_s, mass_kg FROM discharge_series WHERE job_id = ?1 ORDER BY t_s")?;
+    let rows = stmt
+        .query_map(params![job_id], |r| Ok((r.get(0)?, r.get(1)?)))?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// Where a combined point's confidence interval comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CiSource {
+    /// Student t on the spread of ≥ 2 replicas' Q.
+    ReplicaSpread,
+    /// The single job's own q_ci95_kg_per_s (over its flowing intervals).
+    SingleJob,
+}
+
+/// Q at one (D, f), combined over the replicas that measured it.
+#[derive(Debug, Clone)]
+pub struct FlowPoint {
+    /// Orifice diameter D, m.
+    pub d_m: f64,
+    /// Rotation frequency f, Hz.
+    pub f_hz: f64,
+    /// Particle diameter d, m.
+    pub particle_d_m: f64,
+    /// Bulk density ρ_b, kg/m³.
+    pub bulk_density_kg_per_m3: f64,
+    /// Mean Q over the replicas, kg/s.
+    pub q: f64,
+    /// Half-width of the 95 % CI of `q`, kg/s; None when unknown.
+    pub ci: Option<f64>,
+    /// Replicas with a Q (replicas without one, e.g. clogged for good, are not counted).
+    pub replicas: usize,
+    /// How `ci` was obtained.
+    pub ci_source: CiSource,
+}
+
+impl FlowPoint {
+    /// D / d, dimensionless.
+    pub fn d_over_particle(&self) -> f64 {
+        self.d_m / self.particle_d_m
+    }
+}
+
+/// Whether two swept values are the same setting. Values come from the same campaign JSON, so
+/// equal settings are bit-identical; the tolerance only absorbs a text round trip.
+pub fn same_value(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-12)
+}
+
+/// Combines rows of equal (D, f): the mean of their Q and, with ≥ 2 replicas, a CI from their
+/// spread (Student t); with one replica its own CI. Rows without Q are skipped. Sorted by D, f.
+pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
+    let mut with_q: Vec<&DischargeRow> = rows.iter().filter(|r| r.q_kg_per_s.is_some()).collect();
+    with_q.sort_by(|a, b| {
+        a.orifice_diameter_m
+            .total_cmp(&b.orifice_diameter_m)
+            .then(a.rotation_frequency_hz.total_cmp(&b.rotation_frequency_hz))
+    });
+    let mut out = Vec::new();
+    let mut rest = with_q.as_slice();
+    while let Some(first) = rest.first() {
+        let n = rest
+            .iter()
+            .take_while(|r| {
+                same_value(r.orifice_diameter_m, first.orifice_diameter_m)
+                    && same_value(r.rotation_frequency_hz, first.rotation_frequency_hz)
+            })
+            .count();
+        let (group, tail) = rest.split_at(n);
+        rest = tail;
+        let qs: Vec<f64> = group.iter().filter_map(|r| r.q_kg_per_s).collect();
+        let (q, ci, ci_source) = match mean_ci95(&qs) {
+            Some((mean, hw)) => (mean, Some(hw), CiSource::ReplicaSpread),
+            None => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
+        };
+        out.push(FlowPoint {
+            d_m: first.orifice_diameter_m,
+            f_hz: first.rotation_frequency_hz,
+            particle_d_m: first.particle_diameter_m,
+            bulk_density_kg_per_m3: first.bulk_density_kg_per_m3,
+            q,
+            ci,
+            replicas: qs.len(),
+            ci_source,
+        });
+    }
+    out
+}
+
+/// The distinct values of `values`, sorted ascending.
+pub fn distinct(values: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup_by(|a, b| same_value(*a, *b));
+    v
+}
+
+/// Up to `k` elements of `v` spread evenly over it, always including both ends.
+pub fn spread<T: Copy>(v: &[T], k: usize) -> Vec<T> {
+    if v.len() <= k {
+        return v.to_vec();
+    }
+    match k {
+        0 => Vec::new(),
+        1 => vec![v[0]],
+        _ => (0..k)
+            .map(|i| v[(i * (v.len() - 1) + (k - 1) / 2) / (k - 1)])
+            .collect(),
+    }
+}
+
+/// |g| in m/s² from a job's parameters: the first of the keys `gravity_m_per_s2`,
+/// `g_m_per_s2`, `gravity` found at any depth, given as a number or a vector. None if absent.
+pub fn gravity_m_per_s2(params_json: &str) -> Option<f64> {
+    fn find(v: &serde_json::Value) -> Option<f64> {
+        let serde_json::Value::Object(map) = v else {
+            return None;
+        };
+        for key in ["gravity_m_per_s2", "g_m_per_s2", "gravity"] {
+            match map.get(key) {
+                Some(serde_json::Value::Number(n)) => return n.as_f64().map(f64::abs),
+                Some(serde_json::Value::Array(a)) => {
+                    let c: Option<Vec<f64>> = a.iter().map(serde_json::Value::as_f64).collect();
+                    if let Some(c) = c {
+                        return Some(c.iter().map(|x| x * x).sum::<f64>().sqrt());
+                    }
+                }
+                _ => {}
+            }
+        }
+        map.values().find_map(find)
+    }
+    let value: serde_json::Value = serde_json::from_str(params_json).ok()?;
+    find(&value).filter(|g| g.is_finite() && *g > 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(d: f64, f: f64, q: Option<f64>, ci: Option<f64>) -> DischargeRow {
+        DischargeRow {
+            job_id: 0,
+            label: String::new(),
+            orifice_diameter_m: d,
+            rotation_frequency_hz: f,
+            particle_diameter_m: 0.0058,
+            bulk_density_kg_per_m3: 1550.0,
+            q_kg_per_s: q,
+            q_ci95_kg_per_s: ci,
+            params_json: "{}".into(),
+        }
+    }
+
+    #[test]
+    fn replicas_combine_with_student_t_and_singles_keep_their_ci() {
+        let rows = vec![
+            row(0.03, 0.5, Some(1.0), Some(0.1)),
+            row(0.02, 0.5, Some(0.5), Some(0.05)),
+            row(0.03, 0.5, Some(1.2), Some(0.1)),
+            row(0.03, 0.5, None, None),
+            row(0.03, 1.0, None, None),
+        ];
+        let pts = combine_replicas(&rows);
+        assert_eq!(pts.len(), 2);
+        assert!(same_value(pts[0].d_m, 0.02) && pts[0].ci == Some(0.05));
+        assert_eq!(pts[0].ci_source, CiSource::SingleJob);
+        let p = &pts[1];
+        assert_eq!((p.replicas, p.ci_source), (2, CiSource::ReplicaSpread));
+        assert!((p.q - 1.1).abs() < 1e-12);
+        // s = 0.1414, t_1 = 12.706: hw = 12.706 · 0.1414 / √2 = 1.2706
+        let hw = p.ci.expect("ci");
+        assert!((hw - 1.270_620_473_617_470_7).abs() < 1e-9, "{hw}");
+    }
+
+    #[test]
+    fn spread_keeps_ends_and_count() {
+        let v: Vec<usize> = (0..10).collect();
+        assert_eq!(spread(&v, 4), vec![0, 3, 6, 9]);
+        assert_eq!(spread(&v, 2), vec![0, 9]);
+        assert_eq!(spread(&v[..3], 8), vec![0, 1, 2]);
+        assert_eq!(
+            distinct([0.3, 0.1, 0.3, 0.2].into_iter()),
+            vec![0.1, 0.2, 0.3]
+        );
+    }
+
+    #[test]
+    fn gravity_found_as_number_or_vector_at_any_depth() {
+        assert_eq!(
+            gravity_m_per_s2(r#"{"gravity_m_per_s2": 9.81}"#),
+            Some(9.81)
+        );
+        let g = gravity_m_per_s2(r#"{"scene": {"gravity": [0, 0, -9.81]}}"#).expect("g");
+        assert!((g - 9.81).abs() < 1e-12);
+        assert_eq!(gravity_m_per_s2(r#"{"dt_s": 1e-6}"#), None);
+        assert_eq!(gravity_m_per_s2("not json"), None);
+    }
+}

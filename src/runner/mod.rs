@@ -1,0 +1,10 @@
+//! Job lifecycle: claim, run in chunks, heartbeat, checkpoint, resume, finish. `silo_job` runs one
+//! silo job; `pool` runs a campaign's pending jobs K at a time on this machine (the local
+//! executor); `backend` picks and builds the simulation backend.
+
+pub mod backend;
+pub mod pool;
+pub mod silo_job;
+
+pub use pool::{run_pending, PoolOptions};
+pub use silo_job::{run_silo_job, JobContext, Outcome};

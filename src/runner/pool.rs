@@ -1,0 +1,169 @@
+//! The local executor: runs pending jobs K at a time, each worker with its own database
+//! connection and its own engine threads; a failed job does not stop the campaign.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use super::backend::BackendChoice;
+use super::silo_job::{run_silo_job, JobContext, Outcome};
+use crate::store::jobs::{self, Lease};
+
+/// Options of a run of pending jobs.
+#[derive(Clone)]
+pub struct PoolOptions {
+    pub db: PathBuf,
+    pub work_dir: PathBuf,
+    pub campaign: Option<i64>,
+    pub parallel: usize,
+    /// Engine threads per job; 0 = cores / parallel.
+    pub threads: usize,
+    pub backend: BackendChoice,
+    pub checkpoint_interval_s: f64,
+    pub interrupt: Arc<AtomicBool>,
+    /// Draw progress bars (a terminal); otherwise print plain lines.
+    pub bars: bool,
+}
+
+/// Counts of how jobs ended.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct PoolSummary {
+    pub done: usize,
+    pub failed: usize,
+    pub paused: usize,
+}
+
+/// Runs pending jobs until none is left or an interrupt arrives.
+///
+/// # Errors
+/// The database cannot be opened; per-job errors are recorded on the job instead.
+pub fn run_pending(opts: &PoolOptions, total_jobs: usize, already_done: usize) -> anyhow::Result<PoolSummary> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let parallel = opts.parallel.max(1);
+    let threads = if opts.threads > 0 { opts.threads } else { (cores / parallel).max(1) };
+    let multi = MultiProgress::with_draw_target(if opts.bars { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() });
+    let overall = multi.add(ProgressBar::new(total_jobs as u64));
+    overall.set_style(ProgressStyle::with_template("campaign [{bar:30}] {pos}/{len} jobs done  {msg}").expect("template").progress_chars("=> "));
+    overall.set_position(already_done as u64);
+    let summary = Arc::new(Mutex::new(PoolSummary::default()));
+    let done_count = Arc::new(AtomicUsize::new(already_done));
+    let mut handles = Vec::new();
+    for _ in 0..parallel {
+        let opts = opts.clone();
+        let multi = multi.clone();
+        let overall = overall.clone();
+        let summary = summary.clone();
+        let done_count = done_count.clone();
+        handles.push(std::thread::spawn(move || -> anyhow::Result<()> {
+            let mut conn = crate::store::open(&opts.db)?;
+            let lease = Lease::new();
+            loop {
+                if opts.interrupt.load(Ordering::SeqCst) {
+                    return Ok(());
+                }
+                let Some(job) = jobs::claim(&mut conn, opts.campaign, &lease)? else { return Ok(()) };
+                let bar = multi.add(ProgressBar::new(1000));
+                bar.set_style(
+                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] {msg}").expect("template").progress_chars("=> "),
+                );
+                bar.set_prefix(job.id.to_string());
+                let label = job.label.clone();
+                let b2 = bar.clone();
+                let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> = Arc::new(move |t, target, rate| {
+                    b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
+                    let eta = if rate > 0.0 { format!("{:.1e} particle-steps/s", rate) } else { String::new() };
+                    b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
+                });
+                let bars = opts.bars;
+                let m2 = multi.clone();
+                let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
+                    if bars {
+                        let _ = m2.println(s);
+                    } else {
+                        eprintln!("{s}");
+                    }
+                });
+                let ctx = JobContext {
+                    work_dir: opts.work_dir.clone(),
+                    backend: opts.backend,
+                    threads,
+                    checkpoint_interval_s: checkpoint_interval(&conn, job.id).unwrap_or(opts.checkpoint_interval_s),
+                    interrupt: opts.interrupt.clone(),
+                    progress: Some(progress),
+                    log: log.clone(),
+                };
+                if !bars {
+                    println!("job {} started: {}", job.id, job.label);
+                }
+                let outcome = match run_silo_job(&mut conn, &job, &lease, &ctx) {
+                    Ok(o) => o,
+                    Err(e) => Outcome::Failed(format!("{e:#}")),
+                };
+                bar.finish_and_clear();
+                let mut s = summary.lock().expect("summary");
+                match outcome {
+                    Outcome::Done => {
+                        s.done += 1;
+                        let n = done_count.fetch_add(1, Ordering::SeqCst) + 1;
+                        overall.set_position(n as u64);
+                        let line = describe_done(&conn, job.id).unwrap_or_default();
+                        if bars {
+                            log(format!("job {} done: {} {}", job.id, job.label, line));
+                        } else {
+                            println!("job {} done: {} {}", job.id, job.label, line);
+                        }
+                    }
+                    Outcome::Paused => {
+                        s.paused += 1;
+                        jobs::release(&conn, job.id, "paused", None)?;
+                        log(format!("job {} paused at its checkpoint; `sweep resume` continues it", job.id));
+                    }
+                    Outcome::Failed(e) => {
+                        s.failed += 1;
+                        jobs::release(&conn, job.id, "failed", Some(&e))?;
+                        log(format!("job {} failed: {e}", job.id));
+                    }
+                }
+            }
+        }));
+    }
+    let mut first_err = None;
+    for h in handles {
+        match h.join() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => first_err = first_err.or(Some(e)),
+            Err(_) => first_err = first_err.or(Some(anyhow::anyhow!("a worker thread panicked"))),
+        }
+    }
+    overall.finish_and_clear();
+    if let Some(e) = first_err {
+        return Err(e);
+    }
+    let s = *summary.lock().expect("summary");
+    Ok(s)
+}
+
+fn describe_done(conn: &rusqlite::Connection, job: i64) -> anyhow::Result<String> {
+    let (q, ci, clogs, perm, wall, ps): (Option<f64>, Option<f64>, i64, i64, f64, i64) = conn.query_row(
+        "SELECT s.q_kg_per_s, s.q_ci95_kg_per_s, s.clogs, s.permanently_clogged, j.wall_time_s, j.particle_steps
+         FROM discharge_summary s JOIN jobs j ON j.id = s.job_id WHERE s.job_id = ?1",
+        [job],
+        |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?)),
+    )?;
+    let q = match (q, ci) {
+        (Some(q), Some(c)) => format!("Q = {q:.4} ± {c:.4} kg/s"),
+        _ => "Q = n/a (no flowing interval long enough)".into(),
+    };
+    Ok(format!("{q}, {clogs} clog(s){}, {wall:.1} s wall, {:.2e} particle-steps/s", if perm != 0 { " (permanent)" } else { "" }, ps as f64 / wall.max(1e-9)))
+}
+
+/// The checkpoint interval of the (first) campaign a job belongs to.
+fn checkpoint_interval(conn: &rusqlite::Connection, job: i64) -> Option<f64> {
+    let spec: String = conn
+        .query_row("SELECT c.spec_json FROM campaigns c JOIN campaign_jobs cj ON cj.campaign_id = c.id WHERE cj.job_id = ?1 ORDER BY c.id LIMIT 1", [job], |r| r.get(0))
+        .ok()?;
+    let c: crate::campaign::CampaignFile = serde_json::from_str(&spec).ok()?;
+    Some(c.run.checkpoint_interval_s)
+}

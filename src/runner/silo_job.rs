@@ -1,0 +1,262 @@
+//! Running one silo job: shared fill stage, discharge in chunks of one sampling interval,
+//! checkpoints at chunk boundaries (so a resumed run repeats exactly the same operations), and
+//! the results written with the job's completion in one transaction.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rusqlite::Connection;
+use serde::{Deserialize, Serialize};
+
+use super::backend::{self, BackendChoice};
+use crate::campaign::JobSpec;
+use crate::checkpoint::{self, Header};
+use crate::engine::{Backend, State};
+use crate::observe::discharge::Discharge;
+use crate::scene::silo::{SiloPhase, SiloScene};
+use crate::store::jobs::{self, JobRow, Lease};
+use crate::store::SiloResults;
+
+/// How a job run ended.
+#[derive(Debug, PartialEq)]
+pub enum Outcome {
+    Done,
+    /// Interrupted (SIGINT/SIGTERM); its checkpoint is current.
+    Paused,
+    Failed(String),
+}
+
+/// Where and how jobs run.
+#[derive(Clone)]
+pub struct JobContext {
+    /// Checkpoints and shared stages live under here.
+    pub work_dir: PathBuf,
+    pub backend: BackendChoice,
+    pub threads: usize,
+    /// Simulated seconds between checkpoints.
+    pub checkpoint_interval_s: f64,
+    pub interrupt: Arc<AtomicBool>,
+    /// Called with (simulated time since opening, target, particle-steps/s) after each chunk.
+    pub progress: Option<Arc<dyn Fn(f64, f64, f64) + Send + Sync>>,
+    /// Messages for the user (refused checkpoints, restarts, fill stage reuse).
+    pub log: Arc<dyn Fn(String) + Send + Sync>,
+}
+
+/// What a checkpoint keeps besides the particles.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Progress {
+    t_open: f64,
+    step_open: u64,
+    chunk: u64,
+    bulk_density: f64,
+    discharge: Discharge,
+    particle_steps: u64,
+    wall_time_s: f64,
+    initial_count: usize,
+}
+
+fn job_dir(work: &Path, hash: &str) -> PathBuf {
+    work.join("jobs").join(&hash[..16])
+}
+
+/// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
+/// same fill parameters. Returns the settled state and the particle-steps it cost (0 if reused).
+fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Result<(State<f64>, u64)> {
+    let (key, seed) = spec.fill_key();
+    let dir = ctx.work_dir.join("stages").join(&key[..16]);
+    let (found, refused) = checkpoint::load_latest(&dir, &key);
+    for r in refused {
+        (ctx.log)(r);
+    }
+    if let Some((path, _, s, _)) = found {
+        (ctx.log)(format!("fill stage {}: reusing {}", &key[..16], path.display()));
+        return Ok((s, 0));
+    }
+    let config = scene.engine_config(SiloPhase::Fill);
+    let init = scene.initial_state(seed);
+    let mut engine = backend::build(BackendChoice::Cpu, spec.precision, config, &init, ctx.threads)?;
+    let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
+    let mut steps = 0u64;
+    let mut s;
+    loop {
+        let r = engine.advance(chunk).map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
+        steps += r.particle_steps;
+        s = engine.download();
+        if scene.settled(&s) && s.time > 0.05 {
+            break;
+        }
+        if s.time >= scene.p.settle_max_time_s {
+            (ctx.log)(format!(
+                "fill stage {}: not settled after {} s (kinetic energy {:.3e} J); continuing with this state — raise settle_max_time_s for a quieter bed",
+                &key[..16],
+                scene.p.settle_max_time_s,
+                s.kinetic_energy()
+            ));
+            break;
+        }
+    }
+    let h = Header { job_hash: key.clone(), step: s.step, time_s: s.time, backend: "cpu".into(), precision: spec.precision.name().into() };
+    checkpoint::save(&dir, &h, &s, "{}")?;
+    Ok((s, steps))
+}
+
+/// Runs (or resumes) one silo job to its end, an interruption, or a failure.
+///
+/// # Errors
+/// Database and I/O errors; physics failures are an `Outcome::Failed` instead.
+pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &JobContext) -> anyhow::Result<Outcome> {
+    let spec: JobSpec = serde_json::from_str(&job.params_json).with_context(|| format!("job {}: stored parameters unreadable", job.id))?;
+    let scene = match SiloScene::new(spec.silo.clone()) {
+        Ok(s) => s,
+        Err(e) => return Ok(Outcome::Failed(e)),
+    };
+    let dir = job_dir(&ctx.work_dir, &job.hash);
+    let started = Instant::now();
+    let (found, refused) = checkpoint::load_latest(&dir, &job.hash);
+    for r in refused {
+        (ctx.log)(format!("job {}: {r}", job.id));
+    }
+    let (state, mut prog) = match found {
+        Some((path, _, s, extra)) => {
+            let prog: Progress = serde_json::from_str(&extra).with_context(|| format!("{}: progress record unreadable", path.display()))?;
+            (ctx.log)(format!("job {}: resuming from {} (t = {:.3} s after opening)", job.id, path.display(), s.time - prog.t_open));
+            (s, prog)
+        }
+        None => {
+            if job.sim_time_s > 0.0 {
+                (ctx.log)(format!("job {}: no valid checkpoint; restarting from the beginning", job.id));
+            }
+            let (s, fill_steps) = fill_stage(&spec, &scene, ctx)?;
+            let bulk = scene.bulk_density(&s);
+            let prog = Progress {
+                t_open: s.time,
+                step_open: s.step,
+                chunk: 0,
+                bulk_density: bulk,
+                discharge: Discharge::new(spec.observers.discharge.clone()),
+                particle_steps: fill_steps,
+                wall_time_s: 0.0,
+                initial_count: s.len(),
+            };
+            (s, prog)
+        }
+    };
+    let config = scene.engine_config(SiloPhase::Discharge);
+    let mut engine: Box<dyn Backend> = backend::build(ctx.backend, spec.precision, config, &state, ctx.threads)?;
+    let info = engine.describe();
+    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision, state.len())?;
+
+    let st = &spec.observers.discharge;
+    let chunk_steps = (st.sample_interval_s / scene.dt).round().max(1.0) as u64;
+    let chunk_dt = chunk_steps as f64 * scene.dt;
+    let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
+    let target = scene.p.discharge_time_s;
+    let wall0 = prog.wall_time_s;
+    let mut last_beat = Instant::now();
+    let mut rate = 0.0;
+    let seed = spec.seed();
+    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
+        let s = engine.download();
+        let h = Header { job_hash: job.hash.clone(), step: s.step, time_s: s.time, backend: info.kind.clone(), precision: info.precision.clone() };
+        Ok(checkpoint::save(&dir, &h, &s, &serde_json::to_string(prog)?)?)
+    };
+    loop {
+        let t_rel = prog.chunk as f64 * chunk_dt;
+        let remaining = engine_len(&mut engine, &prog);
+        let done = t_rel >= target - 1e-12
+            || prog.discharge.permanently_clogged(t_rel)
+            || (!scene.p.reinsert && (remaining as f64) < scene.p.stop_remaining_fraction * prog.initial_count as f64);
+        if done {
+            break;
+        }
+        if ctx.interrupt.load(Ordering::SeqCst) {
+            let path = save(&mut engine, &prog)?;
+            jobs::heartbeat(conn, job.id, lease, t_rel, t_rel / target, prog.particle_steps, prog.wall_time_s, Some(&path.display().to_string()))?;
+            return Ok(Outcome::Paused);
+        }
+        let t0 = Instant::now();
+        let report = match engine.advance(chunk_steps) {
+            Ok(r) => r,
+            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+        };
+        prog.chunk += 1;
+        prog.particle_steps += report.particle_steps;
+        rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
+        let t_now = prog.chunk as f64 * chunk_dt;
+        for ev in &report.removed {
+            prog.discharge.record_exit(ev.time_s - prog.t_open, ev.mass_kg);
+        }
+        if scene.p.reinsert && !report.removed.is_empty() {
+            let mut s = engine.download();
+            let step = s.step;
+            reinsert(&scene, &mut s, &report.removed, seed ^ step);
+            engine.upload(&s);
+        }
+        prog.discharge.sample(t_now);
+        prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
+        if prog.chunk % ckpt_every == 0 {
+            let path = save(&mut engine, &prog)?;
+            jobs::heartbeat(conn, job.id, lease, t_now, t_now / target, prog.particle_steps, prog.wall_time_s, Some(&path.display().to_string()))?;
+            last_beat = Instant::now();
+        } else if last_beat.elapsed().as_secs_f64() > 2.0 {
+            jobs::heartbeat(conn, job.id, lease, t_now, t_now / target, prog.particle_steps, prog.wall_time_s, None)?;
+            last_beat = Instant::now();
+        }
+        if let Some(p) = &ctx.progress {
+            p(t_now, target, rate);
+        }
+    }
+    let _ = rate;
+    let t_end = prog.chunk as f64 * chunk_dt;
+    let summary = prog.discharge.summarize(t_end);
+    let results = SiloResults {
+        orifice_diameter_m: scene.p.orifice_diameter_m,
+        rotation_frequency_hz: scene.p.rotation_frequency_hz,
+        particle_diameter_m: scene.p.particle_diameter_m,
+        bulk_density_kg_per_m3: prog.bulk_density,
+        discharge: prog.discharge.clone(),
+        summary,
+        wall_time_s: wall0 + started.elapsed().as_secs_f64(),
+        particle_steps: prog.particle_steps,
+        sim_time_s: t_end,
+    };
+    results.commit(conn, job.id)?;
+    Ok(Outcome::Done)
+}
+
+fn engine_len(engine: &mut Box<dyn Backend>, prog: &Progress) -> usize {
+    // The count is initial − removed (+ re-inserted); no download needed.
+    let _ = engine;
+    prog.initial_count - prog.discharge.count as usize
+}
+
+/// Puts removed particles back at random spots above the bed, without overlap.
+fn reinsert(scene: &SiloScene, s: &mut State<f64>, removed: &[crate::engine::SinkEvent], seed: u64) {
+    let p = &scene.p;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let top = scene.bed_height(s) + p.particle_diameter_m;
+    let r_max = p.particle_diameter_m * 0.5 * (1.0 + p.diameter_polydispersity);
+    for (k, ev) in removed.iter().enumerate() {
+        let r = r_max; // conservative spacing; the re-inserted particle keeps its own mass below
+        let radius = (ev.mass_kg / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
+        for attempt in 0..1000 {
+            let rr = (p.cylinder_radius_m - r * 1.05) * rng.random::<f64>().sqrt();
+            let th = rng.random::<f64>() * std::f64::consts::TAU;
+            let z = top + r + (k + attempt / 50) as f64 * 2.2 * r;
+            let x = [rr * th.cos(), rr * th.sin(), z];
+            let free = s.pos.iter().zip(&s.radius).all(|(q, &rq)| {
+                let d2 = (q.x - x[0]).powi(2) + (q.y - x[1]).powi(2) + (q.z - x[2]).powi(2);
+                d2 > (rq + radius) * (rq + radius) * 1.0001
+            });
+            if free && z < p.cylinder_height_m {
+                s.push_sphere(ev.id, x, [0.0, 0.0, 0.0], radius, p.particle_density_kg_per_m3, false);
+                break;
+            }
+        }
+    }
+}
