@@ -277,8 +277,11 @@ pub fn save(dir: &Path, h: &Header, s: &State<f64>, extra: &str) -> std::io::Res
     Ok(path)
 }
 
+/// A checkpoint read back: its path, header, state and the job's `extra` JSON.
+pub type Loaded = (PathBuf, Header, State<f64>, String);
+
 /// The newest valid checkpoint in `dir`, and a message for each refused one.
-pub fn load_latest(dir: &Path, job_hash: &str) -> (Option<(PathBuf, Header, State<f64>, String)>, Vec<String>) {
+pub fn load_latest(dir: &Path, job_hash: &str) -> (Option<Loaded>, Vec<String>) {
     let mut refused = Vec::new();
     for path in list(dir).into_iter().rev() {
         let p = path.display().to_string();

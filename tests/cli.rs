@@ -1,9 +1,897 @@
-//! End-to-end tests of the `sweep` binary.
+//! End-to-end tests of the `sweep` binary: campaign validation, idempotent registration, status,
+//! kill -9 and resume, concurrent launchers and corrupt checkpoints. Every test works in its own
+//! temporary directory with tiny silo campaigns (a few hundred particles, 0.4 s of discharge).
 
-use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Output, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use rusqlite::types::Value as Sql;
+use rusqlite::{Connection, OpenFlags};
+use serde_json::{json, Value};
+use sweep::checkpoint::{self, CheckpointError, Header};
+use sweep::engine::State;
+use tempfile::TempDir;
+
+const BIN: &str = env!("CARGO_BIN_EXE_sweep");
+
+/// Longest a test waits for a child process to reach some point.
+const PATIENCE: Duration = Duration::from_secs(120);
+
+/// A synchronous run of the binary (assert_cmd), without a `SWEEP_DB` from the environment.
+fn sweep_cmd(dir: &Path) -> assert_cmd::Command {
+    let mut c = assert_cmd::Command::new(BIN);
+    c.current_dir(dir).env_remove("SWEEP_DB");
+    c
+}
+
+/// A child process of the binary, its output sent to `log` (stdout) and `log.err` (stderr).
+fn spawn(dir: &Path, args: &[&str], log: &str) -> Child {
+    let out = std::fs::File::create(dir.join(log)).unwrap();
+    let err = std::fs::File::create(dir.join(format!("{log}.err"))).unwrap();
+    std::process::Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .env_remove("SWEEP_DB")
+        .stdin(Stdio::null())
+        .stdout(out)
+        .stderr(err)
+        .spawn()
+        .unwrap()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The tiny silo campaign: one job per (orifice, frequency) pair.
+fn campaign(
+    name: &str,
+    orifices: &[f64],
+    frequencies: &[f64],
+    checkpoint_interval_s: f64,
+) -> Value {
+    json!({
+        "name": name,
+        "scene": "silo",
+        "base": {
+            "cylinder_radius_m": 0.03,
+            "cylinder_height_m": 0.2,
+            "particle_count": 300,
+            "youngs_modulus_pa": 3.0e6,
+            "shear_modulus_pa": 1.0e5,
+            "dt_s": null,
+            "contact_steps": 20,
+            "discharge_time_s": 0.4,
+            "settle_max_time_s": 0.2
+        },
+        "sweep": { "orifice_diameter_m": orifices, "rotation_frequency_hz": frequencies },
+        "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
+        "run": { "precision": "f64", "checkpoint_interval_s": checkpoint_interval_s }
+    })
+}
+
+/// The single-job campaign of the kill/resume tests. The checkpoint interval is not part of a
+/// job's identity, so every interval gives the same job (and must give the same results).
+fn one_job(checkpoint_interval_s: f64) -> Value {
+    campaign("tiny", &[0.02], &[1.0], checkpoint_interval_s)
+}
+
+fn write_campaign(dir: &Path, file: &str, c: &Value) -> PathBuf {
+    let p = dir.join(file);
+    std::fs::write(&p, serde_json::to_string_pretty(c).unwrap()).unwrap();
+    p
+}
+
+fn read_db(db: &Path) -> Connection {
+    Connection::open_with_flags(db, OpenFlags::SQLITE_OPEN_READ_ONLY).unwrap()
+}
+
+fn count(db: &Path, sql: &str) -> i64 {
+    read_db(db).query_row(sql, [], |r| r.get(0)).unwrap()
+}
+
+/// Every row of a query, each cell rendered with its exact bits (reals as their IEEE-754 bit
+/// pattern), so that equal renderings mean bitwise-equal results.
+fn rows(db: &Path, sql: &str) -> Vec<Vec<String>> {
+    let conn = read_db(db);
+    let mut q = conn.prepare(sql).unwrap();
+    let n = q.column_count();
+    let out = q
+        .query_map([], |r| {
+            (0..n)
+                .map(|k| {
+                    Ok(match r.get::<_, Sql>(k)? {
+                        Sql::Real(x) => format!("{x:e} [{:016x}]", x.to_bits()),
+                        Sql::Integer(i) => format!("int {i}"),
+                        Sql::Text(t) => format!("text {t}"),
+                        Sql::Null => "null".into(),
+                        Sql::Blob(b) => format!("blob {b:?}"),
+                    })
+                })
+                .collect::<rusqlite::Result<Vec<String>>>()
+        })
+        .unwrap()
+        .collect::<rusqlite::Result<Vec<_>>>()
+        .unwrap();
+    out
+}
+
+/// The results tables of a database, keyed by job hash (not by row id, which may differ).
+#[derive(Debug, PartialEq)]
+struct Results {
+    jobs: Vec<Vec<String>>,
+    series: Vec<Vec<String>>,
+    summary: Vec<Vec<String>>,
+    clogs: Vec<Vec<String>>,
+}
+
+fn results(db: &Path) -> Results {
+    Results {
+        jobs: rows(db, "SELECT hash, status, sim_time_s, target_time_s FROM jobs ORDER BY hash"),
+        series: rows(
+            db,
+            "SELECT j.hash, s.t_s, s.mass_kg, s.count FROM discharge_series s JOIN jobs j ON j.id = s.job_id ORDER BY j.hash, s.t_s",
+        ),
+        summary: rows(
+            db,
+            "SELECT j.hash, s.orifice_diameter_m, s.rotation_frequency_hz, s.particle_diameter_m, s.bulk_density_kg_per_m3,
+                    s.q_kg_per_s, s.q_ci95_kg_per_s, s.q_method, s.flowing_time_s, s.discharged_mass_kg, s.discharged_count,
+                    s.clogs, s.clogged_time_s, s.permanently_clogged
+             FROM discharge_summary s JOIN jobs j ON j.id = s.job_id ORDER BY j.hash",
+        ),
+        clogs: rows(
+            db,
+            "SELECT j.hash, c.start_s, c.duration_s, c.permanent FROM clogs c JOIN jobs j ON j.id = c.job_id ORDER BY j.hash, c.start_s",
+        ),
+    }
+}
+
+/// Compares two runs' results table by table, so a failure shows which table differs.
+fn assert_same_results(reference: &Results, got: &Results) {
+    assert_eq!(
+        reference.jobs, got.jobs,
+        "jobs (hash, status, sim_time_s, target_time_s) differ"
+    );
+    assert_eq!(
+        reference.series.len(),
+        got.series.len(),
+        "discharge_series row counts differ"
+    );
+    for (a, b) in reference.series.iter().zip(&got.series) {
+        assert_eq!(
+            a, b,
+            "discharge_series rows differ (hash, t_s, mass_kg, count)"
+        );
+    }
+    assert_eq!(reference.summary, got.summary, "discharge_summary differs");
+    assert_eq!(reference.clogs, got.clogs, "clogs differ");
+}
+
+/// Results of the single-job campaign run without interruption (computed once, shared).
+fn reference() -> &'static Results {
+    static REF: OnceLock<Results> = OnceLock::new();
+    REF.get_or_init(|| {
+        let dir = TempDir::new().unwrap();
+        let file = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
+        let db = dir.path().join("sweep.db");
+        let o = sweep_cmd(dir.path())
+            .args([
+                "launch",
+                file.to_str().unwrap(),
+                "--db",
+                db.to_str().unwrap(),
+                "--backend",
+                "cpu",
+                "--threads",
+                "1",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "reference run failed:\n{}\n{}",
+            stdout(&o),
+            stderr(&o)
+        );
+        let r = results(&db);
+        assert_eq!(
+            r.summary.len(),
+            1,
+            "the reference run has one job with a summary"
+        );
+        assert!(r.series.len() > 10, "the reference run has an M(t) series");
+        r
+    })
+}
+
+/// `ckpt-<step>.bin` files of every job under a database's work directory, newest last.
+fn job_checkpoints(dir: &Path) -> Vec<PathBuf> {
+    let jobs = dir.join("sweep-work").join("sweep").join("jobs");
+    let mut all: Vec<PathBuf> = std::fs::read_dir(&jobs)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .flat_map(|e| checkpoint::list(&e.path()))
+        .collect();
+    all.sort_by_key(|p| p.file_name().map(|n| n.to_owned()));
+    all
+}
+
+/// Polls until `ready` holds (returns true) or the child exits first (returns false).
+fn wait_for(child: &mut Child, what: &str, mut ready: impl FnMut() -> bool) -> bool {
+    let t0 = Instant::now();
+    loop {
+        if ready() {
+            return true;
+        }
+        if child.try_wait().unwrap().is_some() {
+            return false;
+        }
+        assert!(t0.elapsed() < PATIENCE, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+fn kill(child: &mut Child) {
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+}
+
+/// Starts the single-job campaign in `dir` and SIGKILLs it once a checkpoint of the discharge
+/// (not just the shared fill stage) exists. Returns the database path.
+fn launch_and_kill(dir: &Path, checkpoint_interval_s: f64) -> PathBuf {
+    let file = write_campaign(dir, "tiny.json", &one_job(checkpoint_interval_s));
+    let db = dir.join("sweep.db");
+    let mut child = spawn(
+        dir,
+        &[
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ],
+        "launch.log",
+    );
+    let seen = wait_for(&mut child, "a discharge checkpoint", || {
+        !job_checkpoints(dir).is_empty()
+    });
+    assert!(
+        seen,
+        "the job finished before a discharge checkpoint was seen: the kill tests need a longer job"
+    );
+    kill(&mut child);
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        0,
+        "the job was killed, not finished"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM discharge_summary"),
+        0,
+        "no results before the job finishes"
+    );
+    db
+}
+
+fn resume(dir: &Path, db: &Path) -> Output {
+    sweep_cmd(dir)
+        .args([
+            "resume",
+            "--db",
+            db.to_str().unwrap(),
+            "--stale-after",
+            "0",
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ])
+        .output()
+        .unwrap()
+}
+
+// 1. Bad campaign files.
 
 #[test]
-fn schema_is_json() {
-    let out = Command::cargo_bin("sweep").unwrap().arg("schema").output().unwrap();
-    assert!(out.status.success());
+fn bad_campaign_files_are_refused_with_file_and_field() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let good = one_job(0.05);
+    let mut cases: Vec<(&str, String, Vec<&str>)> = Vec::new();
+
+    let mut c = good.clone();
+    c.as_object_mut().unwrap().remove("name");
+    cases.push((
+        "missing_name.json",
+        c.to_string(),
+        vec!["missing field `name`"],
+    ));
+
+    let mut c = good.clone();
+    c["base"]["orifice_diameter_m"] = json!("wide");
+    c["sweep"]
+        .as_object_mut()
+        .unwrap()
+        .remove("orifice_diameter_m");
+    cases.push((
+        "wrong_type.json",
+        c.to_string(),
+        vec!["base.orifice_diameter_m", "invalid type"],
+    ));
+
+    let mut c = good.clone();
+    c["bogus"] = json!(1);
+    cases.push((
+        "unknown_top.json",
+        c.to_string(),
+        vec!["unknown field `bogus`"],
+    ));
+
+    let mut c = good.clone();
+    c["base"]["orifice_diam"] = json!(0.02);
+    cases.push((
+        "unknown_base.json",
+        c.to_string(),
+        vec!["base.orifice_diam", "unknown"],
+    ));
+
+    let mut c = good.clone();
+    c["sweep"]["orifice_diameter_m"] = json!([0.02, -0.01]);
+    cases.push((
+        "negative.json",
+        c.to_string(),
+        vec!["sweep.orifice_diameter_m[1]", "> 0"],
+    ));
+
+    let mut c = good.clone();
+    c["sweep"]["orifice_diameter_m"] = json!([]);
+    cases.push((
+        "empty_list.json",
+        c.to_string(),
+        vec!["sweep.orifice_diameter_m", "non-empty"],
+    ));
+
+    cases.push(("not_json.json", "{ this is not json".into(), vec!["line 1"]));
+
+    // An existing database: a refused file must not register anything in it.
+    let db = d.join("sweep.db");
+    drop(sweep::store::open(&db).unwrap());
+
+    for (name, text, needles) in &cases {
+        let path = d.join(name);
+        std::fs::write(&path, text).unwrap();
+        let o = sweep_cmd(d)
+            .args([
+                "launch",
+                path.to_str().unwrap(),
+                "--db",
+                db.to_str().unwrap(),
+                "--backend",
+                "cpu",
+            ])
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{name}: expected exit status 2, got {:?}; stderr:\n{err}",
+            o.status
+        );
+        assert!(
+            err.contains(path.to_str().unwrap()),
+            "{name}: stderr does not name the file:\n{err}"
+        );
+        for n in needles {
+            assert!(
+                err.contains(n),
+                "{name}: stderr does not mention {n:?}:\n{err}"
+            );
+        }
+        assert!(
+            !stdout(&o).contains("job(s) done"),
+            "{name}: nothing may run:\n{}",
+            stdout(&o)
+        );
+    }
+
+    let missing = d.join("does_not_exist.json");
+    let fresh_db = d.join("fresh.db");
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            missing.to_str().unwrap(),
+            "--db",
+            fresh_db.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "missing file: {err}");
+    assert!(
+        err.contains(missing.to_str().unwrap()) && err.contains("cannot read"),
+        "missing file: {err}"
+    );
+    assert!(
+        !fresh_db.exists(),
+        "a refused campaign must not create a database"
+    );
+
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs"),
+        0,
+        "a refused campaign registered jobs"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM campaigns"),
+        0,
+        "a refused campaign was registered"
+    );
+    assert!(
+        !d.join("sweep-work").exists(),
+        "a refused campaign must not start any work"
+    );
+}
+
+// 2. Registration is idempotent; a changed value is one new job.
+
+#[test]
+fn launching_twice_adds_nothing_and_a_changed_value_adds_one_job() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let file = write_campaign(
+        d,
+        "two.json",
+        &campaign("two", &[0.02, 0.025], &[1.0], 0.05),
+    );
+    let launch = |file: &Path| {
+        let o = sweep_cmd(d)
+            .args([
+                "launch",
+                file.to_str().unwrap(),
+                "--db",
+                db.to_str().unwrap(),
+                "--backend",
+                "cpu",
+                "--threads",
+                "1",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "launch failed:\n{}\n{}",
+            stdout(&o),
+            stderr(&o)
+        );
+        stdout(&o)
+    };
+
+    let out = launch(&file);
+    assert!(out.contains("2 job(s), 2 new"), "first launch:\n{out}");
+    assert_eq!(count(&db, "SELECT COUNT(*) FROM jobs"), 2);
+    assert_eq!(count(&db, "SELECT COUNT(*) FROM discharge_summary"), 2);
+    let series = count(&db, "SELECT COUNT(*) FROM discharge_series");
+    assert!(series > 0);
+    let before = results(&db);
+
+    let out = launch(&file);
+    assert!(
+        out.contains("0 new"),
+        "second launch must add nothing:\n{out}"
+    );
+    assert!(out.contains("2 already done"), "second launch:\n{out}");
+    assert!(
+        !out.contains("started"),
+        "second launch must run nothing:\n{out}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs"),
+        2,
+        "job count changed"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM discharge_summary"),
+        2,
+        "results written twice"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM discharge_series"),
+        series,
+        "series written twice"
+    );
+    assert_eq!(
+        count(&db, "SELECT MAX(attempts) FROM jobs"),
+        1,
+        "a done job was run again"
+    );
+    assert_eq!(before, results(&db), "results changed on the second launch");
+
+    // Same campaign, one value changed: exactly one new job, and only it runs.
+    let changed = write_campaign(
+        d,
+        "two.json",
+        &campaign("two", &[0.02, 0.022], &[1.0], 0.05),
+    );
+    let out = launch(&changed);
+    assert!(
+        out.contains("2 job(s), 1 new, 1 already done"),
+        "changed launch:\n{out}"
+    );
+    assert_eq!(
+        out.matches(" started:").count(),
+        1,
+        "only the new job runs:\n{out}"
+    );
+    assert_eq!(count(&db, "SELECT COUNT(*) FROM jobs"), 3);
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        3
+    );
+    assert_eq!(count(&db, "SELECT COUNT(*) FROM discharge_summary"), 3);
+    assert_eq!(
+        count(
+            &db,
+            "SELECT COUNT(*) FROM discharge_summary WHERE orifice_diameter_m = 0.022"
+        ),
+        1
+    );
+}
+
+// 3. Status.
+
+#[test]
+fn status_without_a_database_says_so_and_creates_none() {
+    let dir = TempDir::new().unwrap();
+    let db = dir.path().join("nothing.db");
+    let o = sweep_cmd(dir.path())
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("no database"), "{}", stdout(&o));
+    assert!(!db.exists(), "status must not create a database");
+}
+
+#[test]
+fn status_after_a_launch_lists_the_campaign_as_done() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let file = write_campaign(
+        d,
+        "stat.json",
+        &campaign("status_check", &[0.02], &[0.5], 0.05),
+    );
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+
+    let o = sweep_cmd(d)
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    let header = out
+        .lines()
+        .find(|l| l.starts_with("campaign status_check"))
+        .unwrap_or_else(|| panic!("campaign not listed:\n{out}"));
+    assert!(
+        header.contains("1 jobs — 1 done, 0 running, 0 pending, 0 paused, 0 failed"),
+        "{header}"
+    );
+    let job = out
+        .lines()
+        .find(|l| l.contains("orifice_diameter_m=0.02"))
+        .unwrap_or_else(|| panic!("job not listed:\n{out}"));
+    assert_eq!(job.split_whitespace().nth(1), Some("done"), "{job}");
+}
+
+// 4. kill -9, then resume, equals an uninterrupted run, bit for bit.
+
+#[test]
+fn kill_9_then_resume_equals_uninterrupted() {
+    let reference = reference();
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = launch_and_kill(d, 0.05);
+    let o = resume(d, &db);
+    let err = stderr(&o);
+    assert!(o.status.success(), "resume failed:\n{}\n{err}", stdout(&o));
+    assert!(
+        err.contains("resuming from"),
+        "the job must continue from its checkpoint, not restart:\n{err}"
+    );
+    assert!(
+        !err.contains("refused"),
+        "no checkpoint should be refused:\n{err}"
+    );
+    assert_same_results(reference, &results(&db));
+}
+
+/// Killed after every checkpoint (one per sampling interval) and resumed each time: every
+/// chunk boundary of the job is a restart point, and the results must still be identical.
+#[test]
+fn killed_at_every_checkpoint_equals_uninterrupted() {
+    let reference = reference();
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = launch_and_kill(d, 0.01);
+    let newest = || job_checkpoints(d).last().cloned();
+    let mut kills = 1;
+    let t0 = Instant::now();
+    loop {
+        assert!(
+            t0.elapsed() < PATIENCE,
+            "the kill/resume loop did not finish"
+        );
+        let last = newest();
+        let mut child = spawn(
+            d,
+            &[
+                "resume",
+                "--db",
+                db.to_str().unwrap(),
+                "--stale-after",
+                "0",
+                "--backend",
+                "cpu",
+                "--threads",
+                "1",
+            ],
+            "resume.log",
+        );
+        if wait_for(&mut child, "a newer checkpoint", || newest() != last) {
+            kill(&mut child);
+            kills += 1;
+        } else {
+            let status = child.wait().unwrap();
+            let err = std::fs::read_to_string(d.join("resume.log.err")).unwrap();
+            assert!(status.success(), "resume failed:\n{err}");
+            break;
+        }
+    }
+    assert!(
+        kills >= 5,
+        "only {kills} kill(s): the loop did not exercise many restart points"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        1
+    );
+    assert_same_results(reference, &results(&db));
+}
+
+// 5. Two launchers on one database.
+
+#[test]
+fn two_concurrent_launchers_run_each_job_once() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let file = write_campaign(
+        d,
+        "four.json",
+        &campaign("four", &[0.018, 0.022], &[0.0, 1.0], 0.05),
+    );
+    let args = [
+        "launch",
+        file.to_str().unwrap(),
+        "--db",
+        db.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--threads",
+        "1",
+    ];
+    let mut a = spawn(d, &args, "a.log");
+    let mut b = spawn(d, &args, "b.log");
+    let (sa, sb) = (a.wait().unwrap(), b.wait().unwrap());
+    let log = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    let (out_a, out_b) = (log("a.log"), log("b.log"));
+    let all = format!(
+        "A:\n{out_a}{}\nB:\n{out_b}{}",
+        log("a.log.err"),
+        log("b.log.err")
+    );
+    assert!(sa.success() && sb.success(), "a launcher failed:\n{all}");
+
+    assert_eq!(count(&db, "SELECT COUNT(*) FROM jobs"), 4, "{all}");
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        4,
+        "{all}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE attempts <> 1"),
+        0,
+        "a job was claimed twice:\n{all}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM discharge_summary"),
+        4,
+        "{all}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(DISTINCT job_id) FROM discharge_summary"),
+        4,
+        "{all}"
+    );
+    let ids = rows(&db, "SELECT id FROM jobs ORDER BY id");
+    for id in ids
+        .iter()
+        .map(|r| r[0].trim_start_matches("int ").to_string())
+    {
+        let line = format!("job {id} done:");
+        let n = out_a.matches(&line).count() + out_b.matches(&line).count();
+        assert_eq!(n, 1, "job {id} finished {n} times:\n{all}");
+    }
+}
+
+// 6. Corrupt checkpoints are refused; the job still ends with the uninterrupted results.
+
+fn resume_after_corrupting(corrupt: impl FnOnce(&Path), needle: &str) {
+    let reference = reference();
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = launch_and_kill(d, 0.05);
+    let newest = job_checkpoints(d).last().cloned().expect("a checkpoint");
+    corrupt(&newest);
+    let o = resume(d, &db);
+    let err = stderr(&o);
+    assert!(o.status.success(), "resume failed:\n{}\n{err}", stdout(&o));
+    assert!(
+        err.contains("refused"),
+        "the corrupt checkpoint was not refused:\n{err}"
+    );
+    assert!(
+        err.contains(needle),
+        "the refusal does not say {needle:?}:\n{err}"
+    );
+    assert!(
+        err.contains(newest.file_name().unwrap().to_str().unwrap()),
+        "the refusal does not name the file:\n{err}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        1
+    );
+    assert_same_results(reference, &results(&db));
+}
+
+#[test]
+fn truncated_checkpoint_is_refused_and_the_job_completes() {
+    resume_after_corrupting(
+        |p| {
+            let len = std::fs::metadata(p).unwrap().len();
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(p)
+                .unwrap()
+                .set_len(len / 2)
+                .unwrap();
+        },
+        "truncated",
+    );
+}
+
+#[test]
+fn flipped_byte_checkpoint_is_refused_and_the_job_completes() {
+    resume_after_corrupting(
+        |p| {
+            let mut b = std::fs::read(p).unwrap();
+            let mid = b.len() / 2;
+            b[mid] ^= 0x40;
+            std::fs::write(p, b).unwrap();
+        },
+        "checksum",
+    );
+}
+
+#[test]
+fn decode_refuses_each_kind_of_damage() {
+    let mut s = State::<f64>::new(true, 4);
+    for k in 0..5 {
+        s.push_sphere(
+            k,
+            [0.01 * k as f64, 0.0, 0.02],
+            [0.0, 0.1, -0.2],
+            0.002,
+            2500.0,
+            k == 0,
+        );
+    }
+    s.time = 0.125;
+    s.step = 77;
+    let h = Header {
+        job_hash: "a".repeat(64),
+        step: 77,
+        time_s: 0.125,
+        backend: "cpu".into(),
+        precision: "f64".into(),
+    };
+    let bytes = checkpoint::encode(&h, &s, r#"{"chunk":3}"#);
+    let (h2, s2, extra) = checkpoint::decode(&bytes, "ok.bin", Some(&h.job_hash))
+        .expect("an intact checkpoint decodes");
+    assert_eq!((h2, s2, extra.as_str()), (h.clone(), s, r#"{"chunk":3}"#));
+
+    let truncated = &bytes[..bytes.len() / 2];
+    assert!(matches!(
+        checkpoint::decode(truncated, "t.bin", Some(&h.job_hash)),
+        Err(CheckpointError::Truncated { .. })
+    ));
+    assert!(matches!(
+        checkpoint::decode(&bytes[..bytes.len() - 1], "t.bin", None),
+        Err(CheckpointError::Truncated { .. })
+    ));
+
+    let mut flipped = bytes.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x01;
+    let e = checkpoint::decode(&flipped, "f.bin", Some(&h.job_hash)).unwrap_err();
+    assert!(matches!(e, CheckpointError::Checksum { .. }), "{e}");
+    assert!(
+        e.to_string().contains("f.bin") && e.to_string().contains("checksum"),
+        "{e}"
+    );
+
+    let mut magic = bytes.clone();
+    magic[0] = b'X';
+    assert!(matches!(
+        checkpoint::decode(&magic, "m.bin", Some(&h.job_hash)),
+        Err(CheckpointError::Magic { .. })
+    ));
+    assert!(matches!(
+        checkpoint::decode(b"", "m.bin", None),
+        Err(CheckpointError::Magic { .. })
+    ));
+
+    let other = "b".repeat(64);
+    let e = checkpoint::decode(&bytes, "o.bin", Some(&other)).unwrap_err();
+    assert!(matches!(e, CheckpointError::Mismatch { .. }), "{e}");
+    assert!(
+        checkpoint::decode(&bytes, "o.bin", None).is_ok(),
+        "without an expected hash any job's file decodes"
+    );
+}
+
+// 7. Schema.
+
+#[test]
+fn schema_is_json_and_lists_the_silo_parameters() {
+    let dir = TempDir::new().unwrap();
+    let o = sweep_cmd(dir.path()).arg("schema").output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("sweep schema prints valid JSON");
+    assert!(
+        v.pointer("/properties/base/properties/orifice_diameter_m")
+            .is_some(),
+        "base lacks orifice_diameter_m:\n{}",
+        stdout(&o)
+    );
+    assert!(v.pointer("/properties/sweep").is_some() && v.pointer("/properties/name").is_some());
+    assert!(stdout(&o).contains("orifice_diameter_m"));
 }

@@ -138,11 +138,10 @@ fn ten_percent_initial_overlaps_relax_without_explosion() {
     assert!(ke_end < 1e-3 * e0, "still agitated after {} s: KE {ke_end:.3e} J", s.time);
 }
 
-/// A bed of `n` silo spheres on a jittered square lattice (spacing 1.05 d), `side` × `side` per
+/// A bed of `n` silo spheres on a jittered square lattice of spacing `a`, `side` × `side` per
 /// layer, with random velocities of amplitude `v` per component, in a closed box two layers
 /// taller than the lattice; returns it and the box's planes.
-fn bed(n: usize, side: usize, v: f64, seed: u64) -> (State<f64>, Vec<([f64; 3], [f64; 3])>) {
-    let a = 1.05 * D;
+fn bed(n: usize, side: usize, a: f64, v: f64, seed: u64) -> (State<f64>, Vec<([f64; 3], [f64; 3])>) {
     let l = side as f64 * a;
     let mut s = State::<f64>::new(true, HISTORY_SLOTS);
     let mut noise = Noise(seed);
@@ -157,8 +156,9 @@ fn bed(n: usize, side: usize, v: f64, seed: u64) -> (State<f64>, Vec<([f64; 3], 
 
 #[test]
 fn dense_frictional_bed_stays_finite_for_1e5_steps() {
-    let (s, planes) = bed(300, 5, 0.0, 3);
-    let mut e = CpuEngine::new(config(silo_law(), 1.0e-6, &planes), s, 1);
+    let (s, planes) = bed(300, 5, 1.05 * D, 0.0, 3);
+    let threads: usize = std::env::var("T").map(|t| t.parse().unwrap()).unwrap_or(1);
+    let mut e = CpuEngine::new(config(silo_law(), 1.0e-6, &planes), s, threads);
     let start = std::time::Instant::now();
     let mut ov: f64 = 0.0;
     for _ in 0..10 {
@@ -197,35 +197,33 @@ fn overlap_difference(a: &State<f64>, b: &State<f64>, planes: &[([f64; 3], [f64;
     let mut worst: f64 = 0.0;
     let mut largest: f64 = 0.0;
     for (x, y) in oa.iter().zip(&ob) {
-        if *x > 0.0 || *y > 0.0 {
-            worst = worst.max((x - y).abs());
-            largest = largest.max(*x);
-        }
+        // Compare contact overlaps (0 when apart), so a touching pair that opens by a hair in one
+        // run does not count its gap.
+        worst = worst.max((x.max(0.0) - y.max(0.0)).abs());
+        largest = largest.max(*x);
     }
     (worst, largest)
 }
 
-/// A column of 4 double layers: 3 × 3 spheres (spacing a = 1.05 d), then 2 × 2 in their hollows,
-/// in a box of side 3a; jittered by 0.005 d and 0.01 d apart vertically, so it settles at once.
+/// A column of 8 square layers in FCC (100) stacking: 3 × 3 touching spheres filling a box of
+/// side 3 d, then 2 × 2 in their hollows, and so on; layers 0.001 d higher than touching, so it
+/// settles at once into a packing that cannot rearrange.
 fn column() -> (State<f64>, Vec<([f64; 3], [f64; 3])>) {
-    let a = 1.05 * D;
-    let h = (D * D - a * a / 2.0).sqrt() + 0.01 * D; // layer spacing of touching offset layers
+    let h = D / 2f64.sqrt() + 0.001 * D;
     let mut s = State::<f64>::new(true, HISTORY_SLOTS);
-    let mut noise = Noise(5);
-    let mut z = R + 0.01 * D;
+    let mut z = R + 0.001 * D;
     let mut id = 0;
     for layer in 0..8 {
         let (k, offset) = if layer % 2 == 0 { (3, 0.5) } else { (2, 1.0) };
         for i in 0..k {
             for j in 0..k {
-                let p = [(i as f64 + offset) * a + 0.005 * D * noise.next(), (j as f64 + offset) * a + 0.005 * D * noise.next(), z];
-                s.push_sphere(id, p, [0.0; 3], R, RHO, false);
+                s.push_sphere(id, [(i as f64 + offset) * D, (j as f64 + offset) * D, z], [0.0; 3], R, RHO, false);
                 id += 1;
             }
         }
         z += h;
     }
-    (s, box_planes(3.0 * a, 3.0 * a, z + D))
+    (s, box_planes(3.0 * D, 3.0 * D, z + D))
 }
 
 #[test]
@@ -234,11 +232,7 @@ fn stiff_hertz_in_f32_stays_stable_and_close_to_f64() {
     // Settle with strong damping (e = 0.2); the comparison then runs the silo law itself.
     let settling = ContactLaw { restitution: 0.2, tangential_restitution: 0.2, ..silo_law() };
     let mut settle = CpuEngine::new(config(settling, 1.0e-6, &planes), s, 1);
-    for _ in 0..20 {
-        let r = settle.advance(2_000).unwrap();
-        let st = settle.download();
-        eprintln!("t {:.4} KE {:.3e} ov {:.3e} builds {}", st.time, st.kinetic_energy(), r.max_overlap_ratio, r.list_builds);
-    }
+    settle.advance(20_000).unwrap();
     let settled = settle.download();
     let m = settled.mass[0];
     let ke0 = settled.kinetic_energy() / settled.len() as f64 / (m * G * D);
@@ -285,7 +279,7 @@ fn bits<R: Real>(s: &State<R>) -> Vec<u64> {
 
 #[test]
 fn one_and_two_threads_give_identical_bits() {
-    let (s, planes) = bed(200, 5, 0.5, 9);
+    let (s, planes) = bed(200, 5, D, 0.5, 9);
     let config = config(silo_law(), 1.0e-6, &planes);
     let mut one = CpuEngine::<f64>::new(config.clone(), s.clone(), 1);
     let mut two = CpuEngine::<f64>::new(config, s, 2);
@@ -303,7 +297,7 @@ fn one_and_two_threads_give_identical_bits() {
 #[test]
 #[ignore]
 fn scratch_column_settling() {
-    for (name, mu, e) in [("mu0 e0.2", 0.0, 0.2), ("mu0.5 e0.2", 0.5, 0.2), ("mu0.5 e0.9", 0.5, 0.9)] {
+    for (name, mu, e) in [("mu0.5 e0.2", 0.5, 0.2), ("mu0.5 e0.9", 0.5, 0.9)] {
         let (s0, planes) = column();
         let law = ContactLaw { restitution: e, tangential_restitution: e, friction: mu, ..silo_law() };
         let mut s = State::<f64>::new(mu > 0.0, if mu > 0.0 { HISTORY_SLOTS } else { 0 });

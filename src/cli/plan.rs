@@ -52,7 +52,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut fills = BTreeSet::new();
     let mut total_ps = 0.0;
-    println!("{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  {}", "job", "dt_s", "N", "steps", "particle-st", "wall_s", "parameters");
+    println!("{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  parameters", "job", "dt_s", "N", "steps", "particle-st", "wall_s");
     for (k, j) in jobs.iter().enumerate() {
         let scene = SiloScene::new(j.silo.clone()).map_err(|e| anyhow::anyhow!(e))?;
         let steps_discharge = (j.silo.discharge_time_s / scene.dt).ceil();

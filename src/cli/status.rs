@@ -45,7 +45,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("paused"),
             count("failed")
         );
-        println!("{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>4}  {}", "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try", "parameters");
+        println!("{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>4}  parameters", "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try");
         for r in &rows {
             let rate = if r.6 > 0.0 { r.5 as f64 / r.6 } else { 0.0 };
             let eta = if r.1 != "done" && r.3 > 0.0 && r.6 > 0.0 { format!("{:.0}", (r.4 - r.3).max(0.0) * r.6 / r.3) } else { "-".into() };

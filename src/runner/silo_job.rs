@@ -31,6 +31,9 @@ pub enum Outcome {
     Failed(String),
 }
 
+/// Progress callback: (simulated time since opening, target, particle-steps/s).
+pub type ProgressFn = Arc<dyn Fn(f64, f64, f64) + Send + Sync>;
+
 /// Where and how jobs run.
 #[derive(Clone)]
 pub struct JobContext {
@@ -42,7 +45,7 @@ pub struct JobContext {
     pub checkpoint_interval_s: f64,
     pub interrupt: Arc<AtomicBool>,
     /// Called with (simulated time since opening, target, particle-steps/s) after each chunk.
-    pub progress: Option<Arc<dyn Fn(f64, f64, f64) + Send + Sync>>,
+    pub progress: Option<ProgressFn>,
     /// Messages for the user (refused checkpoints, restarts, fill stage reuse).
     pub log: Arc<dyn Fn(String) + Send + Sync>,
 }
@@ -60,6 +63,42 @@ struct Progress {
     initial_count: usize,
 }
 
+impl Progress {
+    /// The record as a checkpoint keeps it: JSON with every float written as its IEEE-754 bit
+    /// pattern (`"f64:3fb998f13d29ecbe"`). serde_json (without its `float_roundtrip` feature)
+    /// parses about one printed f64 in ten back to a neighbouring value, so plain JSON floats made
+    /// a resumed job's M(t) times, masses and exits differ from an uninterrupted run's.
+    fn to_checkpoint(&self) -> anyhow::Result<String> {
+        fn exact(v: serde_json::Value) -> serde_json::Value {
+            use serde_json::Value;
+            match v {
+                Value::Number(n) if n.is_f64() => Value::String(format!("f64:{:016x}", n.as_f64().unwrap_or(f64::NAN).to_bits())),
+                Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
+                Value::Object(m) => Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect()),
+                v => v,
+            }
+        }
+        Ok(serde_json::to_string(&exact(serde_json::to_value(self)?))?)
+    }
+
+    /// Reads what `to_checkpoint` wrote (plain JSON floats, as older checkpoints have, also).
+    fn from_checkpoint(text: &str) -> serde_json::Result<Self> {
+        fn exact(v: serde_json::Value) -> serde_json::Value {
+            use serde_json::Value;
+            match v {
+                Value::String(s) => match s.strip_prefix("f64:").and_then(|h| u64::from_str_radix(h, 16).ok()) {
+                    Some(bits) => serde_json::Number::from_f64(f64::from_bits(bits)).map_or(Value::Null, Value::Number),
+                    None => Value::String(s),
+                },
+                Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
+                Value::Object(m) => Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect()),
+                v => v,
+            }
+        }
+        serde_json::from_value(exact(serde_json::from_str(text)?))
+    }
+}
+
 fn job_dir(work: &Path, hash: &str) -> PathBuf {
     work.join("jobs").join(&hash[..16])
 }
@@ -69,14 +108,50 @@ fn job_dir(work: &Path, hash: &str) -> PathBuf {
 fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Result<(State<f64>, u64)> {
     let (key, seed) = spec.fill_key();
     let dir = ctx.work_dir.join("stages").join(&key[..16]);
-    let (found, refused) = checkpoint::load_latest(&dir, &key);
-    for r in refused {
-        (ctx.log)(r);
+    std::fs::create_dir_all(&dir)?;
+    // One process fills; the others sharing the stage wait for its checkpoint.
+    let lock = dir.join("fill.lock");
+    let mut waited = false;
+    loop {
+        let (found, refused) = checkpoint::load_latest(&dir, &key);
+        for r in refused {
+            (ctx.log)(r);
+        }
+        if let Some((path, _, s, _)) = found {
+            (ctx.log)(format!("fill stage {}: reusing {}", &key[..16], path.display()));
+            return Ok((s, 0));
+        }
+        match std::fs::OpenOptions::new().write(true).create_new(true).open(&lock) {
+            Ok(mut f) => {
+                use std::io::Write;
+                writeln!(f, "{}", std::process::id())?;
+                break;
+            }
+            Err(_) => {
+                let holder: Option<u32> = std::fs::read_to_string(&lock).ok().and_then(|t| t.trim().parse().ok());
+                let alive = holder.is_some_and(|pid| pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists());
+                if !alive {
+                    // The filling process died: take the stage over.
+                    let _ = std::fs::remove_file(&lock);
+                    continue;
+                }
+                if !waited {
+                    (ctx.log)(format!("fill stage {}: waiting for the job that is filling it", &key[..16]));
+                    waited = true;
+                }
+                if ctx.interrupt.load(Ordering::SeqCst) {
+                    anyhow::bail!("interrupted while waiting for the fill stage");
+                }
+                std::thread::sleep(std::time::Duration::from_millis(200));
+            }
+        }
     }
-    if let Some((path, _, s, _)) = found {
-        (ctx.log)(format!("fill stage {}: reusing {}", &key[..16], path.display()));
-        return Ok((s, 0));
-    }
+    let result = fill_stage_run(spec, scene, ctx, &dir, &key, seed);
+    let _ = std::fs::remove_file(&lock);
+    result
+}
+
+fn fill_stage_run(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext, dir: &Path, key: &str, seed: u64) -> anyhow::Result<(State<f64>, u64)> {
     let config = scene.engine_config(SiloPhase::Fill);
     let init = scene.initial_state(seed);
     let mut engine = backend::build(BackendChoice::Cpu, spec.precision, config, &init, ctx.threads)?;
@@ -100,8 +175,8 @@ fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Re
             break;
         }
     }
-    let h = Header { job_hash: key.clone(), step: s.step, time_s: s.time, backend: "cpu".into(), precision: spec.precision.name().into() };
-    checkpoint::save(&dir, &h, &s, "{}")?;
+    let h = Header { job_hash: key.to_string(), step: s.step, time_s: s.time, backend: "cpu".into(), precision: spec.precision.name().into() };
+    checkpoint::save(dir, &h, &s, "{}")?;
     Ok((s, steps))
 }
 
@@ -123,7 +198,7 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
     }
     let (state, mut prog) = match found {
         Some((path, _, s, extra)) => {
-            let prog: Progress = serde_json::from_str(&extra).with_context(|| format!("{}: progress record unreadable", path.display()))?;
+            let prog = Progress::from_checkpoint(&extra).with_context(|| format!("{}: progress record unreadable", path.display()))?;
             (ctx.log)(format!("job {}: resuming from {} (t = {:.3} s after opening)", job.id, path.display(), s.time - prog.t_open));
             (s, prog)
         }
@@ -163,7 +238,7 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
         let s = engine.download();
         let h = Header { job_hash: job.hash.clone(), step: s.step, time_s: s.time, backend: info.kind.clone(), precision: info.precision.clone() };
-        Ok(checkpoint::save(&dir, &h, &s, &serde_json::to_string(prog)?)?)
+        Ok(checkpoint::save(&dir, &h, &s, &prog.to_checkpoint()?)?)
     };
     loop {
         let t_rel = prog.chunk as f64 * chunk_dt;
