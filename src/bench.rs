@@ -37,11 +37,28 @@ fn silo_bed(n: usize, seed: u64) -> BenchScene {
     let d = 0.0058;
     let rho = 2655.0;
     let y = 3.0e7;
-    let law = ContactLaw { normal: NormalModel::Hertz(Elasticity::YoungShear { youngs_modulus_pa: y, shear_modulus_pa: y / 30.0 }), restitution: 0.9, tangential_restitution: 0.9, friction: 0.5 };
+    let law = ContactLaw {
+        normal: NormalModel::Hertz(Elasticity::YoungShear {
+            youngs_modulus_pa: y,
+            shear_modulus_pa: y / 30.0,
+        }),
+        restitution: 0.9,
+        tangential_restitution: 0.9,
+        friction: 0.5,
+    };
     let m = rho * std::f64::consts::PI / 6.0 * d * d * d;
-    let tc = contact_time(&law, ContactPair { r_eff: d / 4.0, m_eff: m / 2.0 }, 1.0);
+    let tc = contact_time(
+        &law,
+        ContactPair {
+            r_eff: d / 4.0,
+            m_eff: m / 2.0,
+        },
+        1.0,
+    );
     // A cylinder whose height is about twice its diameter, holding n particles at φ ≈ 0.5.
-    let rc = ((n as f64 * d * d * d) / (2.0 * std::f64::consts::PI)).cbrt().max(5.0 * d);
+    let rc = ((n as f64 * d * d * d) / (2.0 * std::f64::consts::PI))
+        .cbrt()
+        .max(5.0 * d);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut s = State::new(true, crate::engine::cpu::HISTORY_SLOTS);
     // Near-touching lattice (spacing 1.02 d, small jitter): contacts form within a few steps.
@@ -57,7 +74,11 @@ fn silo_bed(n: usize, seed: u64) -> BenchScene {
                     continue;
                 }
                 let j = 0.005 * d;
-                let p = [x + j * (rng.random::<f64>() - 0.5), yy + j * (rng.random::<f64>() - 0.5), z];
+                let p = [
+                    x + j * (rng.random::<f64>() - 0.5),
+                    yy + j * (rng.random::<f64>() - 0.5),
+                    z,
+                ];
                 s.push_sphere(id, p, [0.0; 3], 0.5 * d, rho, false);
                 id += 1;
                 if id as usize >= n {
@@ -68,10 +89,35 @@ fn silo_bed(n: usize, seed: u64) -> BenchScene {
         z += a;
     }
     let walls = vec![
-        Wall { shape: WallShape::Cylinder { axis_xy: [0.0, 0.0], radius: rc, z_min: 0.0, z_max: 10.0 }, rotation: None },
-        Wall { shape: WallShape::OrificePlate { z: 0.0, center_xy: [0.0, 0.0], orifice_radius: 0.0 }, rotation: None },
+        Wall {
+            shape: WallShape::Cylinder {
+                axis_xy: [0.0, 0.0],
+                radius: rc,
+                z_min: 0.0,
+                z_max: 10.0,
+            },
+            rotation: None,
+        },
+        Wall {
+            shape: WallShape::OrificePlate {
+                z: 0.0,
+                center_xy: [0.0, 0.0],
+                orifice_radius: 0.0,
+            },
+            rotation: None,
+        },
     ];
-    let config = EngineConfig { dt_s: tc / 50.0, gravity: [0.0, 0.0, -9.81], particle_law: law, wall_law: law, walls, periodic_x: None, periodic_y: None, sink_z: None, skin_m: 0.2 * d };
+    let config = EngineConfig {
+        dt_s: tc / 50.0,
+        gravity: [0.0, 0.0, -9.81],
+        particle_law: law,
+        wall_law: law,
+        walls,
+        periodic_x: None,
+        periodic_y: None,
+        sink_z: None,
+        skin_m: 0.2 * d,
+    };
     BenchScene { config, state: s }
 }
 
@@ -83,8 +129,23 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
     let m = rho * std::f64::consts::PI / 6.0 * d * d * d;
     // ξ = 1 has no cylinder length l; the paper's k_n = 2·10⁵ m g / l then uses the total length L.
     let kn = 2.0e5 * m * g / l;
-    let law = ContactLaw { normal: NormalModel::Linear { kn_n_per_m: kn, kt_n_per_m: 2.0 / 7.0 * kn }, restitution: 0.88, tangential_restitution: 0.88, friction: 0.5 };
-    let tc = contact_time(&law, ContactPair { r_eff: d / 4.0, m_eff: m / 2.0 }, 1.0);
+    let law = ContactLaw {
+        normal: NormalModel::Linear {
+            kn_n_per_m: kn,
+            kt_n_per_m: 2.0 / 7.0 * kn,
+        },
+        restitution: 0.88,
+        tangential_restitution: 0.88,
+        friction: 0.5,
+    };
+    let tc = contact_time(
+        &law,
+        ContactPair {
+            r_eff: d / 4.0,
+            m_eff: m / 2.0,
+        },
+        1.0,
+    );
     // Box side so that the bed is ~20 layers deep.
     let side = ((n as f64 / 20.0).sqrt() * 1.05 * d).max(4.0 * d);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -93,7 +154,14 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
     // Rough base: fixed spheres of radius L/2 at random on z = 0, about one per L².
     let nb = ((side / d).powi(2) * 1.2) as usize;
     for _ in 0..nb {
-        s.push_sphere(id, [rng.random::<f64>() * side, rng.random::<f64>() * side, 0.0], [0.0; 3], 0.5 * l, rho, true);
+        s.push_sphere(
+            id,
+            [rng.random::<f64>() * side, rng.random::<f64>() * side, 0.0],
+            [0.0; 3],
+            0.5 * l,
+            rho,
+            true,
+        );
         id += 1;
     }
     let a = 1.05 * d;
@@ -103,7 +171,11 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
     'fill: loop {
         for ix in 0..k {
             for iy in 0..k {
-                let p = [(ix as f64 + 0.5) * side / k as f64, (iy as f64 + 0.5) * side / k as f64, z + 0.01 * d * rng.random::<f64>()];
+                let p = [
+                    (ix as f64 + 0.5) * side / k as f64,
+                    (iy as f64 + 0.5) * side / k as f64,
+                    z + 0.01 * d * rng.random::<f64>(),
+                ];
                 s.push_sphere(id, p, [0.0; 3], 0.5 * d, rho, false);
                 id += 1;
                 placed += 1;
@@ -120,7 +192,13 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
         gravity: [g * alpha.sin(), 0.0, -g * alpha.cos()],
         particle_law: law,
         wall_law: law,
-        walls: vec![Wall { shape: WallShape::Plane { point: [0.0, 0.0, -0.5 * l], normal: [0.0, 0.0, 1.0] }, rotation: None }],
+        walls: vec![Wall {
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, -0.5 * l],
+                normal: [0.0, 0.0, 1.0],
+            },
+            rotation: None,
+        }],
         periodic_x: Some([0.0, side]),
         periodic_y: Some([0.0, side]),
         sink_z: None,
@@ -137,5 +215,9 @@ pub fn checksum(s: &State<f64>) -> String {
             h.update(x.to_le_bytes());
         }
     }
-    h.finalize().iter().take(8).map(|b| format!("{b:02x}")).collect()
+    h.finalize()
+        .iter()
+        .take(8)
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }

@@ -28,7 +28,10 @@ pub struct Header {
 #[derive(Debug, thiserror::Error)]
 pub enum CheckpointError {
     #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: not a sweep checkpoint (bad magic)")]
     Magic { path: String },
     #[error("{path}: format version {found}, this sweep reads version {FORMAT_VERSION}")]
@@ -36,9 +39,17 @@ pub enum CheckpointError {
     #[error("{path}: truncated ({what})")]
     Truncated { path: String, what: String },
     #[error("{path}: checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupt")]
-    Checksum { path: String, stored: u32, computed: u32 },
+    Checksum {
+        path: String,
+        stored: u32,
+        computed: u32,
+    },
     #[error("{path}: belongs to job {found}, not {expected}")]
-    Mismatch { path: String, found: String, expected: String },
+    Mismatch {
+        path: String,
+        found: String,
+        expected: String,
+    },
 }
 
 struct W(Vec<u8>);
@@ -83,7 +94,10 @@ struct Rd<'a> {
 impl<'a> Rd<'a> {
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], CheckpointError> {
         if self.at + n > self.b.len() {
-            return Err(CheckpointError::Truncated { path: self.path.into(), what: what.into() });
+            return Err(CheckpointError::Truncated {
+                path: self.path.into(),
+                what: what.into(),
+            });
         }
         let s = &self.b[self.at..self.at + n];
         self.at += n;
@@ -101,7 +115,10 @@ impl<'a> Rd<'a> {
     fn len(&mut self, w: &str, elem: usize) -> Result<usize, CheckpointError> {
         let n = self.u64(w)? as usize;
         if n.saturating_mul(elem) > self.b.len() - self.at {
-            return Err(CheckpointError::Truncated { path: self.path.into(), what: w.into() });
+            return Err(CheckpointError::Truncated {
+                path: self.path.into(),
+                what: w.into(),
+            });
         }
         Ok(n)
     }
@@ -118,7 +135,9 @@ impl<'a> Rd<'a> {
     }
     fn v3s(&mut self, w: &str) -> Result<Vec<V3<f64>>, CheckpointError> {
         let n = self.len(w, 24)?;
-        (0..n).map(|_| Ok(V3::new(self.f64(w)?, self.f64(w)?, self.f64(w)?))).collect()
+        (0..n)
+            .map(|_| Ok(V3::new(self.f64(w)?, self.f64(w)?, self.f64(w)?)))
+            .collect()
     }
 }
 
@@ -166,30 +185,64 @@ pub fn encode(h: &Header, s: &State<f64>, extra: &str) -> Vec<u8> {
 ///
 /// # Errors
 /// Bad magic, another format version, truncation, a checksum mismatch, another job.
-pub fn decode(bytes: &[u8], path: &str, expected_hash: Option<&str>) -> Result<(Header, State<f64>, String), CheckpointError> {
-    let mut r = Rd { b: bytes, at: 0, path };
-    if r.take(8, "magic").map_err(|_| CheckpointError::Magic { path: path.into() })? != MAGIC {
+pub fn decode(
+    bytes: &[u8],
+    path: &str,
+    expected_hash: Option<&str>,
+) -> Result<(Header, State<f64>, String), CheckpointError> {
+    let mut r = Rd {
+        b: bytes,
+        at: 0,
+        path,
+    };
+    if r.take(8, "magic")
+        .map_err(|_| CheckpointError::Magic { path: path.into() })?
+        != MAGIC
+    {
         return Err(CheckpointError::Magic { path: path.into() });
     }
     let v = r.u32("version")?;
     if v != FORMAT_VERSION {
-        return Err(CheckpointError::Version { path: path.into(), found: v });
+        return Err(CheckpointError::Version {
+            path: path.into(),
+            found: v,
+        });
     }
-    let h = Header { job_hash: r.str("job hash")?, step: r.u64("step")?, time_s: r.f64("time")?, backend: r.str("backend")?, precision: r.str("precision")? };
+    let h = Header {
+        job_hash: r.str("job hash")?,
+        step: r.u64("step")?,
+        time_s: r.f64("time")?,
+        backend: r.str("backend")?,
+        precision: r.str("precision")?,
+    };
     if let Some(e) = expected_hash {
         if h.job_hash != e {
-            return Err(CheckpointError::Mismatch { path: path.into(), found: h.job_hash, expected: e.into() });
+            return Err(CheckpointError::Mismatch {
+                path: path.into(),
+                found: h.job_hash,
+                expected: e.into(),
+            });
         }
     }
     let crc = r.u32("checksum")?;
     let payload = r.bytes("payload")?;
     let computed = crc32fast::hash(payload);
     if computed != crc {
-        return Err(CheckpointError::Checksum { path: path.into(), stored: crc, computed });
+        return Err(CheckpointError::Checksum {
+            path: path.into(),
+            stored: crc,
+            computed,
+        });
     }
-    let mut p = Rd { b: payload, at: 0, path };
+    let mut p = Rd {
+        b: payload,
+        at: 0,
+        path,
+    };
     let n = p.len("ids", 4)?;
-    let id = (0..n).map(|_| p.u32("ids")).collect::<Result<Vec<_>, _>>()?;
+    let id = (0..n)
+        .map(|_| p.u32("ids"))
+        .collect::<Result<Vec<_>, _>>()?;
     let pos = p.v3s("positions")?;
     let vel = p.v3s("velocities")?;
     let force = p.v3s("forces")?;
@@ -202,7 +255,9 @@ pub fn decode(bytes: &[u8], path: &str, expected_hash: Option<&str>) -> Result<(
     let inv_inertia = p.f64s("inverse inertia")?;
     let slots = p.u64("history slots")? as usize;
     let hn = p.len("history", 4)?;
-    let partner = (0..hn).map(|_| p.u32("history")).collect::<Result<Vec<_>, _>>()?;
+    let partner = (0..hn)
+        .map(|_| p.u32("history"))
+        .collect::<Result<Vec<_>, _>>()?;
     let spring = p.v3s("history springs")?;
     let time = p.f64("time")?;
     let step = p.u64("step")?;
@@ -232,7 +287,8 @@ pub fn decode(bytes: &[u8], path: &str, expected_hash: Option<&str>) -> Result<(
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     fs::create_dir_all(dir)?;
-    let tmp = path.with_extension("tmp");
+    // The temp name carries the process id: two writers never share one.
+    let tmp = path.with_extension(format!("tmp.{}", std::process::id()));
     {
         let mut f = fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -253,7 +309,11 @@ pub fn list(dir: &Path) -> Vec<PathBuf> {
         .flatten()
         .filter_map(|e| {
             let name = e.file_name().to_string_lossy().into_owned();
-            let step = name.strip_prefix("ckpt-")?.strip_suffix(".bin")?.parse().ok()?;
+            let step = name
+                .strip_prefix("ckpt-")?
+                .strip_suffix(".bin")?
+                .parse()
+                .ok()?;
             Some((step, e.path()))
         })
         .collect();
@@ -285,7 +345,13 @@ pub fn load_latest(dir: &Path, job_hash: &str) -> (Option<Loaded>, Vec<String>) 
     let mut refused = Vec::new();
     for path in list(dir).into_iter().rev() {
         let p = path.display().to_string();
-        match fs::read(&path).map_err(|e| CheckpointError::Io { path: p.clone(), source: e }).and_then(|b| decode(&b, &p, Some(job_hash))) {
+        match fs::read(&path)
+            .map_err(|e| CheckpointError::Io {
+                path: p.clone(),
+                source: e,
+            })
+            .and_then(|b| decode(&b, &p, Some(job_hash)))
+        {
             Ok((h, s, extra)) => return (Some((path, h, s, extra)), refused),
             Err(e) => refused.push(format!("refused checkpoint {e}")),
         }

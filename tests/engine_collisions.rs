@@ -3,6 +3,7 @@
 //!   impact speeds (both are speed independent for this law).
 //! - Hertz–Mindlin: e_n independent of speed and within 2 % of the target; for e = 1 the contact
 //!   time within 2 % of Hertz's 2.87 (m*²/(R* Y*² v))^{1/5}.
+//!
 //! A failure means the force law, its damping or the integrator is wrong.
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
@@ -12,21 +13,48 @@ const R: f64 = 0.0029;
 const RHO: f64 = 2655.0;
 
 fn config(law: ContactLaw, dt: f64) -> EngineConfig {
-    EngineConfig { dt_s: dt, gravity: [0.0; 3], particle_law: law, wall_law: law, walls: vec![], periodic_x: None, periodic_y: None, sink_z: None, skin_m: 0.2 * R }
+    EngineConfig {
+        dt_s: dt,
+        gravity: [0.0; 3],
+        particle_law: law,
+        wall_law: law,
+        walls: vec![],
+        periodic_x: None,
+        periodic_y: None,
+        sink_z: None,
+        skin_m: 0.2 * R,
+    }
 }
 
 /// Runs a head-on collision at relative speed `v`; returns (restitution, contact time).
 fn collide(law: ContactLaw, v: f64, n_c: f64) -> (f64, f64) {
     let m = RHO * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
-    let pair = ContactPair { r_eff: R / 2.0, m_eff: m / 2.0 };
+    let pair = ContactPair {
+        r_eff: R / 2.0,
+        m_eff: m / 2.0,
+    };
     let tc = contact_time(&law, pair, v);
     let dt = tc / n_c;
     let mut s = State::<f64>::new(law.friction > 0.0, if law.friction > 0.0 { 16 } else { 0 });
     let gap = 0.5 * v * 5.0 * dt; // touch after ~5 steps
-    s.push_sphere(0, [-(R + gap / 2.0), 0.0, 0.0], [v / 2.0, 0.0, 0.0], R, RHO, false);
-    s.push_sphere(1, [R + gap / 2.0, 0.0, 0.0], [-v / 2.0, 0.0, 0.0], R, RHO, false);
+    s.push_sphere(
+        0,
+        [-(R + gap / 2.0), 0.0, 0.0],
+        [v / 2.0, 0.0, 0.0],
+        R,
+        RHO,
+        false,
+    );
+    s.push_sphere(
+        1,
+        [R + gap / 2.0, 0.0, 0.0],
+        [-v / 2.0, 0.0, 0.0],
+        R,
+        RHO,
+        false,
+    );
     let mut e = CpuEngine::new(config(law, dt), s, 1);
-    let (mut t_in, mut t_out) = (None, None);
+    let mut t_in = None;
     for _ in 0..(20.0 * n_c) as usize {
         e.advance(1).unwrap();
         let st = e.download();
@@ -36,32 +64,61 @@ fn collide(law: ContactLaw, v: f64, n_c: f64) -> (f64, f64) {
             // Interpolate the touching instant within the step from the approach speed.
             t_in = Some(st.time - (2.0 * R - d) / v);
         }
-        if d >= 2.0 * R && t_in.is_some() && t_out.is_none() {
+        if let (true, Some(t0)) = (d >= 2.0 * R, t_in) {
             let vrel = st.vel[b].x - st.vel[a].x;
-            t_out = Some(st.time - (d - 2.0 * R) / vrel);
-            return (vrel / v, t_out.unwrap() - t_in.unwrap());
+            let t_out = st.time - (d - 2.0 * R) / vrel;
+            return (vrel / v, t_out - t0);
         }
     }
     panic!("no separation");
 }
 
 fn linear(e: f64, kn: f64) -> ContactLaw {
-    ContactLaw { normal: NormalModel::Linear { kn_n_per_m: kn, kt_n_per_m: 2.0 / 7.0 * kn }, restitution: e, tangential_restitution: e, friction: 0.0 }
+    ContactLaw {
+        normal: NormalModel::Linear {
+            kn_n_per_m: kn,
+            kt_n_per_m: 2.0 / 7.0 * kn,
+        },
+        restitution: e,
+        tangential_restitution: e,
+        friction: 0.0,
+    }
 }
 
 fn hertz(e: f64, y: f64) -> ContactLaw {
-    ContactLaw { normal: NormalModel::Hertz(Elasticity::YoungShear { youngs_modulus_pa: y, shear_modulus_pa: y / 30.0 }), restitution: e, tangential_restitution: e, friction: 0.0 }
+    ContactLaw {
+        normal: NormalModel::Hertz(Elasticity::YoungShear {
+            youngs_modulus_pa: y,
+            shear_modulus_pa: y / 30.0,
+        }),
+        restitution: e,
+        tangential_restitution: e,
+        friction: 0.0,
+    }
 }
 
 #[test]
 fn linear_contact_time_and_restitution() {
     let law = linear(0.9, 1.0e4);
     let m = RHO * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
-    let tc = contact_time(&law, ContactPair { r_eff: R / 2.0, m_eff: m / 2.0 }, 1.0);
+    let tc = contact_time(
+        &law,
+        ContactPair {
+            r_eff: R / 2.0,
+            m_eff: m / 2.0,
+        },
+        1.0,
+    );
     for v in [0.1, 0.5, 2.0] {
         let (e, t) = collide(law, v, 200.0);
-        assert!((e - 0.9).abs() / 0.9 < 0.01, "v = {v}: e = {e}, expected 0.9 within 1 %");
-        assert!((t - tc).abs() / tc < 0.01, "v = {v}: t_c = {t}, expected {tc} within 1 %");
+        assert!(
+            (e - 0.9).abs() / 0.9 < 0.01,
+            "v = {v}: e = {e}, expected 0.9 within 1 %"
+        );
+        assert!(
+            (t - tc).abs() / tc < 0.01,
+            "v = {v}: t_c = {t}, expected {tc} within 1 %"
+        );
     }
 }
 
@@ -72,9 +129,13 @@ fn hertz_restitution_is_speed_independent_and_on_target() {
     for v in [0.05, 0.5, 2.0] {
         let (e, _) = collide(law, v, 100.0);
         es.push(e);
-        assert!((e - 0.9).abs() / 0.9 < 0.02, "v = {v}: e = {e}, expected 0.9 within 2 %");
+        assert!(
+            (e - 0.9).abs() / 0.9 < 0.02,
+            "v = {v}: e = {e}, expected 0.9 within 2 %"
+        );
     }
-    let spread = es.iter().cloned().fold(f64::MIN, f64::max) - es.iter().cloned().fold(f64::MAX, f64::min);
+    let spread =
+        es.iter().cloned().fold(f64::MIN, f64::max) - es.iter().cloned().fold(f64::MAX, f64::min);
     assert!(spread < 0.005, "restitution varies with speed: {es:?}");
 }
 
@@ -87,6 +148,9 @@ fn hertz_elastic_contact_time_matches_hertz_theory() {
         let analytic = 2.87 * ((m / 2.0).powi(2) / (R / 2.0 * y * y * v)).powf(0.2);
         let (e, t) = collide(law, v, 100.0);
         assert!((e - 1.0).abs() < 0.005, "elastic rebound e = {e}");
-        assert!((t - analytic).abs() / analytic < 0.02, "v = {v}: t_c = {t}, Hertz {analytic}");
+        assert!(
+            (t - analytic).abs() / analytic < 0.02,
+            "v = {v}: t_c = {t}, Hertz {analytic}"
+        );
     }
 }

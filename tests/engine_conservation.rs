@@ -8,6 +8,7 @@
 //!   contact in the middle of the box, within 1e-12 relative (f64).
 //! - 300 frictional, inelastic spheres colliding, fully periodic in x and y, no walls, no
 //!   gravity: total linear momentum constant within 1e-10 relative over 10³ steps (f64).
+//!
 //! A failure means a force is not applied equally and oppositely, the minimum image or the wrap
 //! is wrong, or the integrator injects or removes energy.
 
@@ -41,21 +42,42 @@ impl Noise {
 }
 
 fn config(law: ContactLaw, dt: f64, walls: Vec<Wall>, l: f64) -> EngineConfig {
-    EngineConfig { dt_s: dt, gravity: [0.0; 3], particle_law: law, wall_law: law, walls, periodic_x: Some([0.0, l]), periodic_y: Some([0.0, l]), sink_z: None, skin_m: 0.2 * R }
+    EngineConfig {
+        dt_s: dt,
+        gravity: [0.0; 3],
+        particle_law: law,
+        wall_law: law,
+        walls,
+        periodic_x: Some([0.0, l]),
+        periodic_y: Some([0.0, l]),
+        sink_z: None,
+        skin_m: 0.2 * R,
+    }
 }
 
 /// `n` spheres on a cubic lattice of spacing `a` filling an `l` × `l` × `h` box, with random
 /// velocities of amplitude `v` per component plus the common drift `drift`.
 fn gas(n: usize, l: f64, h: f64, v: f64, drift: [f64; 3], friction: bool, seed: u64) -> State<f64> {
     let mut s = State::<f64>::new(friction, if friction { HISTORY_SLOTS } else { 0 });
-    let (nx, nz) = ((l / (1.2 * D)).floor() as usize, (h / (1.2 * D)).floor() as usize);
+    let (nx, nz) = (
+        (l / (1.2 * D)).floor() as usize,
+        (h / (1.2 * D)).floor() as usize,
+    );
     assert!(nx * nx * nz >= n, "box too small for {n} spheres");
     let (a, c) = (l / nx as f64, h / nz as f64);
     let mut noise = Noise(seed);
     for k in 0..n {
         let (i, j, m) = (k % nx, (k / nx) % nx, k / (nx * nx));
-        let p = [(i as f64 + 0.5) * a, (j as f64 + 0.5) * a, (m as f64 + 0.5) * c];
-        let u = [drift[0] + v * noise.next(), drift[1] + v * noise.next(), drift[2] + v * noise.next()];
+        let p = [
+            (i as f64 + 0.5) * a,
+            (j as f64 + 0.5) * a,
+            (m as f64 + 0.5) * c,
+        ];
+        let u = [
+            drift[0] + v * noise.next(),
+            drift[1] + v * noise.next(),
+            drift[2] + v * noise.next(),
+        ];
         s.push_sphere(k as u32, p, u, R, RHO, false);
     }
     s
@@ -93,12 +115,35 @@ fn elastic_energy(s: &State<f64>, law: &ContactLaw, l: f64, h: f64) -> f64 {
 fn energy_drift(law: ContactLaw) -> f64 {
     let (l, h) = (10.0 * D, 10.0 * D);
     let walls = vec![
-        Wall { shape: WallShape::Plane { point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] }, rotation: None },
-        Wall { shape: WallShape::Plane { point: [0.0, 0.0, h], normal: [0.0, 0.0, -1.0] }, rotation: None },
+        Wall {
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, 0.0],
+                normal: [0.0, 0.0, 1.0],
+            },
+            rotation: None,
+        },
+        Wall {
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, h],
+                normal: [0.0, 0.0, -1.0],
+            },
+            rotation: None,
+        },
     ];
     // t_c at 2 m/s, above the fastest relative speed of the gas (components within ±0.5 m/s).
-    let dt = contact_time(&law, ContactPair { r_eff: R / 2.0, m_eff: mass() / 2.0 }, 2.0) / 50.0;
-    let mut e = CpuEngine::new(config(law, dt, walls, l), gas(200, l, h, 0.5, [0.0; 3], false, 7), 1);
+    let dt = contact_time(
+        &law,
+        ContactPair {
+            r_eff: R / 2.0,
+            m_eff: mass() / 2.0,
+        },
+        2.0,
+    ) / 50.0;
+    let mut e = CpuEngine::new(
+        config(law, dt, walls, l),
+        gas(200, l, h, 0.5, [0.0; 3], false, 7),
+        1,
+    );
     let total = |s: &State<f64>| s.kinetic_energy() + elastic_energy(s, &law, l, h);
     let e0 = total(&e.download());
     let (mut worst, mut contacts): (f64, f64) = (0.0, 0.0);
@@ -114,22 +159,52 @@ fn energy_drift(law: ContactLaw) -> f64 {
 #[test]
 fn elastic_gas_conserves_energy_linear() {
     let kn = 1.0e4;
-    let law = ContactLaw { normal: NormalModel::Linear { kn_n_per_m: kn, kt_n_per_m: 0.0 }, restitution: 1.0, tangential_restitution: 1.0, friction: 0.0 };
+    let law = ContactLaw {
+        normal: NormalModel::Linear {
+            kn_n_per_m: kn,
+            kt_n_per_m: 0.0,
+        },
+        restitution: 1.0,
+        tangential_restitution: 1.0,
+        friction: 0.0,
+    };
     let drift = energy_drift(law);
-    assert!(drift < 1e-4, "linear: energy drifted by {drift:.3e} of its initial value (limit 1e-4)");
+    assert!(
+        drift < 1e-4,
+        "linear: energy drifted by {drift:.3e} of its initial value (limit 1e-4)"
+    );
 }
 
 #[test]
 fn elastic_gas_conserves_energy_hertz() {
-    let el = Elasticity::YoungShear { youngs_modulus_pa: 3.0e7, shear_modulus_pa: 1.0e6 };
-    let law = ContactLaw { normal: NormalModel::Hertz(el), restitution: 1.0, tangential_restitution: 1.0, friction: 0.0 };
+    let el = Elasticity::YoungShear {
+        youngs_modulus_pa: 3.0e7,
+        shear_modulus_pa: 1.0e6,
+    };
+    let law = ContactLaw {
+        normal: NormalModel::Hertz(el),
+        restitution: 1.0,
+        tangential_restitution: 1.0,
+        friction: 0.0,
+    };
     let drift = energy_drift(law);
-    assert!(drift < 1e-4, "Hertz: energy drifted by {drift:.3e} of its initial value (limit 1e-4)");
+    assert!(
+        drift < 1e-4,
+        "Hertz: energy drifted by {drift:.3e} of its initial value (limit 1e-4)"
+    );
 }
 
 fn frictional_law() -> ContactLaw {
-    let el = Elasticity::YoungPoisson { youngs_modulus_pa: 3.0e7, poisson_ratio: 0.25 };
-    ContactLaw { normal: NormalModel::Hertz(el), restitution: 0.8, tangential_restitution: 0.8, friction: 0.5 }
+    let el = Elasticity::YoungPoisson {
+        youngs_modulus_pa: 3.0e7,
+        poisson_ratio: 0.25,
+    };
+    ContactLaw {
+        normal: NormalModel::Hertz(el),
+        restitution: 0.8,
+        tangential_restitution: 0.8,
+        friction: 0.5,
+    }
 }
 
 #[test]
@@ -145,12 +220,23 @@ fn crossing_the_seam_keeps_the_velocity_bitwise() {
     e.advance(steps).unwrap();
     let s = e.download();
     let v = s.vel[0];
-    assert_eq!([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()], v0.map(f64::to_bits), "velocity changed across the seam: {v:?}");
+    assert_eq!(
+        [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()],
+        v0.map(f64::to_bits),
+        "velocity changed across the seam: {v:?}"
+    );
     let t = steps as f64 * dt;
-    let expected = [l - 0.3 * D + v0[0] * t - l, 0.2 * D + v0[1] * t + l, v0[2] * t];
+    let expected = [
+        l - 0.3 * D + v0[0] * t - l,
+        0.2 * D + v0[1] * t + l,
+        v0[2] * t,
+    ];
     let p = s.pos[0].to_f64();
     for k in 0..3 {
-        assert!((p[k] - expected[k]).abs() < 1e-12, "position {p:?} is not the wrapped straight line {expected:?}");
+        assert!(
+            (p[k] - expected[k]).abs() < 1e-12,
+            "position {p:?} is not the wrapped straight line {expected:?}"
+        );
     }
 }
 
@@ -169,13 +255,25 @@ fn pair(p0: [f64; 3], l: f64) -> [[f64; 3]; 4] {
     // Approaching and sliding past each other, so the normal, damping and spring all act.
     s.push_sphere(0, p0, [0.05, 0.02, -0.03], R, RHO, false);
     s.push_sphere(1, p1, [-0.04, 0.03, 0.01], R, RHO, false);
-    let dt = contact_time(&law, ContactPair { r_eff: R / 2.0, m_eff: mass() / 2.0 }, 1.0) / 50.0;
+    let dt = contact_time(
+        &law,
+        ContactPair {
+            r_eff: R / 2.0,
+            m_eff: mass() / 2.0,
+        },
+        1.0,
+    ) / 50.0;
     let mut e = CpuEngine::new(config(law, dt, vec![], l), s, 1);
     e.advance(20).unwrap();
     let s = e.download();
     let a = s.id.iter().position(|&i| i == 0).unwrap();
     let b = 1 - a;
-    [s.force[a].to_f64(), s.force[b].to_f64(), s.torque[a].to_f64(), s.torque[b].to_f64()]
+    [
+        s.force[a].to_f64(),
+        s.force[b].to_f64(),
+        s.torque[a].to_f64(),
+        s.torque[b].to_f64(),
+    ]
 }
 
 #[test]
@@ -188,9 +286,17 @@ fn contact_across_the_seam_equals_contact_inside() {
         let (a, b) = (inside[k], seam[k]);
         let mag = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
         let diff = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
-        eprintln!("{}: inside {a:?}, across the seam {b:?}, relative difference {:.2e}", names[k], diff / mag);
+        eprintln!(
+            "{}: inside {a:?}, across the seam {b:?}, relative difference {:.2e}",
+            names[k],
+            diff / mag
+        );
         assert!(mag > 0.0, "{}: no contact formed", names[k]);
-        assert!(diff <= 1e-12 * mag, "{}: {a:?} inside but {b:?} across the seam", names[k]);
+        assert!(
+            diff <= 1e-12 * mag,
+            "{}: {a:?} inside but {b:?} across the seam",
+            names[k]
+        );
     }
 }
 
@@ -199,7 +305,14 @@ fn frictional_collisions_conserve_momentum() {
     let law = frictional_law();
     let l = 10.0 * D;
     let s = gas(300, l, 6.0 * D, 1.0, [0.3, -0.2, 0.1], true, 11);
-    let dt = contact_time(&law, ContactPair { r_eff: R / 2.0, m_eff: mass() / 2.0 }, 3.0) / 50.0;
+    let dt = contact_time(
+        &law,
+        ContactPair {
+            r_eff: R / 2.0,
+            m_eff: mass() / 2.0,
+        },
+        3.0,
+    ) / 50.0;
     let mut e = CpuEngine::new(config(law, dt, vec![], l), s, 1);
     let p0 = e.download().momentum();
     let norm0 = (p0[0] * p0[0] + p0[1] * p0[1] + p0[2] * p0[2]).sqrt();
@@ -209,11 +322,18 @@ fn frictional_collisions_conserve_momentum() {
         let r = e.advance(100).unwrap();
         contacts = contacts.max(r.contacts_per_particle);
         let p = e.download().momentum();
-        let diff = ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2) + (p[2] - p0[2]).powi(2)).sqrt();
+        let diff =
+            ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2) + (p[2] - p0[2]).powi(2)).sqrt();
         worst = worst.max(diff / norm0);
     }
     let ke = e.download().kinetic_energy();
     eprintln!("momentum: |P0| = {norm0:.6e} kg m/s, largest |ΔP|/|P0| = {worst:.3e}, contacts per particle up to {contacts:.3}, final KE {ke:.3e} J");
-    assert!(contacts > 0.1, "too few collisions to test anything ({contacts} contacts per particle)");
-    assert!(worst < 1e-10, "momentum changed by {worst:.3e} of |P0| (limit 1e-10)");
+    assert!(
+        contacts > 0.1,
+        "too few collisions to test anything ({contacts} contacts per particle)"
+    );
+    assert!(
+        worst < 1e-10,
+        "momentum changed by {worst:.3e} of |P0| (limit 1e-10)"
+    );
 }

@@ -11,9 +11,19 @@ pub struct FieldProblem {
 #[derive(Debug, thiserror::Error)]
 pub enum CampaignError {
     #[error("{file}: cannot read the campaign file: {source}")]
-    Read { file: String, source: std::io::Error },
+    Read {
+        file: String,
+        source: std::io::Error,
+    },
     #[error("{file}: {path}: {message}")]
-    Parse { file: String, path: String, message: String },
+    Parse {
+        file: String,
+        path: String,
+        message: String,
+    },
     #[error("{file}: {} problem(s):\n{}", problems.len(), problems.iter().map(|p| format!("  {file}: {}: {}", p.path, p.message)).collect::<Vec<_>>().join("\n"))]
-    Invalid { file: String, problems: Vec<FieldProblem> },
+    Invalid {
+        file: String,
+        problems: Vec<FieldProblem>,
+    },
 }

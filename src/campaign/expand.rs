@@ -45,7 +45,10 @@ impl JobSpec {
     pub fn fill_key(&self) -> (String, u64) {
         let v = serde_json::json!({ "scene": self.scene, "fill": self.silo.fill_stage(), "precision": self.precision });
         let h = Sha256::digest(serde_json::to_string(&v).expect("json").as_bytes());
-        (hex(&h), u64::from_le_bytes(h[..8].try_into().expect("8 bytes")))
+        (
+            hex(&h),
+            u64::from_le_bytes(h[..8].try_into().expect("8 bytes")),
+        )
     }
 }
 
@@ -70,7 +73,15 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             names.sort();
             problems.push(FieldProblem {
                 path: format!("{section}.{k}"),
-                message: format!("unknown {:?} parameter; expected one of: {}", c.scene, names.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")),
+                message: format!(
+                    "unknown {:?} parameter; expected one of: {}",
+                    c.scene,
+                    names
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             });
         }
     };
@@ -80,29 +91,53 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
     for (k, v) in &c.sweep {
         check_key("sweep", k, &mut problems);
         if v.is_empty() {
-            problems.push(FieldProblem { path: format!("sweep.{k}"), message: "expected a non-empty list of values".into() });
+            problems.push(FieldProblem {
+                path: format!("sweep.{k}"),
+                message: "expected a non-empty list of values".into(),
+            });
         }
         if c.base.contains_key(k) {
-            problems.push(FieldProblem { path: format!("sweep.{k}"), message: "also set in base: a swept parameter must not have a base value".into() });
+            problems.push(FieldProblem {
+                path: format!("sweep.{k}"),
+                message: "also set in base: a swept parameter must not have a base value".into(),
+            });
         }
     }
     let zip_len = c.zip.values().next().map_or(0, |v| v.len());
     for (k, v) in &c.zip {
         check_key("zip", k, &mut problems);
         if v.is_empty() {
-            problems.push(FieldProblem { path: format!("zip.{k}"), message: "expected a non-empty list of values".into() });
+            problems.push(FieldProblem {
+                path: format!("zip.{k}"),
+                message: "expected a non-empty list of values".into(),
+            });
         } else if v.len() != zip_len {
-            problems.push(FieldProblem { path: format!("zip.{k}"), message: format!("expected {zip_len} values like the other zipped lists, got {}", v.len()) });
+            problems.push(FieldProblem {
+                path: format!("zip.{k}"),
+                message: format!(
+                    "expected {zip_len} values like the other zipped lists, got {}",
+                    v.len()
+                ),
+            });
         }
         if c.sweep.contains_key(k) || c.base.contains_key(k) {
-            problems.push(FieldProblem { path: format!("zip.{k}"), message: "also set in base or sweep".into() });
+            problems.push(FieldProblem {
+                path: format!("zip.{k}"),
+                message: "also set in base or sweep".into(),
+            });
         }
     }
     if c.replicas == 0 {
-        problems.push(FieldProblem { path: "replicas".into(), message: "expected at least 1 replica, got 0".into() });
+        problems.push(FieldProblem {
+            path: "replicas".into(),
+            message: "expected at least 1 replica, got 0".into(),
+        });
     }
     if !(c.run.checkpoint_interval_s > 0.0) {
-        problems.push(FieldProblem { path: "run.checkpoint_interval_s".into(), message: format!("expected seconds > 0, got {}", c.run.checkpoint_interval_s) });
+        problems.push(FieldProblem {
+            path: "run.checkpoint_interval_s".into(),
+            message: format!("expected seconds > 0, got {}", c.run.checkpoint_interval_s),
+        });
     }
     let d = &c.observers.discharge;
     for (name, v) in [
@@ -112,11 +147,17 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         ("block_s", d.block_s),
     ] {
         if !(v > 0.0) {
-            problems.push(FieldProblem { path: format!("observers.discharge.{name}"), message: format!("expected seconds > 0, got {v}") });
+            problems.push(FieldProblem {
+                path: format!("observers.discharge.{name}"),
+                message: format!("expected seconds > 0, got {v}"),
+            });
         }
     }
     if !problems.is_empty() {
-        return Err(CampaignError::Invalid { file: file.into(), problems });
+        return Err(CampaignError::Invalid {
+            file: file.into(),
+            problems,
+        });
     }
 
     // Points of the sweep: Cartesian product over `sweep` (keys in sorted order), crossed with
@@ -157,30 +198,48 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             }
             obj.insert("replica".into(), Value::from(replica));
             let source = |field: &str| -> String {
-                point.iter().find(|(k, _, _)| k == field).map_or_else(|| format!("base.{field}"), |(_, _, s)| s.clone())
+                point
+                    .iter()
+                    .find(|(k, _, _)| k == field)
+                    .map_or_else(|| format!("base.{field}"), |(_, _, s)| s.clone())
             };
             let params: SiloParams = match serde_path_to_error::deserialize(Value::Object(obj)) {
                 Ok(p) => p,
                 Err(e) => {
                     let field = e.path().to_string();
                     let field = field.split('.').next().unwrap_or("").to_string();
-                    problems.push(FieldProblem { path: source(&field), message: e.into_inner().to_string() });
+                    problems.push(FieldProblem {
+                        path: source(&field),
+                        message: e.into_inner().to_string(),
+                    });
                     continue;
                 }
             };
             for fe in params.validate() {
-                let p = FieldProblem { path: source(&fe.field), message: fe.message };
+                let p = FieldProblem {
+                    path: source(&fe.field),
+                    message: fe.message,
+                };
                 if !problems.contains(&p) {
                     problems.push(p);
                 }
             }
             let mut label: Vec<String> = point.iter().map(|(k, v, _)| format!("{k}={v}")).collect();
             label.push(format!("replica={replica}"));
-            jobs.push(JobSpec { scene: c.scene, silo: params, observers: c.observers.clone(), precision: c.run.precision, label: label.join(",") });
+            jobs.push(JobSpec {
+                scene: c.scene,
+                silo: params,
+                observers: c.observers.clone(),
+                precision: c.run.precision,
+                label: label.join(","),
+            });
         }
     }
     if !problems.is_empty() {
-        return Err(CampaignError::Invalid { file: file.into(), problems });
+        return Err(CampaignError::Invalid {
+            file: file.into(),
+            problems,
+        });
     }
     Ok(jobs)
 }
@@ -201,29 +260,57 @@ mod tests {
         let jobs = parse(s).unwrap();
         assert_eq!(jobs.len(), 12);
         let again = parse(s).unwrap();
-        assert_eq!(jobs.iter().map(|j| j.hash()).collect::<Vec<_>>(), again.iter().map(|j| j.hash()).collect::<Vec<_>>());
+        assert_eq!(
+            jobs.iter().map(|j| j.hash()).collect::<Vec<_>>(),
+            again.iter().map(|j| j.hash()).collect::<Vec<_>>()
+        );
         let mut hashes: Vec<String> = jobs.iter().map(|j| j.hash()).collect();
         hashes.sort();
         hashes.dedup();
         assert_eq!(hashes.len(), 12, "every job distinct");
         // Fill stage shared across D and f, not across replicas.
-        let keys: std::collections::BTreeSet<String> = jobs.iter().map(|j| j.fill_key().0).collect();
+        let keys: std::collections::BTreeSet<String> =
+            jobs.iter().map(|j| j.fill_key().0).collect();
         assert_eq!(keys.len(), 2);
     }
 
     #[test]
     fn errors_name_the_path() {
-        let e = parse(r#"{"name":"a","scene":"silo","sweep":{"orifice_diameter_m":[0.02,0.03,-0.01]}}"#).unwrap_err().to_string();
-        assert!(e.contains("sweep.orifice_diameter_m[2]") && e.contains("expected metres > 0"), "{e}");
-        let e = parse(r#"{"name":"a","scene":"silo","sweep":{"orifice_diameter_m":[]}}"#).unwrap_err().to_string();
-        assert!(e.contains("sweep.orifice_diameter_m") && e.contains("non-empty"), "{e}");
-        let e = parse(r#"{"name":"a","scene":"silo","base":{"orifice_diameter_m":"big"}}"#).unwrap_err().to_string();
-        assert!(e.contains("base.orifice_diameter_m") && e.contains("invalid type"), "{e}");
-        let e = parse(r#"{"name":"a","scene":"silo","bogus":1}"#).unwrap_err().to_string();
+        let e = parse(
+            r#"{"name":"a","scene":"silo","sweep":{"orifice_diameter_m":[0.02,0.03,-0.01]}}"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("sweep.orifice_diameter_m[2]") && e.contains("expected metres > 0"),
+            "{e}"
+        );
+        let e = parse(r#"{"name":"a","scene":"silo","sweep":{"orifice_diameter_m":[]}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("sweep.orifice_diameter_m") && e.contains("non-empty"),
+            "{e}"
+        );
+        let e = parse(r#"{"name":"a","scene":"silo","base":{"orifice_diameter_m":"big"}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("base.orifice_diameter_m") && e.contains("invalid type"),
+            "{e}"
+        );
+        let e = parse(r#"{"name":"a","scene":"silo","bogus":1}"#)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("unknown field `bogus`"), "{e}");
         let e = parse(r#"{"scene":"silo"}"#).unwrap_err().to_string();
         assert!(e.contains("missing field `name`"), "{e}");
-        let e = parse(r#"{"name":"a","scene":"silo","base":{"orifice_diam":0.1}}"#).unwrap_err().to_string();
-        assert!(e.contains("base.orifice_diam") && e.contains("unknown"), "{e}");
+        let e = parse(r#"{"name":"a","scene":"silo","base":{"orifice_diam":0.1}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("base.orifice_diam") && e.contains("unknown"),
+            "{e}"
+        );
     }
 }

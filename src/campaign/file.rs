@@ -58,7 +58,11 @@ pub struct RunSettings {
 
 impl Default for RunSettings {
     fn default() -> Self {
-        Self { precision: Precision::F64, checkpoint_interval_s: 0.5, max_attempts: 3 }
+        Self {
+            precision: Precision::F64,
+            checkpoint_interval_s: 0.5,
+            max_attempts: 3,
+        }
     }
 }
 
@@ -105,8 +109,16 @@ impl CampaignFile {
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
-            let path = if path == "." { "(top level)".to_string() } else { path };
-            CampaignError::Parse { file: file.to_string(), path, message: inner.to_string() }
+            let path = if path == "." {
+                "(top level)".to_string()
+            } else {
+                path
+            };
+            CampaignError::Parse {
+                file: file.to_string(),
+                path,
+                message: inner.to_string(),
+            }
         })
     }
 }

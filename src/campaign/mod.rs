@@ -15,7 +15,10 @@ pub use file::{CampaignFile, Observers, Precision, RunSettings, SceneKind};
 /// The file cannot be read, is not JSON of the campaign shape, or has invalid values; every
 /// problem names the file, the JSON path and what was expected.
 pub fn load(path: &std::path::Path) -> Result<(CampaignFile, Vec<JobSpec>), CampaignError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Read { file: path.display().to_string(), source: e })?;
+    let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Read {
+        file: path.display().to_string(),
+        source: e,
+    })?;
     let file = CampaignFile::parse_str(&text, &path.display().to_string())?;
     let jobs = expand(&file, &path.display().to_string())?;
     Ok((file, jobs))

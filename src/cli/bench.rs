@@ -44,16 +44,24 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let sc = sweep::bench::scene(&a.scene, a.particles, 1)?;
     let dt = sc.config.dt_s;
     let mut engine = backend::build(a.backend, precision, sc.config, &sc.state, a.threads)?;
-    engine.advance(100).map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
+    engine
+        .advance(100)
+        .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
     let t0 = Instant::now();
-    let r = engine.advance(a.steps).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let r = engine
+        .advance(a.steps)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let secs = t0.elapsed().as_secs_f64();
     let info = engine.describe();
     let rate = r.particle_steps as f64 / secs;
     let state = engine.download();
     let sum = sweep::bench::checksum(&state);
     let mobile = state.inv_mass.iter().filter(|&&m| m > 0.0).count();
-    let machine = format!("{} cores, {}", std::thread::available_parallelism().map_or(1, |n| n.get()), std::env::consts::ARCH);
+    let machine = format!(
+        "{} cores, {}",
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        std::env::consts::ARCH
+    );
     if a.json {
         println!(
             "{}",

@@ -48,8 +48,13 @@ pub struct ResumeArguments {
 
 /// The work directory (checkpoints, shared stages) of a database.
 pub fn work_dir(db: &Path) -> PathBuf {
-    let stem = db.file_stem().map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned());
-    db.parent().unwrap_or(Path::new(".")).join("sweep-work").join(stem)
+    let stem = db
+        .file_stem()
+        .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned());
+    db.parent()
+        .unwrap_or(Path::new("."))
+        .join("sweep-work")
+        .join(stem)
 }
 
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
@@ -73,7 +78,10 @@ fn backend_note(b: BackendChoice) {
 }
 
 fn finish(s: sweep::runner::pool::PoolSummary, db: &Path) -> i32 {
-    println!("{} job(s) done, {} failed, {} paused", s.done, s.failed, s.paused);
+    println!(
+        "{} job(s) done, {} failed, {} paused",
+        s.done, s.failed, s.paused
+    );
     if s.paused > 0 {
         println!("continue with: sweep resume --db {}", db.display());
     }
@@ -94,13 +102,21 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     let mut conn = sweep::store::open(&a.db.db)?;
-    let (cid, added) = sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &file, &jobs)?;
+    let (cid, added) =
+        sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &file, &jobs)?;
     let done: i64 = conn.query_row(
         "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 AND j.status = 'done'",
         [cid],
         |r| r.get(0),
     )?;
-    println!("campaign {}: {} job(s), {} new, {} already done (database {})", file.name, jobs.len(), added, done, a.db.db.display());
+    println!(
+        "campaign {}: {} job(s), {} new, {} already done (database {})",
+        file.name,
+        jobs.len(),
+        added,
+        done,
+        a.db.db.display()
+    );
     backend_note(a.backend);
     let opts = PoolOptions {
         db: a.db.db.clone(),
@@ -119,12 +135,19 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
 
 pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     if !a.db.db.exists() {
-        eprintln!("sweep: no database at {}: nothing to resume; start with `sweep launch FILE`", a.db.db.display());
+        eprintln!(
+            "sweep: no database at {}: nothing to resume; start with `sweep launch FILE`",
+            a.db.db.display()
+        );
         return Ok(2);
     }
     let mut conn = sweep::store::open(&a.db.db)?;
     let n = sweep::store::jobs::requeue(&mut conn, a.stale_after, a.max_attempts)?;
-    let (total, done): (i64, i64) = conn.query_row("SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs", [], |r| Ok((r.get(0)?, r.get(1)?)))?;
+    let (total, done): (i64, i64) = conn.query_row(
+        "SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs",
+        [],
+        |r| Ok((r.get(0)?, r.get(1)?)),
+    )?;
     println!("{n} job(s) to resume, {done} of {total} already done");
     backend_note(a.backend);
     let opts = PoolOptions {

@@ -27,7 +27,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             return Ok(2);
         }
     };
-    let threads = if a.threads > 0 { a.threads } else { std::thread::available_parallelism().map_or(1, |n| n.get()) };
+    let threads = if a.threads > 0 {
+        a.threads
+    } else {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    };
     let rate: Option<f64> = if a.db.db.exists() {
         let conn = sweep::store::open(&a.db.db)?;
         conn.query_row(
@@ -39,7 +43,13 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         None
     };
-    println!("campaign {}: {} job(s), precision {}, {} thread(s) per job", file.name, jobs.len(), file.run.precision.name(), threads);
+    println!(
+        "campaign {}: {} job(s), precision {}, {} thread(s) per job",
+        file.name,
+        jobs.len(),
+        file.run.precision.name(),
+        threads
+    );
     match rate {
         Some(r) => println!("throughput from `sweep bench` (silo-bed, cpu, {}): {r:.3e} particle-steps/s", file.run.precision.name()),
         None => println!(
@@ -52,20 +62,40 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut fills = BTreeSet::new();
     let mut total_ps = 0.0;
-    println!("{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  parameters", "job", "dt_s", "N", "steps", "particle-st", "wall_s");
+    println!(
+        "{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  parameters",
+        "job", "dt_s", "N", "steps", "particle-st", "wall_s"
+    );
     for (k, j) in jobs.iter().enumerate() {
         let scene = SiloScene::new(j.silo.clone()).map_err(|e| anyhow::anyhow!(e))?;
         let steps_discharge = (j.silo.discharge_time_s / scene.dt).ceil();
         // The fill stage is shared by jobs with the same fill parameters: count it once.
-        let fill = if fills.insert(j.fill_key().0) { (j.silo.settle_max_time_s.min(1.0) / scene.dt).ceil() } else { 0.0 };
+        let fill = if fills.insert(j.fill_key().0) {
+            (j.silo.settle_max_time_s.min(1.0) / scene.dt).ceil()
+        } else {
+            0.0
+        };
         // Without re-insertion the silo empties towards `stop_remaining_fraction`: on average
         // about the mean of the start and the end counts are simulated.
         let n = j.silo.particle_count as f64;
-        let n_mean = if j.silo.reinsert { n } else { n * (1.0 + j.silo.stop_remaining_fraction.max(0.5)) / 2.0 };
+        let n_mean = if j.silo.reinsert {
+            n
+        } else {
+            n * (1.0 + j.silo.stop_remaining_fraction.max(0.5)) / 2.0
+        };
         let ps = n * fill + n_mean * steps_discharge;
         total_ps += ps;
         let wall = rate.map_or("?".to_string(), |r| format!("{:.0}", ps / r));
-        println!("{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}", k + 1, scene.dt, j.silo.particle_count, fill + steps_discharge, ps, wall, j.label);
+        println!(
+            "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
+            k + 1,
+            scene.dt,
+            j.silo.particle_count,
+            fill + steps_discharge,
+            ps,
+            wall,
+            j.label
+        );
         if k == 0 {
             let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false);
             println!("      effects: {}", serde_json::to_string(&effects)?);
@@ -74,7 +104,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     println!(
         "total: {:.3e} particle-steps{}",
         total_ps,
-        rate.map_or(String::new(), |r| format!(", about {:.1} h on this machine with one job at a time ({:.0} s)", total_ps / r / 3600.0, total_ps / r))
+        rate.map_or(String::new(), |r| format!(
+            ", about {:.1} h on this machine with one job at a time ({:.0} s)",
+            total_ps / r / 3600.0,
+            total_ps / r
+        ))
     );
     Ok(0)
 }

@@ -21,7 +21,10 @@ pub struct Arguments {
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if !a.db.db.exists() {
-        eprintln!("sweep: no database at {}: launch a campaign first", a.db.db.display());
+        eprintln!(
+            "sweep: no database at {}: launch a campaign first",
+            a.db.db.display()
+        );
         return Ok(2);
     }
     let conn = sweep::store::open(&a.db.db)?;
@@ -29,7 +32,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let r = sweep::report::render_figure(&conn, &a.figure, a.campaign.as_deref(), &a.out)?;
     println!("{}", r.table);
     if !r.missing.is_empty() {
-        println!("incomplete: {} job(s) not done: {}", r.missing.len(), r.missing.join("; "));
+        println!(
+            "incomplete: {} job(s) not done: {}",
+            r.missing.len(),
+            r.missing.join("; ")
+        );
     }
     for f in &r.files {
         println!("wrote {}", f.display());

@@ -15,14 +15,27 @@ pub struct Arguments {
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if !Path::new(&a.db.db).exists() {
-        println!("no database at {}: nothing has been launched here yet; start with `sweep launch FILE`", a.db.db.display());
+        println!(
+            "no database at {}: nothing has been launched here yet; start with `sweep launch FILE`",
+            a.db.db.display()
+        );
         return Ok(0);
     }
     let conn = sweep::store::open(&a.db.db)?;
-    let mut camps = conn.prepare("SELECT id, name, file FROM campaigns WHERE ?1 IS NULL OR name = ?1 ORDER BY id")?;
-    let camps: Vec<(i64, String, String)> = camps.query_map([&a.campaign], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?.collect::<Result<_, _>>()?;
+    let mut camps = conn.prepare(
+        "SELECT id, name, file FROM campaigns WHERE ?1 IS NULL OR name = ?1 ORDER BY id",
+    )?;
+    let camps: Vec<(i64, String, String)> = camps
+        .query_map([&a.campaign], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?
+        .collect::<Result<_, _>>()?;
     if camps.is_empty() {
-        println!("{}: no campaigns{}", a.db.db.display(), a.campaign.as_ref().map_or(String::new(), |c| format!(" named {c}")));
+        println!(
+            "{}: no campaigns{}",
+            a.db.db.display(),
+            a.campaign
+                .as_ref()
+                .map_or(String::new(), |c| format!(" named {c}"))
+        );
         return Ok(0);
     }
     for (cid, name, file) in camps {
@@ -32,8 +45,36 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
              FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 ORDER BY j.id",
         )?;
         #[allow(clippy::type_complexity)]
-        let rows: Vec<(i64, String, f64, f64, f64, i64, f64, i64, String, String, String, String)> = q
-            .query_map([cid], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?, r.get(7)?, r.get(8)?, r.get(9)?, r.get(10)?, r.get(11)?)))?
+        let rows: Vec<(
+            i64,
+            String,
+            f64,
+            f64,
+            f64,
+            i64,
+            f64,
+            i64,
+            String,
+            String,
+            String,
+            String,
+        )> = q
+            .query_map([cid], |r| {
+                Ok((
+                    r.get(0)?,
+                    r.get(1)?,
+                    r.get(2)?,
+                    r.get(3)?,
+                    r.get(4)?,
+                    r.get(5)?,
+                    r.get(6)?,
+                    r.get(7)?,
+                    r.get(8)?,
+                    r.get(9)?,
+                    r.get(10)?,
+                    r.get(11)?,
+                ))
+            })?
             .collect::<Result<_, _>>()?;
         let count = |s: &str| rows.iter().filter(|r| r.1 == s).count();
         println!(
@@ -45,10 +86,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("paused"),
             count("failed")
         );
-        println!("{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>4}  parameters", "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try");
+        println!(
+            "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>4}  parameters",
+            "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try"
+        );
         for r in &rows {
             let rate = if r.6 > 0.0 { r.5 as f64 / r.6 } else { 0.0 };
-            let eta = if r.1 != "done" && r.3 > 0.0 && r.6 > 0.0 { format!("{:.0}", (r.4 - r.3).max(0.0) * r.6 / r.3) } else { "-".into() };
+            let eta = if r.1 != "done" && r.3 > 0.0 && r.6 > 0.0 {
+                format!("{:.0}", (r.4 - r.3).max(0.0) * r.6 / r.3)
+            } else {
+                "-".into()
+            };
             println!(
                 "{:>5}  {:<8} {:>6.1} {:>6.2}/{:<7.2} {:>16.3e} {:>10} {:>4}  {} {}",
                 r.0,
@@ -60,7 +108,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 eta,
                 r.7,
                 r.9,
-                if r.10.is_empty() { String::new() } else { format!("[{} {}]", r.10, r.11) }
+                if r.10.is_empty() {
+                    String::new()
+                } else {
+                    format!("[{} {}]", r.10, r.11)
+                }
             );
             if !r.8.is_empty() && r.1 != "done" {
                 println!("         last error: {}", r.8);

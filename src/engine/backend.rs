@@ -42,13 +42,22 @@ pub struct BackendInfo {
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
     #[error("non-finite {what} of particle {id} at step {step} (t = {time_s:.6} s): the run diverged; lower dt or check the stiffness")]
-    NonFinite { what: &'static str, id: u32, step: u64, time_s: f64 },
+    NonFinite {
+        what: &'static str,
+        id: u32,
+        step: u64,
+        time_s: f64,
+    },
     #[error("overlap of {ratio:.3} d between particles at step {step} exceeds the limit {limit:.3} d: the time step or the stiffness is wrong for this scene")]
     Overlap { ratio: f64, limit: f64, step: u64 },
     #[error("particle {id} has more than {slots} simultaneous contacts at step {step}: raise the history size")]
     HistoryFull { id: u32, slots: usize, step: u64 },
     #[error("kinetic energy blew up to {energy_j:.3e} J at step {step} (limit {limit_j:.3e} J)")]
-    EnergyBlowUp { energy_j: f64, limit_j: f64, step: u64 },
+    EnergyBlowUp {
+        energy_j: f64,
+        limit_j: f64,
+        step: u64,
+    },
     #[error("device error: {0}")]
     Device(String),
 }

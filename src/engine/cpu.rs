@@ -33,7 +33,9 @@ pub struct Watchdog {
 impl Default for Watchdog {
     fn default() -> Self {
         // 20 % of d is far past any physical deformation: only a diverging run gets there.
-        Self { max_overlap_ratio: 0.2 }
+        Self {
+            max_overlap_ratio: 0.2,
+        }
     }
 }
 
@@ -64,11 +66,18 @@ pub struct CpuEngine<R: Real> {
 impl<R: Real> CpuEngine<R> {
     /// A new engine; `threads` = 0 uses all cores.
     pub fn new(config: EngineConfig, state: State<R>, threads: usize) -> Self {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
         let threads = pool.current_num_threads();
         let periodic = Periodic {
-            x: config.periodic_x.map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
-            y: config.periodic_y.map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
+            x: config
+                .periodic_x
+                .map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
+            y: config
+                .periodic_y
+                .map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
         };
         Self {
             law_pp: config.particle_law.kernel(),
@@ -102,7 +111,8 @@ impl<R: Real> CpuEngine<R> {
         let (periodic, skin) = (self.periodic, self.skin);
         let state = &mut self.state;
         let list = &mut self.list;
-        self.pool.install(|| grid::build(state, &periodic, skin, list));
+        self.pool
+            .install(|| grid::build(state, &periodic, skin, list));
         self.alive = vec![ALIVE; self.state.len()];
     }
 
@@ -138,20 +148,28 @@ impl<R: Real> CpuEngine<R> {
         };
 
         let full = self.pool.install(|| {
-            let out = self.f_new.par_iter_mut().zip(self.t_new.par_iter_mut()).zip(self.contacts.par_iter_mut());
+            let out = self
+                .f_new
+                .par_iter_mut()
+                .zip(self.t_new.par_iter_mut())
+                .zip(self.contacts.par_iter_mut());
             if slots > 0 {
-                out.zip(hist.partner.par_chunks_mut(slots).zip(hist.spring.par_chunks_mut(slots)))
-                    .enumerate()
-                    .with_min_len(MIN_LEN)
-                    .map(|(i, (((f, t), nc), (p, s)))| {
-                        let mut rows = Rows::open(p, s);
-                        let r = ctx.particle(i, Some(&mut rows));
-                        *f = r.0;
-                        *t = r.1;
-                        *nc = r.3;
-                        (r.4, r.2)
-                    })
-                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
+                out.zip(
+                    hist.partner
+                        .par_chunks_mut(slots)
+                        .zip(hist.spring.par_chunks_mut(slots)),
+                )
+                .enumerate()
+                .with_min_len(MIN_LEN)
+                .map(|(i, (((f, t), nc), (p, s)))| {
+                    let mut rows = Rows::open(p, s);
+                    let r = ctx.particle(i, Some(&mut rows));
+                    *f = r.0;
+                    *t = r.1;
+                    *nc = r.3;
+                    (r.4, r.2)
+                })
+                .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
             } else {
                 out.enumerate()
                     .with_min_len(MIN_LEN)
@@ -168,8 +186,14 @@ impl<R: Real> CpuEngine<R> {
         self.state.history = hist;
         let (full, max_ov) = full;
         if full {
-            let id = (0..n).find(|&i| self.contacts[i] as usize > slots).map_or(0, |i| self.state.id[i]);
-            return Err(EngineError::HistoryFull { id, slots, step: self.state.step });
+            let id = (0..n)
+                .find(|&i| self.contacts[i] as usize > slots)
+                .map_or(0, |i| self.state.id[i]);
+            return Err(EngineError::HistoryFull {
+                id,
+                slots,
+                step: self.state.step,
+            });
         }
         std::mem::swap(&mut self.state.force, &mut self.f_new);
         if self.state.rotation {
@@ -193,11 +217,24 @@ impl<R: Real> CpuEngine<R> {
         let stale = refs.len() != s.pos.len();
         self.pool.install(|| {
             if s.rotation {
-                (s.omega.par_iter_mut(), s.torque.par_iter(), s.inv_inertia.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(w, &t, &ii)| {
-                    *w += t * (ii * kick);
-                });
+                (
+                    s.omega.par_iter_mut(),
+                    s.torque.par_iter(),
+                    s.inv_inertia.par_iter(),
+                )
+                    .into_par_iter()
+                    .with_min_len(MIN_LEN)
+                    .for_each(|(w, &t, &ii)| {
+                        *w += t * (ii * kick);
+                    });
             }
-            (s.vel.par_iter_mut(), s.pos.par_iter_mut(), s.force.par_iter(), s.inv_mass.par_iter(), alive.par_iter_mut())
+            (
+                s.vel.par_iter_mut(),
+                s.pos.par_iter_mut(),
+                s.force.par_iter(),
+                s.inv_mass.par_iter(),
+                alive.par_iter_mut(),
+            )
                 .into_par_iter()
                 .enumerate()
                 .with_min_len(MIN_LEN)
@@ -226,15 +263,30 @@ impl<R: Real> CpuEngine<R> {
         let s = &mut self.state;
         let alive = &self.alive;
         self.pool.install(|| {
-            (s.vel.par_iter_mut(), s.force.par_iter(), s.inv_mass.par_iter(), alive.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(v, &f, &im, &a)| {
-                if im != R::zero() && a == ALIVE {
-                    *v += (f * im + g) * half;
-                }
-            });
-            if s.rotation {
-                (s.omega.par_iter_mut(), s.torque.par_iter(), s.inv_inertia.par_iter()).into_par_iter().with_min_len(MIN_LEN).for_each(|(w, &t, &ii)| {
-                    *w += t * (ii * half);
+            (
+                s.vel.par_iter_mut(),
+                s.force.par_iter(),
+                s.inv_mass.par_iter(),
+                alive.par_iter(),
+            )
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .for_each(|(v, &f, &im, &a)| {
+                    if im != R::zero() && a == ALIVE {
+                        *v += (f * im + g) * half;
+                    }
                 });
+            if s.rotation {
+                (
+                    s.omega.par_iter_mut(),
+                    s.torque.par_iter(),
+                    s.inv_inertia.par_iter(),
+                )
+                    .into_par_iter()
+                    .with_min_len(MIN_LEN)
+                    .for_each(|(w, &t, &ii)| {
+                        *w += t * (ii * half);
+                    });
             }
         });
     }
@@ -247,7 +299,11 @@ impl<R: Real> CpuEngine<R> {
             let s = &self.state;
             for i in 0..s.len() {
                 if self.alive[i] == DYING {
-                    removed.push(SinkEvent { id: s.id[i], mass_kg: s.mass[i].to_f64(), time_s: t_next });
+                    removed.push(SinkEvent {
+                        id: s.id[i],
+                        mass_kg: s.mass[i].to_f64(),
+                        time_s: t_next,
+                    });
                     self.alive[i] = DEAD;
                 }
             }
@@ -259,7 +315,11 @@ impl<R: Real> CpuEngine<R> {
         self.state.time = t_next;
         self.state.step += 1;
         if max_ov > self.watchdog.max_overlap_ratio {
-            return Err(EngineError::Overlap { ratio: max_ov, limit: self.watchdog.max_overlap_ratio, step: self.state.step });
+            return Err(EngineError::Overlap {
+                ratio: max_ov,
+                limit: self.watchdog.max_overlap_ratio,
+                step: self.state.step,
+            });
         }
         Ok(max_ov)
     }
@@ -279,7 +339,12 @@ impl<R: Real> CpuEngine<R> {
             } else {
                 continue;
             };
-            return Err(EngineError::NonFinite { what, id: s.id[i], step: s.step, time_s: s.time });
+            return Err(EngineError::NonFinite {
+                what,
+                id: s.id[i],
+                step: s.step,
+                time_s: s.time,
+            });
         }
         Ok(())
     }
@@ -300,7 +365,11 @@ struct ForceContext<'a, R: Real> {
 impl<R: Real> ForceContext<'_, R> {
     /// Force, torque, largest overlap ratio, contact count and "history full" for particle i.
     #[inline]
-    fn particle(&self, i: usize, mut rows: Option<&mut Rows<'_, R>>) -> (V3<R>, V3<R>, R, u32, bool) {
+    fn particle(
+        &self,
+        i: usize,
+        mut rows: Option<&mut Rows<'_, R>>,
+    ) -> (V3<R>, V3<R>, R, u32, bool) {
         let s = self.s;
         let mut f = V3::zero();
         let mut t = V3::zero();
@@ -345,8 +414,20 @@ impl<R: Real> ForceContext<'_, R> {
             let v_rel = (vi + wi.cross(bi)) - (s.vel[j] + wj.cross(bj));
             let mj = s.mass[j];
             // A fixed partner acts as infinitely heavy.
-            let m_eff = if fixed_j { mi } else if fixed_i { mj } else { mi * mj / (mi + mj) };
-            let c = ContactInput { overlap, normal: n, v_rel, r_eff: ri * rj / sum, m_eff };
+            let m_eff = if fixed_j {
+                mi
+            } else if fixed_i {
+                mj
+            } else {
+                mi * mj / (mi + mj)
+            };
+            let c = ContactInput {
+                overlap,
+                normal: n,
+                v_rel,
+                r_eff: ri * rj / sum,
+                m_eff,
+            };
             let key = s.id[j];
             let fc = match rows.as_deref_mut() {
                 Some(rows) => {
@@ -371,7 +452,13 @@ impl<R: Real> ForceContext<'_, R> {
                     let n = wc.normal;
                     let bi = -(n * (ri - wc.overlap * R::from_f64(0.5)));
                     let v_rel = vi + wi.cross(bi) - wc.wall_velocity;
-                    let c = ContactInput { overlap: wc.overlap, normal: n, v_rel, r_eff: ri, m_eff: mi };
+                    let c = ContactInput {
+                        overlap: wc.overlap,
+                        normal: n,
+                        v_rel,
+                        r_eff: ri,
+                        m_eff: mi,
+                    };
                     let key = wall_key(w);
                     let fc = match rows.as_deref_mut() {
                         Some(rows) => {
@@ -426,7 +513,8 @@ impl<R: Real> Backend for CpuEngine<R> {
             self.contacts.clear();
         }
         let n = self.contacts.len().max(1);
-        report.contacts_per_particle = self.contacts.iter().map(|&c| c as f64).sum::<f64>() / n as f64;
+        report.contacts_per_particle =
+            self.contacts.iter().map(|&c| c as f64).sum::<f64>() / n as f64;
         report.list_builds = self.list.builds - builds0;
         Ok(report)
     }
@@ -442,6 +530,11 @@ impl<R: Real> Backend for CpuEngine<R> {
     }
 
     fn describe(&self) -> BackendInfo {
-        BackendInfo { kind: "cpu".into(), precision: R::NAME.into(), adapter: format!("rayon, {} threads", self.threads), threads: self.threads }
+        BackendInfo {
+            kind: "cpu".into(),
+            precision: R::NAME.into(),
+            adapter: format!("rayon, {} threads", self.threads),
+            threads: self.threads,
+        }
     }
 }

@@ -38,7 +38,8 @@ impl Effects {
             NormalModel::Hertz(_) => "hertz_mindlin",
             NormalModel::Linear { .. } => "linear_spring_dashpot",
         };
-        let tangential = config.particle_law.friction > 0.0 || (!config.walls.is_empty() && config.wall_law.friction > 0.0);
+        let tangential = config.particle_law.friction > 0.0
+            || (!config.walls.is_empty() && config.wall_law.friction > 0.0);
         let mut walls: Vec<String> = config
             .walls
             .iter()
@@ -46,7 +47,9 @@ impl Effects {
                 match w.shape {
                     WallShape::Plane { .. } => "plane",
                     WallShape::Cylinder { .. } => "cylinder",
-                    WallShape::OrificePlate { orifice_radius, .. } if orifice_radius > 0.0 => "orifice_plate",
+                    WallShape::OrificePlate { orifice_radius, .. } if orifice_radius > 0.0 => {
+                        "orifice_plate"
+                    }
                     WallShape::OrificePlate { .. } => "closed_plate",
                 }
                 .to_string()
@@ -59,7 +62,10 @@ impl Effects {
             tangential_history: tangential,
             rotation: tangential,
             walls,
-            wall_motion: config.walls.iter().any(|w| w.rotation.is_some_and(|r| r.omega_rad_per_s != 0.0)),
+            wall_motion: config
+                .walls
+                .iter()
+                .any(|w| w.rotation.is_some_and(|r| r.omega_rad_per_s != 0.0)),
             periodic: [config.periodic_x.is_some(), config.periodic_y.is_some()],
             fixed_particles,
             sink: config.sink_z.is_some(),

@@ -97,11 +97,21 @@ impl<R: Real> Axis<R> {
 fn axis<R: Real>(lo: f64, hi: f64, cell: f64, periodic: bool) -> Axis<R> {
     let extent = (hi - lo).max(cell);
     let n = ((extent / cell).floor() as usize).max(1);
-    Axis { lo: R::from_f64(lo), width: R::from_f64(extent / n as f64), n, periodic }
+    Axis {
+        lo: R::from_f64(lo),
+        width: R::from_f64(extent / n as f64),
+        n,
+        periodic,
+    }
 }
 
 /// Sorts `state` by cell and rebuilds `list` with cutoff r_i + r_j + skin.
-pub fn build<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R, list: &mut NeighbourList<R>) {
+pub fn build<R: Real>(
+    state: &mut State<R>,
+    periodic: &Periodic<R>,
+    skin: R,
+    list: &mut NeighbourList<R>,
+) {
     let n = state.len();
     list.builds += 1;
     if n == 0 {
@@ -110,7 +120,11 @@ pub fn build<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R, lis
         list.ref_pos.clear();
         return;
     }
-    let r_max = state.radius.iter().fold(R::zero(), |a, &b| a.max(b)).to_f64();
+    let r_max = state
+        .radius
+        .iter()
+        .fold(R::zero(), |a, &b| a.max(b))
+        .to_f64();
     let mut cell = 2.0 * r_max + skin.to_f64();
     let mut lo = [f64::MAX; 3];
     let mut hi = [f64::MIN; 3];
@@ -130,7 +144,11 @@ pub fn build<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R, lis
         hi[1] = b.to_f64();
     }
     // A stray particle far away must not blow up the cell count: coarsen until cells ≤ 8N + 4096.
-    let cells_for = |c: f64| -> f64 { (0..3).map(|k| ((hi[k] - lo[k]) / c).floor().max(1.0)).product() };
+    let cells_for = |c: f64| -> f64 {
+        (0..3)
+            .map(|k| ((hi[k] - lo[k]) / c).floor().max(1.0))
+            .product()
+    };
     while cells_for(cell) > (8 * n + 4096) as f64 {
         cell *= 1.5;
     }
@@ -140,7 +158,9 @@ pub fn build<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R, lis
         axis(lo[2], hi[2], cell, false),
     ];
     let ncell = ax[0].n * ax[1].n * ax[2].n;
-    let cell_of = |p: V3<R>| -> usize { (ax[2].cell(p.z) * ax[1].n + ax[1].cell(p.y)) * ax[0].n + ax[0].cell(p.x) };
+    let cell_of = |p: V3<R>| -> usize {
+        (ax[2].cell(p.z) * ax[1].n + ax[1].cell(p.y)) * ax[0].n + ax[0].cell(p.x)
+    };
 
     // Counting sort by cell (stable: ties keep their previous order, so it is deterministic).
     let cells: Vec<u32> = state.pos.iter().map(|&p| cell_of(p) as u32).collect();
@@ -223,10 +243,19 @@ pub fn build<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R, lis
 }
 
 /// Whether some particle moved more than skin/2 since the list was built.
-pub fn needs_rebuild<R: Real>(state: &State<R>, periodic: &Periodic<R>, skin: R, list: &NeighbourList<R>) -> bool {
+pub fn needs_rebuild<R: Real>(
+    state: &State<R>,
+    periodic: &Periodic<R>,
+    skin: R,
+    list: &NeighbourList<R>,
+) -> bool {
     if list.ref_pos.len() != state.len() {
         return true;
     }
     let half2 = skin * skin * R::from_f64(0.25);
-    state.pos.par_iter().zip(list.ref_pos.par_iter()).any(|(&p, &q)| periodic.delta(q, p).norm2() > half2)
+    state
+        .pos
+        .par_iter()
+        .zip(list.ref_pos.par_iter())
+        .any(|(&p, &q)| periodic.delta(q, p).norm2() > half2)
 }

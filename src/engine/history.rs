@@ -24,7 +24,11 @@ pub struct History<R: Real> {
 
 impl<R: Real> History<R> {
     pub fn new(slots: usize) -> Self {
-        Self { slots, partner: Vec::new(), spring: Vec::new() }
+        Self {
+            slots,
+            partner: Vec::new(),
+            spring: Vec::new(),
+        }
     }
 
     pub fn enabled(&self) -> bool {
@@ -33,7 +37,8 @@ impl<R: Real> History<R> {
 
     pub fn push_particle(&mut self) {
         self.partner.extend(std::iter::repeat_n(EMPTY, self.slots));
-        self.spring.extend(std::iter::repeat_n(V3::zero(), self.slots));
+        self.spring
+            .extend(std::iter::repeat_n(V3::zero(), self.slots));
     }
 
     pub fn permute(&mut self, order: &[u32]) {
@@ -56,7 +61,11 @@ impl<R: Real> History<R> {
         History {
             slots: self.slots,
             partner: self.partner.clone(),
-            spring: self.spring.iter().map(|v| V3::from_f64(v.to_f64())).collect(),
+            spring: self
+                .spring
+                .iter()
+                .map(|v| V3::from_f64(v.to_f64()))
+                .collect(),
         }
     }
 }
@@ -86,7 +95,14 @@ impl<'a, R: Real> Rows<'a, R> {
             old_spring[old_len] = spring[old_len];
             old_len += 1;
         }
-        Self { partner, spring, old_partner, old_spring, old_len, len: 0 }
+        Self {
+            partner,
+            spring,
+            old_partner,
+            old_spring,
+            old_len,
+            len: 0,
+        }
     }
 
     /// The spring stored for `key`, or zero for a new contact.

@@ -65,10 +65,17 @@ impl<R: Real> State<R> {
         self.pos.is_empty()
     }
 
-
     /// Adds a sphere of density `rho`. A `fixed` particle never moves (rough base).
     #[allow(clippy::too_many_arguments)]
-    pub fn push_sphere(&mut self, id: u32, pos: [f64; 3], vel: [f64; 3], radius: f64, rho: f64, fixed: bool) {
+    pub fn push_sphere(
+        &mut self,
+        id: u32,
+        pos: [f64; 3],
+        vel: [f64; 3],
+        radius: f64,
+        rho: f64,
+        fixed: bool,
+    ) {
         let m = rho * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
         self.id.push(id);
         self.pos.push(V3::from_f64(pos));
@@ -76,12 +83,14 @@ impl<R: Real> State<R> {
         self.force.push(V3::zero());
         self.radius.push(R::from_f64(radius));
         self.mass.push(R::from_f64(m));
-        self.inv_mass.push(R::from_f64(if fixed { 0.0 } else { 1.0 / m }));
+        self.inv_mass
+            .push(R::from_f64(if fixed { 0.0 } else { 1.0 / m }));
         if self.rotation {
             self.omega.push(V3::zero());
             self.torque.push(V3::zero());
             let inertia = 0.4 * m * radius * radius;
-            self.inv_inertia.push(R::from_f64(if fixed { 0.0 } else { 1.0 / inertia }));
+            self.inv_inertia
+                .push(R::from_f64(if fixed { 0.0 } else { 1.0 / inertia }));
         }
         self.history.push_particle();
     }
@@ -110,7 +119,9 @@ impl<R: Real> State<R> {
 
     /// Keeps only particles whose `keep` flag is set, preserving order (deterministic).
     pub fn retain(&mut self, keep: &[bool]) {
-        let order: Vec<u32> = (0..self.len() as u32).filter(|&i| keep[i as usize]).collect();
+        let order: Vec<u32> = (0..self.len() as u32)
+            .filter(|&i| keep[i as usize])
+            .collect();
         self.permute(&order);
     }
 

@@ -14,10 +14,19 @@ pub enum WallShape {
     /// Particles live on the side `normal` points to.
     Plane { point: [f64; 3], normal: [f64; 3] },
     /// Inside of a cylinder with vertical axis through (x, y), between z_min and z_max.
-    Cylinder { axis_xy: [f64; 2], radius: f64, z_min: f64, z_max: f64 },
+    Cylinder {
+        axis_xy: [f64; 2],
+        radius: f64,
+        z_min: f64,
+        z_max: f64,
+    },
     /// Zero-thickness horizontal plate at height z with a circular hole of radius
     /// `orifice_radius` centred at (x, y); radius 0 is a closed plate.
-    OrificePlate { z: f64, center_xy: [f64; 2], orifice_radius: f64 },
+    OrificePlate {
+        z: f64,
+        center_xy: [f64; 2],
+        orifice_radius: f64,
+    },
 }
 
 /// Rigid rotation of a wall about a vertical axis through `axis_xy` (rad/s, right-handed about +z).
@@ -62,16 +71,33 @@ pub struct WallKernel<R: Real> {
 impl Wall {
     pub fn kernel<R: Real>(&self) -> WallKernel<R> {
         let (rot_center, omega) = match self.rotation {
-            Some(r) => (V3::from_f64([r.axis_xy[0], r.axis_xy[1], 0.0]), R::from_f64(r.omega_rad_per_s)),
+            Some(r) => (
+                V3::from_f64([r.axis_xy[0], r.axis_xy[1], 0.0]),
+                R::from_f64(r.omega_rad_per_s),
+            ),
             None => (V3::zero(), R::zero()),
         };
         match self.shape {
             WallShape::Plane { point, normal } => {
                 let l = (normal[0].powi(2) + normal[1].powi(2) + normal[2].powi(2)).sqrt();
                 let n = [normal[0] / l, normal[1] / l, normal[2] / l];
-                WallKernel { kind: 0, a: V3::from_f64(point), b: V3::from_f64(n), r: R::zero(), z0: R::zero(), z1: R::zero(), rot_center, omega }
+                WallKernel {
+                    kind: 0,
+                    a: V3::from_f64(point),
+                    b: V3::from_f64(n),
+                    r: R::zero(),
+                    z0: R::zero(),
+                    z1: R::zero(),
+                    rot_center,
+                    omega,
+                }
             }
-            WallShape::Cylinder { axis_xy, radius, z_min, z_max } => WallKernel {
+            WallShape::Cylinder {
+                axis_xy,
+                radius,
+                z_min,
+                z_max,
+            } => WallKernel {
                 kind: 1,
                 a: V3::from_f64([axis_xy[0], axis_xy[1], 0.0]),
                 b: V3::zero(),
@@ -81,7 +107,11 @@ impl Wall {
                 rot_center,
                 omega,
             },
-            WallShape::OrificePlate { z, center_xy, orifice_radius } => WallKernel {
+            WallShape::OrificePlate {
+                z,
+                center_xy,
+                orifice_radius,
+            } => WallKernel {
                 kind: 2,
                 a: V3::from_f64([center_xy[0], center_xy[1], z]),
                 b: V3::zero(),
@@ -119,7 +149,15 @@ impl<R: Real> WallKernel<R> {
                     return None;
                 }
                 let n = V3::new(-dx / rr, -dy / rr, R::zero());
-                (n, d, V3::new(self.a.x + dx / rr * self.r, self.a.y + dy / rr * self.r, p.z))
+                (
+                    n,
+                    d,
+                    V3::new(
+                        self.a.x + dx / rr * self.r,
+                        self.a.y + dy / rr * self.r,
+                        p.z,
+                    ),
+                )
             }
             _ => {
                 let dz = p.z - self.z0;
@@ -132,13 +170,21 @@ impl<R: Real> WallKernel<R> {
                 if rr >= self.r {
                     // Over the solid part: the plate's face, from whichever side.
                     let s = if dz >= R::zero() { R::one() } else { -R::one() };
-                    (V3::new(R::zero(), R::zero(), s), dz.abs(), V3::new(p.x, p.y, self.z0))
+                    (
+                        V3::new(R::zero(), R::zero(), s),
+                        dz.abs(),
+                        V3::new(p.x, p.y, self.z0),
+                    )
                 } else {
                     // Over the hole: the nearest solid point is on the rim (a real edge).
                     if rr <= R::zero() {
                         return None;
                     }
-                    let q = V3::new(self.a.x + dx / rr * self.r, self.a.y + dy / rr * self.r, self.z0);
+                    let q = V3::new(
+                        self.a.x + dx / rr * self.r,
+                        self.a.y + dy / rr * self.r,
+                        self.z0,
+                    );
                     let d = p - q;
                     let dist = d.norm();
                     if dist >= rad || dist <= R::zero() {
@@ -155,6 +201,10 @@ impl<R: Real> WallKernel<R> {
         } else {
             V3::zero()
         };
-        Some(WallContact { normal, overlap: rad - dist, wall_velocity })
+        Some(WallContact {
+            normal,
+            overlap: rad - dist,
+            wall_velocity,
+        })
     }
 }

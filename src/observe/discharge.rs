@@ -25,7 +25,13 @@ pub struct DischargeSettings {
 
 impl Default for DischargeSettings {
     fn default() -> Self {
-        Self { sample_interval_s: 0.01, clog_after_s: 0.5, permanent_clog_after_s: 5.0, skip_initial_s: 0.5, block_s: 0.5 }
+        Self {
+            sample_interval_s: 0.01,
+            clog_after_s: 0.5,
+            permanent_clog_after_s: 5.0,
+            skip_initial_s: 0.5,
+            block_s: 0.5,
+        }
     }
 }
 
@@ -62,7 +68,13 @@ pub struct DischargeSummary {
 
 impl Discharge {
     pub fn new(settings: DischargeSettings) -> Self {
-        Self { settings, samples: vec![(0.0, 0.0, 0)], exits: Vec::new(), mass_kg: 0.0, count: 0 }
+        Self {
+            settings,
+            samples: vec![(0.0, 0.0, 0)],
+            exits: Vec::new(),
+            mass_kg: 0.0,
+            count: 0,
+        }
     }
 
     /// Records particles removed at times `t` (s since opening).
@@ -96,13 +108,21 @@ impl Discharge {
         let mut prev = 0.0;
         for &(t, _) in &self.exits {
             if t - prev > st.clog_after_s {
-                clogs.push(Clog { start_s: prev, duration_s: t - prev, permanent: false });
+                clogs.push(Clog {
+                    start_s: prev,
+                    duration_s: t - prev,
+                    permanent: false,
+                });
             }
             prev = t;
         }
         let permanently = t_end - prev >= st.permanent_clog_after_s;
         if t_end - prev > st.clog_after_s {
-            clogs.push(Clog { start_s: prev, duration_s: t_end - prev, permanent: permanently });
+            clogs.push(Clog {
+                start_s: prev,
+                duration_s: t_end - prev,
+                permanent: permanently,
+            });
         }
         // Flowing intervals: [skip, t_end] minus clogs.
         let mut intervals: Vec<(f64, f64)> = Vec::new();
@@ -126,7 +146,12 @@ impl Discharge {
             let nb = (len / st.block_s).floor() as usize;
             for k in 0..nb {
                 let (t0, t1) = (a + k as f64 * st.block_s, a + (k + 1) as f64 * st.block_s);
-                let m: f64 = self.exits.iter().filter(|e| e.0 > t0 && e.0 <= t1).map(|e| e.1).sum();
+                let m: f64 = self
+                    .exits
+                    .iter()
+                    .filter(|e| e.0 > t0 && e.0 <= t1)
+                    .map(|e| e.1)
+                    .sum();
                 rates.push(m / st.block_s);
             }
         }
@@ -157,7 +182,10 @@ mod tests {
 
     #[test]
     fn steady_flow_gives_its_rate_and_a_clog_is_excluded() {
-        let mut d = Discharge::new(DischargeSettings { skip_initial_s: 0.0, ..Default::default() });
+        let mut d = Discharge::new(DischargeSettings {
+            skip_initial_s: 0.0,
+            ..Default::default()
+        });
         // 100 particles/s of 1 g for 5 s, a 2 s clog, then 5 s more.
         let mut t = 0.0;
         while t < 5.0 {

@@ -27,9 +27,17 @@ impl std::str::FromStr for BackendChoice {
 ///
 /// # Errors
 /// `gpu` was asked for but this build has no GPU backend yet.
-pub fn build(choice: BackendChoice, precision: Precision, config: EngineConfig, state: &State<f64>, threads: usize) -> anyhow::Result<Box<dyn Backend>> {
+pub fn build(
+    choice: BackendChoice,
+    precision: Precision,
+    config: EngineConfig,
+    state: &State<f64>,
+    threads: usize,
+) -> anyhow::Result<Box<dyn Backend>> {
     match choice {
-        BackendChoice::Gpu => anyhow::bail!("the GPU backend is not available in this build yet; run with --backend cpu (or auto)"),
+        BackendChoice::Gpu => anyhow::bail!(
+            "the GPU backend is not available in this build yet; run with --backend cpu (or auto)"
+        ),
         BackendChoice::Auto | BackendChoice::Cpu => Ok(match precision {
             Precision::F64 => Box::new(CpuEngine::<f64>::new(config, state.convert(), threads)),
             Precision::F32 => Box::new(CpuEngine::<f32>::new(config, state.convert(), threads)),

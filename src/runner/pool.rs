@@ -39,13 +39,29 @@ pub struct PoolSummary {
 ///
 /// # Errors
 /// The database cannot be opened; per-job errors are recorded on the job instead.
-pub fn run_pending(opts: &PoolOptions, total_jobs: usize, already_done: usize) -> anyhow::Result<PoolSummary> {
+pub fn run_pending(
+    opts: &PoolOptions,
+    total_jobs: usize,
+    already_done: usize,
+) -> anyhow::Result<PoolSummary> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let parallel = opts.parallel.max(1);
-    let threads = if opts.threads > 0 { opts.threads } else { (cores / parallel).max(1) };
-    let multi = MultiProgress::with_draw_target(if opts.bars { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() });
+    let threads = if opts.threads > 0 {
+        opts.threads
+    } else {
+        (cores / parallel).max(1)
+    };
+    let multi = MultiProgress::with_draw_target(if opts.bars {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    });
     let overall = multi.add(ProgressBar::new(total_jobs as u64));
-    overall.set_style(ProgressStyle::with_template("campaign [{bar:30}] {pos}/{len} jobs done  {msg}").expect("template").progress_chars("=> "));
+    overall.set_style(
+        ProgressStyle::with_template("campaign [{bar:30}] {pos}/{len} jobs done  {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
     overall.set_position(already_done as u64);
     let summary = Arc::new(Mutex::new(PoolSummary::default()));
     let done_count = Arc::new(AtomicUsize::new(already_done));
@@ -63,19 +79,28 @@ pub fn run_pending(opts: &PoolOptions, total_jobs: usize, already_done: usize) -
                 if opts.interrupt.load(Ordering::SeqCst) {
                     return Ok(());
                 }
-                let Some(job) = jobs::claim(&mut conn, opts.campaign, &lease)? else { return Ok(()) };
+                let Some(job) = jobs::claim(&mut conn, opts.campaign, &lease)? else {
+                    return Ok(());
+                };
                 let bar = multi.add(ProgressBar::new(1000));
                 bar.set_style(
-                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] {msg}").expect("template").progress_chars("=> "),
+                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] {msg}")
+                        .expect("template")
+                        .progress_chars("=> "),
                 );
                 bar.set_prefix(job.id.to_string());
                 let label = job.label.clone();
                 let b2 = bar.clone();
-                let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> = Arc::new(move |t, target, rate| {
-                    b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
-                    let eta = if rate > 0.0 { format!("{:.1e} particle-steps/s", rate) } else { String::new() };
-                    b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
-                });
+                let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> =
+                    Arc::new(move |t, target, rate| {
+                        b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
+                        let eta = if rate > 0.0 {
+                            format!("{:.1e} particle-steps/s", rate)
+                        } else {
+                            String::new()
+                        };
+                        b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
+                    });
                 let bars = opts.bars;
                 let m2 = multi.clone();
                 let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
@@ -89,7 +114,8 @@ pub fn run_pending(opts: &PoolOptions, total_jobs: usize, already_done: usize) -
                     work_dir: opts.work_dir.clone(),
                     backend: opts.backend,
                     threads,
-                    checkpoint_interval_s: checkpoint_interval(&conn, job.id).unwrap_or(opts.checkpoint_interval_s),
+                    checkpoint_interval_s: checkpoint_interval(&conn, job.id)
+                        .unwrap_or(opts.checkpoint_interval_s),
                     interrupt: opts.interrupt.clone(),
                     progress: Some(progress),
                     log: log.clone(),
@@ -118,7 +144,10 @@ pub fn run_pending(opts: &PoolOptions, total_jobs: usize, already_done: usize) -
                     Outcome::Paused => {
                         s.paused += 1;
                         jobs::release(&conn, job.id, "paused", None)?;
-                        log(format!("job {} paused at its checkpoint; `sweep resume` continues it", job.id));
+                        log(format!(
+                            "job {} paused at its checkpoint; `sweep resume` continues it",
+                            job.id
+                        ));
                     }
                     Outcome::Failed(e) => {
                         s.failed += 1;
@@ -156,7 +185,11 @@ fn describe_done(conn: &rusqlite::Connection, job: i64) -> anyhow::Result<String
         (Some(q), Some(c)) => format!("Q = {q:.4} ± {c:.4} kg/s"),
         _ => "Q = n/a (no flowing interval long enough)".into(),
     };
-    Ok(format!("{q}, {clogs} clog(s){}, {wall:.1} s wall, {:.2e} particle-steps/s", if perm != 0 { " (permanent)" } else { "" }, ps as f64 / wall.max(1e-9)))
+    Ok(format!(
+        "{q}, {clogs} clog(s){}, {wall:.1} s wall, {:.2e} particle-steps/s",
+        if perm != 0 { " (permanent)" } else { "" },
+        ps as f64 / wall.max(1e-9)
+    ))
 }
 
 /// The checkpoint interval of the (first) campaign a job belongs to.

@@ -72,9 +72,14 @@ impl Progress {
         fn exact(v: serde_json::Value) -> serde_json::Value {
             use serde_json::Value;
             match v {
-                Value::Number(n) if n.is_f64() => Value::String(format!("f64:{:016x}", n.as_f64().unwrap_or(f64::NAN).to_bits())),
+                Value::Number(n) if n.is_f64() => Value::String(format!(
+                    "f64:{:016x}",
+                    n.as_f64().unwrap_or(f64::NAN).to_bits()
+                )),
                 Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
-                Value::Object(m) => Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect()),
+                Value::Object(m) => {
+                    Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect())
+                }
                 v => v,
             }
         }
@@ -86,12 +91,18 @@ impl Progress {
         fn exact(v: serde_json::Value) -> serde_json::Value {
             use serde_json::Value;
             match v {
-                Value::String(s) => match s.strip_prefix("f64:").and_then(|h| u64::from_str_radix(h, 16).ok()) {
-                    Some(bits) => serde_json::Number::from_f64(f64::from_bits(bits)).map_or(Value::Null, Value::Number),
+                Value::String(s) => match s
+                    .strip_prefix("f64:")
+                    .and_then(|h| u64::from_str_radix(h, 16).ok())
+                {
+                    Some(bits) => serde_json::Number::from_f64(f64::from_bits(bits))
+                        .map_or(Value::Null, Value::Number),
                     None => Value::String(s),
                 },
                 Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
-                Value::Object(m) => Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect()),
+                Value::Object(m) => {
+                    Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect())
+                }
                 v => v,
             }
         }
@@ -105,7 +116,11 @@ fn job_dir(work: &Path, hash: &str) -> PathBuf {
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
 /// same fill parameters. Returns the settled state and the particle-steps it cost (0 if reused).
-fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Result<(State<f64>, u64)> {
+fn fill_stage(
+    spec: &JobSpec,
+    scene: &SiloScene,
+    ctx: &JobContext,
+) -> anyhow::Result<(State<f64>, u64)> {
     let (key, seed) = spec.fill_key();
     let dir = ctx.work_dir.join("stages").join(&key[..16]);
     std::fs::create_dir_all(&dir)?;
@@ -118,25 +133,40 @@ fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Re
             (ctx.log)(r);
         }
         if let Some((path, _, s, _)) = found {
-            (ctx.log)(format!("fill stage {}: reusing {}", &key[..16], path.display()));
+            (ctx.log)(format!(
+                "fill stage {}: reusing {}",
+                &key[..16],
+                path.display()
+            ));
             return Ok((s, 0));
         }
-        match std::fs::OpenOptions::new().write(true).create_new(true).open(&lock) {
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&lock)
+        {
             Ok(mut f) => {
                 use std::io::Write;
                 writeln!(f, "{}", std::process::id())?;
                 break;
             }
             Err(_) => {
-                let holder: Option<u32> = std::fs::read_to_string(&lock).ok().and_then(|t| t.trim().parse().ok());
-                let alive = holder.is_some_and(|pid| pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists());
+                let holder: Option<u32> = std::fs::read_to_string(&lock)
+                    .ok()
+                    .and_then(|t| t.trim().parse().ok());
+                let alive = holder.is_some_and(|pid| {
+                    pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
+                });
                 if !alive {
                     // The filling process died: take the stage over.
                     let _ = std::fs::remove_file(&lock);
                     continue;
                 }
                 if !waited {
-                    (ctx.log)(format!("fill stage {}: waiting for the job that is filling it", &key[..16]));
+                    (ctx.log)(format!(
+                        "fill stage {}: waiting for the job that is filling it",
+                        &key[..16]
+                    ));
                     waited = true;
                 }
                 if ctx.interrupt.load(Ordering::SeqCst) {
@@ -151,15 +181,30 @@ fn fill_stage(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext) -> anyhow::Re
     result
 }
 
-fn fill_stage_run(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext, dir: &Path, key: &str, seed: u64) -> anyhow::Result<(State<f64>, u64)> {
+fn fill_stage_run(
+    spec: &JobSpec,
+    scene: &SiloScene,
+    ctx: &JobContext,
+    dir: &Path,
+    key: &str,
+    seed: u64,
+) -> anyhow::Result<(State<f64>, u64)> {
     let config = scene.engine_config(SiloPhase::Fill);
     let init = scene.initial_state(seed);
-    let mut engine = backend::build(BackendChoice::Cpu, spec.precision, config, &init, ctx.threads)?;
+    let mut engine = backend::build(
+        BackendChoice::Cpu,
+        spec.precision,
+        config,
+        &init,
+        ctx.threads,
+    )?;
     let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
     let mut steps = 0u64;
     let mut s;
     loop {
-        let r = engine.advance(chunk).map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
+        let r = engine
+            .advance(chunk)
+            .map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
         steps += r.particle_steps;
         s = engine.download();
         if scene.settled(&s) && s.time > 0.05 {
@@ -175,7 +220,13 @@ fn fill_stage_run(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext, dir: &Pat
             break;
         }
     }
-    let h = Header { job_hash: key.to_string(), step: s.step, time_s: s.time, backend: "cpu".into(), precision: spec.precision.name().into() };
+    let h = Header {
+        job_hash: key.to_string(),
+        step: s.step,
+        time_s: s.time,
+        backend: "cpu".into(),
+        precision: spec.precision.name().into(),
+    };
     checkpoint::save(dir, &h, &s, "{}")?;
     Ok((s, steps))
 }
@@ -184,8 +235,14 @@ fn fill_stage_run(spec: &JobSpec, scene: &SiloScene, ctx: &JobContext, dir: &Pat
 ///
 /// # Errors
 /// Database and I/O errors; physics failures are an `Outcome::Failed` instead.
-pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &JobContext) -> anyhow::Result<Outcome> {
-    let spec: JobSpec = serde_json::from_str(&job.params_json).with_context(|| format!("job {}: stored parameters unreadable", job.id))?;
+pub fn run_silo_job(
+    conn: &mut Connection,
+    job: &JobRow,
+    lease: &Lease,
+    ctx: &JobContext,
+) -> anyhow::Result<Outcome> {
+    let spec: JobSpec = serde_json::from_str(&job.params_json)
+        .with_context(|| format!("job {}: stored parameters unreadable", job.id))?;
     let scene = match SiloScene::new(spec.silo.clone()) {
         Ok(s) => s,
         Err(e) => return Ok(Outcome::Failed(e)),
@@ -198,13 +255,22 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
     }
     let (state, mut prog) = match found {
         Some((path, _, s, extra)) => {
-            let prog = Progress::from_checkpoint(&extra).with_context(|| format!("{}: progress record unreadable", path.display()))?;
-            (ctx.log)(format!("job {}: resuming from {} (t = {:.3} s after opening)", job.id, path.display(), s.time - prog.t_open));
+            let prog = Progress::from_checkpoint(&extra)
+                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
+            (ctx.log)(format!(
+                "job {}: resuming from {} (t = {:.3} s after opening)",
+                job.id,
+                path.display(),
+                s.time - prog.t_open
+            ));
             (s, prog)
         }
         None => {
             if job.sim_time_s > 0.0 {
-                (ctx.log)(format!("job {}: no valid checkpoint; restarting from the beginning", job.id));
+                (ctx.log)(format!(
+                    "job {}: no valid checkpoint; restarting from the beginning",
+                    job.id
+                ));
             }
             let (s, fill_steps) = fill_stage(&spec, &scene, ctx)?;
             let bulk = scene.bulk_density(&s);
@@ -222,9 +288,17 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
         }
     };
     let config = scene.engine_config(SiloPhase::Discharge);
-    let mut engine: Box<dyn Backend> = backend::build(ctx.backend, spec.precision, config, &state, ctx.threads)?;
+    let mut engine: Box<dyn Backend> =
+        backend::build(ctx.backend, spec.precision, config, &state, ctx.threads)?;
     let info = engine.describe();
-    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision, state.len())?;
+    jobs::set_backend(
+        conn,
+        job.id,
+        &info.kind,
+        &info.adapter,
+        &info.precision,
+        state.len(),
+    )?;
 
     let st = &spec.observers.discharge;
     let chunk_steps = (st.sample_interval_s / scene.dt).round().max(1.0) as u64;
@@ -237,7 +311,13 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
     let seed = spec.seed();
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
         let s = engine.download();
-        let h = Header { job_hash: job.hash.clone(), step: s.step, time_s: s.time, backend: info.kind.clone(), precision: info.precision.clone() };
+        let h = Header {
+            job_hash: job.hash.clone(),
+            step: s.step,
+            time_s: s.time,
+            backend: info.kind.clone(),
+            precision: info.precision.clone(),
+        };
         Ok(checkpoint::save(&dir, &h, &s, &prog.to_checkpoint()?)?)
     };
     loop {
@@ -245,13 +325,24 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
         let remaining = engine_len(&mut engine, &prog);
         let done = t_rel >= target - 1e-12
             || prog.discharge.permanently_clogged(t_rel)
-            || (!scene.p.reinsert && (remaining as f64) < scene.p.stop_remaining_fraction * prog.initial_count as f64);
+            || (!scene.p.reinsert
+                && (remaining as f64)
+                    < scene.p.stop_remaining_fraction * prog.initial_count as f64);
         if done {
             break;
         }
         if ctx.interrupt.load(Ordering::SeqCst) {
             let path = save(&mut engine, &prog)?;
-            jobs::heartbeat(conn, job.id, lease, t_rel, t_rel / target, prog.particle_steps, prog.wall_time_s, Some(&path.display().to_string()))?;
+            jobs::heartbeat(
+                conn,
+                job.id,
+                lease,
+                t_rel,
+                t_rel / target,
+                prog.particle_steps,
+                prog.wall_time_s,
+                Some(&path.display().to_string()),
+            )?;
             return Ok(Outcome::Paused);
         }
         let t0 = Instant::now();
@@ -264,7 +355,8 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
         rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
         let t_now = prog.chunk as f64 * chunk_dt;
         for ev in &report.removed {
-            prog.discharge.record_exit(ev.time_s - prog.t_open, ev.mass_kg);
+            prog.discharge
+                .record_exit(ev.time_s - prog.t_open, ev.mass_kg);
         }
         if scene.p.reinsert && !report.removed.is_empty() {
             let mut s = engine.download();
@@ -276,10 +368,28 @@ pub fn run_silo_job(conn: &mut Connection, job: &JobRow, lease: &Lease, ctx: &Jo
         prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
         if prog.chunk % ckpt_every == 0 {
             let path = save(&mut engine, &prog)?;
-            jobs::heartbeat(conn, job.id, lease, t_now, t_now / target, prog.particle_steps, prog.wall_time_s, Some(&path.display().to_string()))?;
+            jobs::heartbeat(
+                conn,
+                job.id,
+                lease,
+                t_now,
+                t_now / target,
+                prog.particle_steps,
+                prog.wall_time_s,
+                Some(&path.display().to_string()),
+            )?;
             last_beat = Instant::now();
         } else if last_beat.elapsed().as_secs_f64() > 2.0 {
-            jobs::heartbeat(conn, job.id, lease, t_now, t_now / target, prog.particle_steps, prog.wall_time_s, None)?;
+            jobs::heartbeat(
+                conn,
+                job.id,
+                lease,
+                t_now,
+                t_now / target,
+                prog.particle_steps,
+                prog.wall_time_s,
+                None,
+            )?;
             last_beat = Instant::now();
         }
         if let Some(p) = &ctx.progress {
@@ -311,14 +421,20 @@ fn engine_len(engine: &mut Box<dyn Backend>, prog: &Progress) -> usize {
 }
 
 /// Puts removed particles back at random spots above the bed, without overlap.
-fn reinsert(scene: &SiloScene, s: &mut State<f64>, removed: &[crate::engine::SinkEvent], seed: u64) {
+fn reinsert(
+    scene: &SiloScene,
+    s: &mut State<f64>,
+    removed: &[crate::engine::SinkEvent],
+    seed: u64,
+) {
     let p = &scene.p;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let top = scene.bed_height(s) + p.particle_diameter_m;
     let r_max = p.particle_diameter_m * 0.5 * (1.0 + p.diameter_polydispersity);
     for (k, ev) in removed.iter().enumerate() {
         let r = r_max; // conservative spacing; the re-inserted particle keeps its own mass below
-        let radius = (ev.mass_kg / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
+        let radius =
+            (ev.mass_kg / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
         for attempt in 0..1000 {
             let rr = (p.cylinder_radius_m - r * 1.05) * rng.random::<f64>().sqrt();
             let th = rng.random::<f64>() * std::f64::consts::TAU;
@@ -329,7 +445,14 @@ fn reinsert(scene: &SiloScene, s: &mut State<f64>, removed: &[crate::engine::Sin
                 d2 > (rq + radius) * (rq + radius) * 1.0001
             });
             if free && z < p.cylinder_height_m {
-                s.push_sphere(ev.id, x, [0.0, 0.0, 0.0], radius, p.particle_density_kg_per_m3, false);
+                s.push_sphere(
+                    ev.id,
+                    x,
+                    [0.0, 0.0, 0.0],
+                    radius,
+                    p.particle_density_kg_per_m3,
+                    false,
+                );
                 break;
             }
         }

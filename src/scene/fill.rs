@@ -8,7 +8,14 @@ use rand_chacha::ChaCha8Rng;
 /// Positions and radii of `count` spheres in a cylinder of radius `cyl_radius` centred on the z
 /// axis, starting at `z0`. Diameters are d (1 ± poly) uniformly; the lattice spacing leaves a gap
 /// so nothing overlaps.
-pub fn cylinder_lattice(count: usize, cyl_radius: f64, z0: f64, d: f64, poly: f64, seed: u64) -> Vec<([f64; 3], f64)> {
+pub fn cylinder_lattice(
+    count: usize,
+    cyl_radius: f64,
+    z0: f64,
+    d: f64,
+    poly: f64,
+    seed: u64,
+) -> Vec<([f64; 3], f64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let d_max = d * (1.0 + poly);
     let spacing = 1.1 * d_max;

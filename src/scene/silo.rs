@@ -117,54 +117,113 @@ impl SiloParams {
         let mut e = Vec::new();
         let mut pos = |field: &str, v: f64, what: &str| {
             if !(v > 0.0 && v.is_finite()) {
-                e.push(FieldError { field: field.into(), message: format!("expected {what} > 0, got {v}") });
+                e.push(FieldError {
+                    field: field.into(),
+                    message: format!("expected {what} > 0, got {v}"),
+                });
             }
         };
         pos("cylinder_radius_m", self.cylinder_radius_m, "metres");
         pos("cylinder_height_m", self.cylinder_height_m, "metres");
         pos("particle_diameter_m", self.particle_diameter_m, "metres");
-        pos("particle_density_kg_per_m3", self.particle_density_kg_per_m3, "kg/m³");
+        pos(
+            "particle_density_kg_per_m3",
+            self.particle_density_kg_per_m3,
+            "kg/m³",
+        );
         pos("youngs_modulus_pa", self.youngs_modulus_pa, "pascals");
         pos("orifice_diameter_m", self.orifice_diameter_m, "metres");
         pos("impact_speed_m_per_s", self.impact_speed_m_per_s, "m/s");
         pos("discharge_time_s", self.discharge_time_s, "seconds");
         pos("sink_depth_m", self.sink_depth_m, "metres");
         pos("skin_ratio", self.skin_ratio, "a fraction of d");
-        let mut err = |field: &str, message: String| e.push(FieldError { field: field.into(), message });
+        let mut err = |field: &str, message: String| {
+            e.push(FieldError {
+                field: field.into(),
+                message,
+            })
+        };
         if self.particle_count == 0 {
-            err("particle_count", "expected at least 1 particle, got 0".into());
+            err(
+                "particle_count",
+                "expected at least 1 particle, got 0".into(),
+            );
         }
         if !(0.0..1.0).contains(&self.diameter_polydispersity) {
-            err("diameter_polydispersity", format!("expected 0 ≤ p < 1, got {}", self.diameter_polydispersity));
+            err(
+                "diameter_polydispersity",
+                format!("expected 0 ≤ p < 1, got {}", self.diameter_polydispersity),
+            );
         }
         if !(self.restitution > 0.0 && self.restitution <= 1.0) {
-            err("restitution", format!("expected 0 < e_n ≤ 1, got {}", self.restitution));
+            err(
+                "restitution",
+                format!("expected 0 < e_n ≤ 1, got {}", self.restitution),
+            );
         }
-        for (f, v) in [("friction_particle", self.friction_particle), ("friction_wall", self.friction_wall), ("rotation_frequency_hz", self.rotation_frequency_hz)] {
+        for (f, v) in [
+            ("friction_particle", self.friction_particle),
+            ("friction_wall", self.friction_wall),
+            ("rotation_frequency_hz", self.rotation_frequency_hz),
+        ] {
             if !(v >= 0.0 && v.is_finite()) {
                 err(f, format!("expected a value ≥ 0, got {v}"));
             }
         }
         match (self.shear_modulus_pa, self.poisson_ratio) {
-            (Some(_), Some(_)) => err("poisson_ratio", "give either shear_modulus_pa or poisson_ratio, not both (set the other to null)".into()),
-            (None, None) => err("shear_modulus_pa", "expected shear_modulus_pa or poisson_ratio".into()),
-            (Some(g), None) if !(g > 0.0) => err("shear_modulus_pa", format!("expected pascals > 0, got {g}")),
-            (None, Some(nu)) if !(-1.0 < nu && nu < 0.5) => err("poisson_ratio", format!("expected −1 < ν < 0.5, got {nu}")),
+            (Some(_), Some(_)) => err(
+                "poisson_ratio",
+                "give either shear_modulus_pa or poisson_ratio, not both (set the other to null)"
+                    .into(),
+            ),
+            (None, None) => err(
+                "shear_modulus_pa",
+                "expected shear_modulus_pa or poisson_ratio".into(),
+            ),
+            (Some(g), None) if !(g > 0.0) => {
+                err("shear_modulus_pa", format!("expected pascals > 0, got {g}"))
+            }
+            (None, Some(nu)) if !(-1.0 < nu && nu < 0.5) => {
+                err("poisson_ratio", format!("expected −1 < ν < 0.5, got {nu}"))
+            }
             _ => {}
         }
         match (self.dt_s, self.contact_steps) {
-            (Some(_), Some(_)) => err("contact_steps", "give either dt_s or contact_steps, not both (set the other to null)".into()),
+            (Some(_), Some(_)) => err(
+                "contact_steps",
+                "give either dt_s or contact_steps, not both (set the other to null)".into(),
+            ),
             (None, None) => err("dt_s", "expected dt_s or contact_steps".into()),
-            (Some(dt), None) if !(dt > 0.0) => err("dt_s", format!("expected seconds > 0, got {dt}")),
-            (None, Some(nc)) if !(nc >= 5.0) => err("contact_steps", format!("expected n_c ≥ 5 (dt ≤ t_c/5), got {nc}")),
+            (Some(dt), None) if !(dt > 0.0) => {
+                err("dt_s", format!("expected seconds > 0, got {dt}"))
+            }
+            (None, Some(nc)) if !(nc >= 5.0) => err(
+                "contact_steps",
+                format!("expected n_c ≥ 5 (dt ≤ t_c/5), got {nc}"),
+            ),
             _ => {}
         }
         if self.orifice_diameter_m >= 2.0 * self.cylinder_radius_m {
-            err("orifice_diameter_m", format!("expected D < 2 R_c = {} m, got {}", 2.0 * self.cylinder_radius_m, self.orifice_diameter_m));
+            err(
+                "orifice_diameter_m",
+                format!(
+                    "expected D < 2 R_c = {} m, got {}",
+                    2.0 * self.cylinder_radius_m,
+                    self.orifice_diameter_m
+                ),
+            );
         }
         if e.is_empty() {
             if let Err(m) = self.time_step() {
-                e.push(FieldError { field: if self.dt_s.is_some() { "dt_s" } else { "contact_steps" }.into(), message: m });
+                e.push(FieldError {
+                    field: if self.dt_s.is_some() {
+                        "dt_s"
+                    } else {
+                        "contact_steps"
+                    }
+                    .into(),
+                    message: m,
+                });
             }
         }
         e
@@ -172,29 +231,54 @@ impl SiloParams {
 
     fn elasticity(&self) -> Elasticity {
         match (self.shear_modulus_pa, self.poisson_ratio) {
-            (_, Some(nu)) => Elasticity::YoungPoisson { youngs_modulus_pa: self.youngs_modulus_pa, poisson_ratio: nu },
-            (Some(g), None) => Elasticity::YoungShear { youngs_modulus_pa: self.youngs_modulus_pa, shear_modulus_pa: g },
-            (None, None) => Elasticity::YoungShear { youngs_modulus_pa: self.youngs_modulus_pa, shear_modulus_pa: self.youngs_modulus_pa / 30.0 },
+            (_, Some(nu)) => Elasticity::YoungPoisson {
+                youngs_modulus_pa: self.youngs_modulus_pa,
+                poisson_ratio: nu,
+            },
+            (Some(g), None) => Elasticity::YoungShear {
+                youngs_modulus_pa: self.youngs_modulus_pa,
+                shear_modulus_pa: g,
+            },
+            (None, None) => Elasticity::YoungShear {
+                youngs_modulus_pa: self.youngs_modulus_pa,
+                shear_modulus_pa: self.youngs_modulus_pa / 30.0,
+            },
         }
     }
 
     fn law(&self, friction: f64) -> ContactLaw {
-        ContactLaw { normal: NormalModel::Hertz(self.elasticity()), restitution: self.restitution, tangential_restitution: self.restitution, friction }
+        ContactLaw {
+            normal: NormalModel::Hertz(self.elasticity()),
+            restitution: self.restitution,
+            tangential_restitution: self.restitution,
+            friction,
+        }
     }
 
     /// Mass of a particle of diameter d (kg).
     pub fn particle_mass(&self) -> f64 {
-        self.particle_density_kg_per_m3 * std::f64::consts::PI / 6.0 * self.particle_diameter_m.powi(3)
+        self.particle_density_kg_per_m3 * std::f64::consts::PI / 6.0
+            * self.particle_diameter_m.powi(3)
     }
 
     /// Shortest Hertz contact time (s): the smallest particles against a wall and each other.
     pub fn contact_time(&self) -> f64 {
         let d_min = self.particle_diameter_m * (1.0 - self.diameter_polydispersity);
         let m_min = self.particle_density_kg_per_m3 * std::f64::consts::PI / 6.0 * d_min.powi(3);
-        let pp = ContactPair { r_eff: d_min / 4.0, m_eff: m_min / 2.0 };
-        let pw = ContactPair { r_eff: d_min / 2.0, m_eff: m_min };
+        let pp = ContactPair {
+            r_eff: d_min / 4.0,
+            m_eff: m_min / 2.0,
+        };
+        let pw = ContactPair {
+            r_eff: d_min / 2.0,
+            m_eff: m_min,
+        };
         let law = self.law(self.friction_particle);
-        contact_time(&law, pp, self.impact_speed_m_per_s).min(contact_time(&law, pw, self.impact_speed_m_per_s))
+        contact_time(&law, pp, self.impact_speed_m_per_s).min(contact_time(
+            &law,
+            pw,
+            self.impact_speed_m_per_s,
+        ))
     }
 
     /// The time step, refusing dt > t_c / 5.
@@ -256,12 +340,39 @@ impl SiloScene {
     pub fn engine_config(&self, phase: SiloPhase) -> EngineConfig {
         let p = &self.p;
         let open = phase == SiloPhase::Discharge;
-        let omega = if open { 2.0 * std::f64::consts::PI * p.rotation_frequency_hz } else { 0.0 };
+        let omega = if open {
+            2.0 * std::f64::consts::PI * p.rotation_frequency_hz
+        } else {
+            0.0
+        };
         let walls = vec![
-            Wall { shape: WallShape::Cylinder { axis_xy: [0.0, 0.0], radius: p.cylinder_radius_m, z_min: 0.0, z_max: p.cylinder_height_m }, rotation: None },
             Wall {
-                shape: WallShape::OrificePlate { z: 0.0, center_xy: [0.0, 0.0], orifice_radius: if open { 0.5 * p.orifice_diameter_m } else { 0.0 } },
-                rotation: if omega != 0.0 { Some(WallRotation { axis_xy: [0.0, 0.0], omega_rad_per_s: omega }) } else { None },
+                shape: WallShape::Cylinder {
+                    axis_xy: [0.0, 0.0],
+                    radius: p.cylinder_radius_m,
+                    z_min: 0.0,
+                    z_max: p.cylinder_height_m,
+                },
+                rotation: None,
+            },
+            Wall {
+                shape: WallShape::OrificePlate {
+                    z: 0.0,
+                    center_xy: [0.0, 0.0],
+                    orifice_radius: if open {
+                        0.5 * p.orifice_diameter_m
+                    } else {
+                        0.0
+                    },
+                },
+                rotation: if omega != 0.0 {
+                    Some(WallRotation {
+                        axis_xy: [0.0, 0.0],
+                        omega_rad_per_s: omega,
+                    })
+                } else {
+                    None
+                },
             },
         ];
         EngineConfig {
@@ -281,10 +392,31 @@ impl SiloScene {
     pub fn initial_state(&self, seed: u64) -> State<f64> {
         let p = &self.p;
         let rotation = p.friction_particle > 0.0 || p.friction_wall > 0.0;
-        let mut s = State::new(rotation, if rotation { crate::engine::cpu::HISTORY_SLOTS } else { 0 });
-        let spots = super::fill::cylinder_lattice(p.particle_count, p.cylinder_radius_m, 0.0, p.particle_diameter_m, p.diameter_polydispersity, seed);
+        let mut s = State::new(
+            rotation,
+            if rotation {
+                crate::engine::cpu::HISTORY_SLOTS
+            } else {
+                0
+            },
+        );
+        let spots = super::fill::cylinder_lattice(
+            p.particle_count,
+            p.cylinder_radius_m,
+            0.0,
+            p.particle_diameter_m,
+            p.diameter_polydispersity,
+            seed,
+        );
         for (k, (x, r)) in spots.into_iter().enumerate() {
-            s.push_sphere(k as u32, x, [0.0, 0.0, 0.0], r, p.particle_density_kg_per_m3, false);
+            s.push_sphere(
+                k as u32,
+                x,
+                [0.0, 0.0, 0.0],
+                r,
+                p.particle_density_kg_per_m3,
+                false,
+            );
         }
         s
     }
@@ -292,7 +424,10 @@ impl SiloScene {
     /// Whether the bed has settled (kinetic energy per particle below the threshold).
     pub fn settled(&self, s: &State<f64>) -> bool {
         let p = &self.p;
-        let scale = s.len().max(1) as f64 * self.p.particle_mass() * p.gravity_m_per_s2 * p.particle_diameter_m;
+        let scale = s.len().max(1) as f64
+            * self.p.particle_mass()
+            * p.gravity_m_per_s2
+            * p.particle_diameter_m;
         s.kinetic_energy() < p.settle_kinetic_energy_ratio * scale
     }
 

@@ -28,7 +28,9 @@ pub struct Lease {
 
 impl Lease {
     pub fn new() -> Self {
-        Self { owner: format!("{}:{}", std::process::id(), now()) }
+        Self {
+            owner: format!("{}:{}", std::process::id(), now()),
+        }
     }
 }
 
@@ -43,7 +45,12 @@ impl Default for Lease {
 ///
 /// # Errors
 /// Database errors.
-pub fn register(conn: &mut Connection, file: &str, c: &CampaignFile, jobs: &[JobSpec]) -> anyhow::Result<(i64, usize)> {
+pub fn register(
+    conn: &mut Connection,
+    file: &str,
+    c: &CampaignFile,
+    jobs: &[JobSpec],
+) -> anyhow::Result<(i64, usize)> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let spec = serde_json::to_string(c)?;
     tx.execute(
@@ -51,7 +58,9 @@ pub fn register(conn: &mut Connection, file: &str, c: &CampaignFile, jobs: &[Job
          ON CONFLICT(name) DO UPDATE SET file = excluded.file, spec_json = excluded.spec_json",
         params![c.name, file, spec],
     )?;
-    let cid: i64 = tx.query_row("SELECT id FROM campaigns WHERE name = ?1", [&c.name], |r| r.get(0))?;
+    let cid: i64 = tx.query_row("SELECT id FROM campaigns WHERE name = ?1", [&c.name], |r| {
+        r.get(0)
+    })?;
     let mut added = 0;
     for j in jobs {
         let target = j.silo.discharge_time_s;
@@ -61,8 +70,13 @@ pub fn register(conn: &mut Connection, file: &str, c: &CampaignFile, jobs: &[Job
             params![j.hash(), j.resolved_json(), j.seed() as i64, target, j.silo.particle_count as i64, j.precision.name(), env!("CARGO_PKG_VERSION")],
         )?;
         added += n;
-        let jid: i64 = tx.query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| r.get(0))?;
-        tx.execute("INSERT OR IGNORE INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)", params![cid, jid, j.label])?;
+        let jid: i64 = tx.query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| {
+            r.get(0)
+        })?;
+        tx.execute(
+            "INSERT OR IGNORE INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
+            params![cid, jid, j.label],
+        )?;
     }
     tx.commit()?;
     Ok((cid, added))
@@ -73,7 +87,11 @@ pub fn register(conn: &mut Connection, file: &str, c: &CampaignFile, jobs: &[Job
 ///
 /// # Errors
 /// Database errors.
-pub fn claim(conn: &mut Connection, campaign: Option<i64>, lease: &Lease) -> anyhow::Result<Option<JobRow>> {
+pub fn claim(
+    conn: &mut Connection,
+    campaign: Option<i64>,
+    lease: &Lease,
+) -> anyhow::Result<Option<JobRow>> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let row = tx
         .query_row(
@@ -112,7 +130,16 @@ pub fn claim(conn: &mut Connection, campaign: Option<i64>, lease: &Lease) -> any
 /// # Errors
 /// Database errors.
 #[allow(clippy::too_many_arguments)]
-pub fn heartbeat(conn: &Connection, id: i64, lease: &Lease, sim_time: f64, progress: f64, particle_steps: u64, wall_time: f64, checkpoint: Option<&str>) -> anyhow::Result<()> {
+pub fn heartbeat(
+    conn: &Connection,
+    id: i64,
+    lease: &Lease,
+    sim_time: f64,
+    progress: f64,
+    particle_steps: u64,
+    wall_time: f64,
+    checkpoint: Option<&str>,
+) -> anyhow::Result<()> {
     conn.execute(
         "UPDATE jobs SET heartbeat_at = ?3, sim_time_s = ?4, progress = ?5, particle_steps = ?6, wall_time_s = ?7,
                 checkpoint_path = COALESCE(?8, checkpoint_path)
@@ -127,7 +154,14 @@ pub fn heartbeat(conn: &Connection, id: i64, lease: &Lease, sim_time: f64, progr
 ///
 /// # Errors
 /// Database errors.
-pub fn set_backend(conn: &Connection, id: i64, backend: &str, adapter: &str, precision: &str, particles: usize) -> anyhow::Result<()> {
+pub fn set_backend(
+    conn: &Connection,
+    id: i64,
+    backend: &str,
+    adapter: &str,
+    precision: &str,
+    particles: usize,
+) -> anyhow::Result<()> {
     conn.execute("UPDATE jobs SET backend = ?2, adapter = ?3, precision = ?4, particles = ?5, program_version = ?6 WHERE id = ?1", params![id, backend, adapter, precision, particles as i64, env!("CARGO_PKG_VERSION")])?;
     Ok(())
 }
@@ -136,7 +170,12 @@ pub fn set_backend(conn: &Connection, id: i64, backend: &str, adapter: &str, pre
 ///
 /// # Errors
 /// Database errors.
-pub fn release(conn: &Connection, id: i64, status: &str, error: Option<&str>) -> anyhow::Result<()> {
+pub fn release(
+    conn: &Connection,
+    id: i64,
+    status: &str,
+    error: Option<&str>,
+) -> anyhow::Result<()> {
     conn.execute("UPDATE jobs SET status = ?2, last_error = COALESCE(?3, last_error), lease_owner = NULL WHERE id = ?1", params![id, status, error])?;
     Ok(())
 }
@@ -146,9 +185,16 @@ pub fn release(conn: &Connection, id: i64, status: &str, error: Option<&str>) ->
 ///
 /// # Errors
 /// Database errors.
-pub fn requeue(conn: &mut Connection, stale_after_s: f64, max_attempts: i64) -> anyhow::Result<usize> {
+pub fn requeue(
+    conn: &mut Connection,
+    stale_after_s: f64,
+    max_attempts: i64,
+) -> anyhow::Result<usize> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    let mut n = tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'paused'", [])?;
+    let mut n = tx.execute(
+        "UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'paused'",
+        [],
+    )?;
     n += tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'running' AND (heartbeat_at IS NULL OR heartbeat_at < ?1)", [now() - stale_after_s])?;
     n += tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'failed' AND attempts < ?1", [max_attempts])?;
     tx.commit()?;

@@ -14,14 +14,18 @@ pub const SCHEMA_VERSION: i64 = 1;
 /// # Errors
 /// The file cannot be opened, or was written by a newer sweep.
 pub fn open(path: &Path) -> anyhow::Result<Connection> {
-    let conn = Connection::open(path).with_context(|| format!("{}: cannot open the database", path.display()))?;
+    let conn = Connection::open(path)
+        .with_context(|| format!("{}: cannot open the database", path.display()))?;
     conn.busy_timeout(std::time::Duration::from_secs(30))?;
     conn.pragma_update(None, "journal_mode", "WAL")?;
     conn.pragma_update(None, "foreign_keys", "ON")?;
     conn.pragma_update(None, "synchronous", "NORMAL")?;
     let v: i64 = conn.query_row("PRAGMA user_version", [], |r| r.get(0))?;
     if v > SCHEMA_VERSION {
-        anyhow::bail!("{}: schema version {v} is newer than this sweep's ({SCHEMA_VERSION}); upgrade sweep", path.display());
+        anyhow::bail!(
+            "{}: schema version {v} is newer than this sweep's ({SCHEMA_VERSION}); upgrade sweep",
+            path.display()
+        );
     }
     if v < SCHEMA_VERSION {
         // Version 0 → 1: the initial schema. Later versions add ALTER/CREATE steps here, each in

@@ -26,7 +26,10 @@ impl SiloResults {
     /// Database errors.
     pub fn commit(&self, conn: &mut Connection, job_id: i64) -> anyhow::Result<bool> {
         let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let status: String = tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job_id], |r| r.get(0))?;
+        let status: String =
+            tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job_id], |r| {
+                r.get(0)
+            })?;
         if status == "done" {
             return Ok(false);
         }

@@ -27,7 +27,12 @@ pub struct ContactInput<R: Real> {
 /// v_t dt, and F_t = −k_t ξ − γ_t v_t is truncated at μ|F_n|, the spring rescaled to match
 /// (so sliding contacts keep |F_t| = μ|F_n| without storing excess elongation).
 #[inline(always)]
-pub fn contact_force<R: Real>(law: &LawKernel<R>, c: &ContactInput<R>, spring: &mut V3<R>, dt: R) -> V3<R> {
+pub fn contact_force<R: Real>(
+    law: &LawKernel<R>,
+    c: &ContactInput<R>,
+    spring: &mut V3<R>,
+    dt: R,
+) -> V3<R> {
     let n = c.normal;
     let vn = c.v_rel.dot(n);
     let (kn, sn) = if law.hertz {
@@ -42,7 +47,11 @@ pub fn contact_force<R: Real>(law: &LawKernel<R>, c: &ContactInput<R>, spring: &
     let fn_mag = kn * c.overlap - gamma_n * vn;
     let mut f = n * fn_mag;
     if law.tangential {
-        let kt = if law.hertz { law.kt_coef * (c.r_eff * c.overlap).sqrt() } else { law.kt_coef };
+        let kt = if law.hertz {
+            law.kt_coef * (c.r_eff * c.overlap).sqrt()
+        } else {
+            law.kt_coef
+        };
         let gamma_t = law.damp_t * (kt * c.m_eff).sqrt();
         let vt = c.v_rel - n * vn;
         // Turn the old spring into the tangent plane, keeping its length.

@@ -11,18 +11,30 @@ use crate::engine::real::Real;
 pub enum Elasticity {
     /// The silo paper's form: k_n = 4/3 Y √(R δ), k_t = 8 G √(R δ) with Y and G used as given
     /// (its G = Y/30 corresponds to no physical Poisson ratio).
-    YoungShear { youngs_modulus_pa: f64, shear_modulus_pa: f64 },
+    YoungShear {
+        youngs_modulus_pa: f64,
+        shear_modulus_pa: f64,
+    },
     /// Material constants of identical bodies: Y* = Y / (2(1 − ν²)), G = Y / (2(1 + ν)),
     /// G* = G / (2(2 − ν)) (the usual Hertz–Mindlin mixing, as in LIGGGHTS).
-    YoungPoisson { youngs_modulus_pa: f64, poisson_ratio: f64 },
+    YoungPoisson {
+        youngs_modulus_pa: f64,
+        poisson_ratio: f64,
+    },
 }
 
 impl Elasticity {
     /// Effective (Y*, G*) entering k_n = 4/3 Y* √(Rδ), k_t = 8 G* √(Rδ).
     pub fn effective(&self) -> (f64, f64) {
         match *self {
-            Elasticity::YoungShear { youngs_modulus_pa, shear_modulus_pa } => (youngs_modulus_pa, shear_modulus_pa),
-            Elasticity::YoungPoisson { youngs_modulus_pa: y, poisson_ratio: nu } => {
+            Elasticity::YoungShear {
+                youngs_modulus_pa,
+                shear_modulus_pa,
+            } => (youngs_modulus_pa, shear_modulus_pa),
+            Elasticity::YoungPoisson {
+                youngs_modulus_pa: y,
+                poisson_ratio: nu,
+            } => {
                 let g = y / (2.0 * (1.0 + nu));
                 (y / (2.0 * (1.0 - nu * nu)), g / (2.0 * (2.0 - nu)))
             }
@@ -99,7 +111,10 @@ impl ContactLaw {
                     tangential,
                 }
             }
-            NormalModel::Linear { kn_n_per_m, kt_n_per_m } => LawKernel {
+            NormalModel::Linear {
+                kn_n_per_m,
+                kt_n_per_m,
+            } => LawKernel {
                 hertz: false,
                 kn_coef: R::from_f64(kn_n_per_m),
                 kt_coef: R::from_f64(kt_n_per_m),
