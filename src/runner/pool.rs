@@ -84,7 +84,7 @@ pub fn run_pending(
                 };
                 let bar = multi.add(ProgressBar::new(1000));
                 bar.set_style(
-                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] {msg}")
+                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
                         .expect("template")
                         .progress_chars("=> "),
                 );

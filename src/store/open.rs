@@ -14,13 +14,32 @@ pub const SCHEMA_VERSION: i64 = 1;
 /// # Errors
 /// The file cannot be opened, or was written by a newer sweep.
 pub fn open(path: &Path) -> anyhow::Result<Connection> {
-    let conn = Connection::open(path)
+    let mut conn = Connection::open(path)
         .with_context(|| format!("{}: cannot open the database", path.display()))?;
     conn.busy_timeout(std::time::Duration::from_secs(30))?;
-    conn.pragma_update(None, "journal_mode", "WAL")?;
+    // Switching to WAL needs an exclusive lock and does not wait on the busy handler: retry while
+    // another process is setting the same database up.
+    let mut tries = 0;
+    loop {
+        match conn.pragma_update_and_check(None, "journal_mode", "WAL", |r| r.get::<_, String>(0)) {
+            Ok(_) => break,
+            Err(e) if tries < 300 && is_busy(&e) => {
+                tries += 1;
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+            Err(e) => {
+                return Err(e)
+                    .with_context(|| format!("{}: cannot switch to WAL mode", path.display()))
+            }
+        }
+    }
     conn.pragma_update(None, "foreign_keys", "ON")?;
     conn.pragma_update(None, "synchronous", "NORMAL")?;
-    let v: i64 = conn.query_row("PRAGMA user_version", [], |r| r.get(0))?;
+    // NOTE: the version check and the migration run in one IMMEDIATE transaction, so two processes
+    // opening a new database do not both create it (a deferred transaction would fail with "locked"
+    // when upgrading its read lock).
+    let tx = conn.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+    let v: i64 = tx.query_row("PRAGMA user_version", [], |r| r.get(0))?;
     if v > SCHEMA_VERSION {
         anyhow::bail!(
             "{}: schema version {v} is newer than this sweep's ({SCHEMA_VERSION}); upgrade sweep",
@@ -28,12 +47,14 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
         );
     }
     if v < SCHEMA_VERSION {
-        // Version 0 → 1: the initial schema. Later versions add ALTER/CREATE steps here, each in
-        // its own transaction, so an interrupted migration leaves a consistent version.
-        let tx = conn.unchecked_transaction()?;
+        // Version 0 → 1: the initial schema. Later versions add their steps here.
         tx.execute_batch(include_str!("../../schema.sql"))?;
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
-        tx.commit()?;
     }
+    tx.commit()?;
     Ok(conn)
+}
+
+fn is_busy(e: &rusqlite::Error) -> bool {
+    matches!(e, rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::DatabaseBusy || f.code == rusqlite::ErrorCode::DatabaseLocked)
 }
