@@ -41,6 +41,30 @@ fn spawn(dir: &Path, args: &[&str], log: &str) -> Child {
         .unwrap()
 }
 
+/// `sweep launch FILE --db DB --backend cpu --threads 1`, run to completion; fails the test if it fails.
+fn launch_ok(dir: &Path, file: &Path, db: &Path) -> Output {
+    let o = sweep_cmd(dir)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "launch failed:\n{}\n{}",
+        stdout(&o),
+        stderr(&o)
+    );
+    o
+}
+
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -180,25 +204,7 @@ fn reference() -> &'static Results {
         let dir = TempDir::new().unwrap();
         let file = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
         let db = dir.path().join("sweep.db");
-        let o = sweep_cmd(dir.path())
-            .args([
-                "launch",
-                file.to_str().unwrap(),
-                "--db",
-                db.to_str().unwrap(),
-                "--backend",
-                "cpu",
-                "--threads",
-                "1",
-            ])
-            .output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "reference run failed:\n{}\n{}",
-            stdout(&o),
-            stderr(&o)
-        );
+        launch_ok(dir.path(), &file, &db);
         let r = results(&db);
         assert_eq!(
             r.summary.len(),
@@ -455,28 +461,7 @@ fn launching_twice_adds_nothing_and_a_changed_value_adds_one_job() {
         "two.json",
         &campaign("two", &[0.02, 0.025], &[1.0], 0.05),
     );
-    let launch = |file: &Path| {
-        let o = sweep_cmd(d)
-            .args([
-                "launch",
-                file.to_str().unwrap(),
-                "--db",
-                db.to_str().unwrap(),
-                "--backend",
-                "cpu",
-                "--threads",
-                "1",
-            ])
-            .output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "launch failed:\n{}\n{}",
-            stdout(&o),
-            stderr(&o)
-        );
-        stdout(&o)
-    };
+    let launch = |file: &Path| stdout(&launch_ok(d, file, &db));
 
     let out = launch(&file);
     assert!(out.contains("2 job(s), 2 new"), "first launch:\n{out}");
@@ -573,20 +558,7 @@ fn status_after_a_launch_lists_the_campaign_as_done() {
         "stat.json",
         &campaign("status_check", &[0.02], &[0.5], 0.05),
     );
-    let o = sweep_cmd(d)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--threads",
-            "1",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    launch_ok(d, &file, &db);
 
     let o = sweep_cmd(d)
         .args(["status", "--db", db.to_str().unwrap()])

@@ -12,6 +12,9 @@
 //! A failure means a force is not applied equally and oppositely, the minimum image or the wrap
 //! is wrong, or the integrator injects or removes energy.
 
+mod common;
+use common::Noise;
+
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
@@ -25,20 +28,6 @@ const RHO: f64 = 2655.0;
 
 fn mass() -> f64 {
     RHO * 4.0 / 3.0 * PI * R.powi(3)
-}
-
-/// Deterministic uniform numbers in [−1, 1) (splitmix64), so the tests need no RNG crate.
-struct Noise(u64);
-
-impl Noise {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
 }
 
 fn config(law: ContactLaw, dt: f64, walls: Vec<Wall>, l: f64) -> EngineConfig {
@@ -65,7 +54,7 @@ fn gas(n: usize, l: f64, h: f64, v: f64, drift: [f64; 3], friction: bool, seed: 
     );
     assert!(nx * nx * nz >= n, "box too small for {n} spheres");
     let (a, c) = (l / nx as f64, h / nz as f64);
-    let mut noise = Noise(seed);
+    let mut noise = Noise::new(seed);
     for k in 0..n {
         let (i, j, m) = (k % nx, (k / nx) % nx, k / (nx * nx));
         let p = [

@@ -17,6 +17,9 @@
 //! A failure means the time step, the stiffness or the initial overlaps drive the integrator
 //! unstable, f32 cannot resolve the silo's contacts, or the result depends on the thread count.
 
+mod common;
+use common::Noise;
+
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
@@ -29,20 +32,6 @@ const RHO: f64 = 2655.0;
 /// Silo paper diameter (m).
 const D: f64 = 0.0058;
 const R: f64 = D / 2.0;
-
-/// Deterministic uniform numbers in [−1, 1) (splitmix64).
-struct Noise(u64);
-
-impl Noise {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-}
 
 /// The silo paper's law: Hertz–Mindlin, Y = 3 GPa, G = Y/30, e = 0.9, μ = 0.5.
 fn silo_law() -> ContactLaw {
@@ -217,7 +206,7 @@ fn ten_percent_initial_overlaps_relax_without_explosion() {
 fn bed(n: usize, side: usize, a: f64, v: f64, seed: u64) -> (State<f64>, Vec<Plane>) {
     let l = side as f64 * a;
     let mut s = State::<f64>::new(true, HISTORY_SLOTS);
-    let mut noise = Noise(seed);
+    let mut noise = Noise::new(seed);
     for k in 0..n {
         let (i, j, m) = (k % side, (k / side) % side, k / (side * side));
         let p = [

@@ -11,10 +11,9 @@ use sweep::runner::{run_pending, PoolOptions};
 
 use super::DbArg;
 
+/// How pending jobs run (shared by launch and resume).
 #[derive(clap::Args)]
-pub struct Arguments {
-    /// Campaign file (JSON).
-    pub file: PathBuf,
+pub struct RunArgs {
     #[command(flatten)]
     pub db: DbArg,
     /// auto (a GPU when there is one, else the CPU), gpu or cpu.
@@ -29,15 +28,17 @@ pub struct Arguments {
 }
 
 #[derive(clap::Args)]
+pub struct Arguments {
+    /// Campaign file (JSON).
+    pub file: PathBuf,
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+#[derive(clap::Args)]
 pub struct ResumeArguments {
     #[command(flatten)]
-    pub db: DbArg,
-    #[arg(long, default_value = "auto")]
-    pub backend: BackendChoice,
-    #[arg(long, default_value_t = 1)]
-    pub parallel: usize,
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
+    pub run: RunArgs,
     /// A running job whose heartbeat is older than this (s) is taken as dead.
     #[arg(long, default_value_t = 30.0)]
     pub stale_after: f64,
@@ -71,10 +72,30 @@ fn interrupt_flag() -> Arc<AtomicBool> {
     flag
 }
 
-fn backend_note(b: BackendChoice) {
-    if b == BackendChoice::Auto {
+/// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
+fn run_jobs(
+    r: &RunArgs,
+    campaign: Option<i64>,
+    checkpoint_interval_s: f64,
+    total: usize,
+    done: usize,
+) -> anyhow::Result<i32> {
+    if r.backend == BackendChoice::Auto {
         eprintln!("sweep: backend auto: no GPU backend in this build yet, running on the CPU");
     }
+    let opts = PoolOptions {
+        db: r.db.db.clone(),
+        work_dir: work_dir(&r.db.db),
+        campaign,
+        parallel: r.parallel,
+        threads: r.threads,
+        backend: r.backend,
+        checkpoint_interval_s,
+        interrupt: interrupt_flag(),
+        bars: std::io::stderr().is_terminal(),
+    };
+    let s = run_pending(&opts, total, done).context("running jobs")?;
+    Ok(finish(s, &r.db.db))
 }
 
 fn finish(s: sweep::runner::pool::PoolSummary, db: &Path) -> i32 {
@@ -101,7 +122,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
             return Ok(2);
         }
     };
-    let mut conn = sweep::store::open(&a.db.db)?;
+    let mut conn = sweep::store::open(&a.run.db.db)?;
     let (cid, added) =
         sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &file, &jobs)?;
     let done: i64 = conn.query_row(
@@ -115,33 +136,26 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         jobs.len(),
         added,
         done,
-        a.db.db.display()
+        a.run.db.db.display()
     );
-    backend_note(a.backend);
-    let opts = PoolOptions {
-        db: a.db.db.clone(),
-        work_dir: work_dir(&a.db.db),
-        campaign: Some(cid),
-        parallel: a.parallel,
-        threads: a.threads,
-        backend: a.backend,
-        checkpoint_interval_s: file.run.checkpoint_interval_s,
-        interrupt: interrupt_flag(),
-        bars: std::io::stderr().is_terminal(),
-    };
-    let s = run_pending(&opts, jobs.len(), done as usize).context("running jobs")?;
-    Ok(finish(s, &a.db.db))
+    run_jobs(
+        &a.run,
+        Some(cid),
+        file.run.checkpoint_interval_s,
+        jobs.len(),
+        done as usize,
+    )
 }
 
 pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
-    if !a.db.db.exists() {
+    if !a.run.db.db.exists() {
         eprintln!(
             "sweep: no database at {}: nothing to resume; start with `sweep launch FILE`",
-            a.db.db.display()
+            a.run.db.db.display()
         );
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.db.db)?;
+    let mut conn = sweep::store::open(&a.run.db.db)?;
     let n = sweep::store::jobs::requeue(&mut conn, a.stale_after, a.max_attempts)?;
     let (total, done): (i64, i64) = conn.query_row(
         "SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs",
@@ -149,18 +163,12 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
     println!("{n} job(s) to resume, {done} of {total} already done");
-    backend_note(a.backend);
-    let opts = PoolOptions {
-        db: a.db.db.clone(),
-        work_dir: work_dir(&a.db.db),
-        campaign: None,
-        parallel: a.parallel,
-        threads: a.threads,
-        backend: a.backend,
-        checkpoint_interval_s: 0.5,
-        interrupt: interrupt_flag(),
-        bars: std::io::stderr().is_terminal(),
-    };
-    let s = run_pending(&opts, total as usize, done as usize)?;
-    Ok(finish(s, &a.db.db))
+    // Each job's own campaign sets its checkpoint interval; this is the fallback.
+    run_jobs(
+        &a.run,
+        None,
+        sweep::campaign::RunSettings::default().checkpoint_interval_s,
+        total as usize,
+        done as usize,
+    )
 }

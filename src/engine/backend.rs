@@ -52,14 +52,6 @@ pub enum EngineError {
     Overlap { ratio: f64, limit: f64, step: u64 },
     #[error("particle {id} has more than {slots} simultaneous contacts at step {step}: raise the history size")]
     HistoryFull { id: u32, slots: usize, step: u64 },
-    #[error("kinetic energy blew up to {energy_j:.3e} J at step {step} (limit {limit_j:.3e} J)")]
-    EnergyBlowUp {
-        energy_j: f64,
-        limit_j: f64,
-        step: u64,
-    },
-    #[error("device error: {0}")]
-    Device(String),
 }
 
 /// A simulation backend.

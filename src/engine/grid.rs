@@ -241,21 +241,3 @@ pub fn build<R: Real>(
     list.ref_pos.clear();
     list.ref_pos.extend_from_slice(&state.pos);
 }
-
-/// Whether some particle moved more than skin/2 since the list was built.
-pub fn needs_rebuild<R: Real>(
-    state: &State<R>,
-    periodic: &Periodic<R>,
-    skin: R,
-    list: &NeighbourList<R>,
-) -> bool {
-    if list.ref_pos.len() != state.len() {
-        return true;
-    }
-    let half2 = skin * skin * R::from_f64(0.25);
-    state
-        .pos
-        .par_iter()
-        .zip(list.ref_pos.par_iter())
-        .any(|(&p, &q)| periodic.delta(q, p).norm2() > half2)
-}

@@ -31,10 +31,6 @@ impl<R: Real> History<R> {
         }
     }
 
-    pub fn enabled(&self) -> bool {
-        self.slots > 0
-    }
-
     pub fn push_particle(&mut self) {
         self.partner.extend(std::iter::repeat_n(EMPTY, self.slots));
         self.spring

@@ -63,53 +63,6 @@ struct Progress {
     initial_count: usize,
 }
 
-impl Progress {
-    /// The record as a checkpoint keeps it: JSON with every float written as its IEEE-754 bit
-    /// pattern (`"f64:3fb998f13d29ecbe"`). serde_json (without its `float_roundtrip` feature)
-    /// parses about one printed f64 in ten back to a neighbouring value, so plain JSON floats made
-    /// a resumed job's M(t) times, masses and exits differ from an uninterrupted run's.
-    fn to_checkpoint(&self) -> anyhow::Result<String> {
-        fn exact(v: serde_json::Value) -> serde_json::Value {
-            use serde_json::Value;
-            match v {
-                Value::Number(n) if n.is_f64() => Value::String(format!(
-                    "f64:{:016x}",
-                    n.as_f64().unwrap_or(f64::NAN).to_bits()
-                )),
-                Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
-                Value::Object(m) => {
-                    Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect())
-                }
-                v => v,
-            }
-        }
-        Ok(serde_json::to_string(&exact(serde_json::to_value(self)?))?)
-    }
-
-    /// Reads what `to_checkpoint` wrote (plain JSON floats, as older checkpoints have, also).
-    fn from_checkpoint(text: &str) -> serde_json::Result<Self> {
-        fn exact(v: serde_json::Value) -> serde_json::Value {
-            use serde_json::Value;
-            match v {
-                Value::String(s) => match s
-                    .strip_prefix("f64:")
-                    .and_then(|h| u64::from_str_radix(h, 16).ok())
-                {
-                    Some(bits) => serde_json::Number::from_f64(f64::from_bits(bits))
-                        .map_or(Value::Null, Value::Number),
-                    None => Value::String(s),
-                },
-                Value::Array(a) => Value::Array(a.into_iter().map(exact).collect()),
-                Value::Object(m) => {
-                    Value::Object(m.into_iter().map(|(k, v)| (k, exact(v))).collect())
-                }
-                v => v,
-            }
-        }
-        serde_json::from_value(exact(serde_json::from_str(text)?))
-    }
-}
-
 fn job_dir(work: &Path, hash: &str) -> PathBuf {
     work.join("jobs").join(&hash[..16])
 }
@@ -255,7 +208,7 @@ pub fn run_silo_job(
     }
     let (state, mut prog) = match found {
         Some((path, _, s, extra)) => {
-            let prog = Progress::from_checkpoint(&extra)
+            let prog = serde_json::from_str::<Progress>(&extra)
                 .with_context(|| format!("{}: progress record unreadable", path.display()))?;
             (ctx.log)(format!(
                 "job {}: resuming from {} (t = {:.3} s after opening)",
@@ -307,7 +260,6 @@ pub fn run_silo_job(
     let target = scene.p.discharge_time_s;
     let wall0 = prog.wall_time_s;
     let mut last_beat = Instant::now();
-    let mut rate = 0.0;
     let seed = spec.seed();
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
         let s = engine.download();
@@ -318,11 +270,17 @@ pub fn run_silo_job(
             backend: info.kind.clone(),
             precision: info.precision.clone(),
         };
-        Ok(checkpoint::save(&dir, &h, &s, &prog.to_checkpoint()?)?)
+        Ok(checkpoint::save(
+            &dir,
+            &h,
+            &s,
+            &serde_json::to_string(prog)?,
+        )?)
     };
     loop {
         let t_rel = prog.chunk as f64 * chunk_dt;
-        let remaining = engine_len(&mut engine, &prog);
+        // Without re-insertion the particles left are the initial ones minus those counted out.
+        let remaining = prog.initial_count - prog.discharge.count as usize;
         let done = t_rel >= target - 1e-12
             || prog.discharge.permanently_clogged(t_rel)
             || (!scene.p.reinsert
@@ -352,7 +310,7 @@ pub fn run_silo_job(
         };
         prog.chunk += 1;
         prog.particle_steps += report.particle_steps;
-        rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
+        let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
         let t_now = prog.chunk as f64 * chunk_dt;
         for ev in &report.removed {
             prog.discharge
@@ -366,8 +324,13 @@ pub fn run_silo_job(
         }
         prog.discharge.sample(t_now);
         prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-        if prog.chunk % ckpt_every == 0 {
-            let path = save(&mut engine, &prog)?;
+        let saved = if prog.chunk % ckpt_every == 0 {
+            Some(save(&mut engine, &prog)?)
+        } else {
+            None
+        };
+        if saved.is_some() || last_beat.elapsed().as_secs_f64() > 2.0 {
+            let path = saved.map(|p| p.display().to_string());
             jobs::heartbeat(
                 conn,
                 job.id,
@@ -376,19 +339,7 @@ pub fn run_silo_job(
                 t_now / target,
                 prog.particle_steps,
                 prog.wall_time_s,
-                Some(&path.display().to_string()),
-            )?;
-            last_beat = Instant::now();
-        } else if last_beat.elapsed().as_secs_f64() > 2.0 {
-            jobs::heartbeat(
-                conn,
-                job.id,
-                lease,
-                t_now,
-                t_now / target,
-                prog.particle_steps,
-                prog.wall_time_s,
-                None,
+                path.as_deref(),
             )?;
             last_beat = Instant::now();
         }
@@ -396,7 +347,6 @@ pub fn run_silo_job(
             p(t_now, target, rate);
         }
     }
-    let _ = rate;
     let t_end = prog.chunk as f64 * chunk_dt;
     let summary = prog.discharge.summarize(t_end);
     let results = SiloResults {
@@ -412,12 +362,6 @@ pub fn run_silo_job(
     };
     results.commit(conn, job.id)?;
     Ok(Outcome::Done)
-}
-
-fn engine_len(engine: &mut Box<dyn Backend>, prog: &Progress) -> usize {
-    // The count is initial − removed (+ re-inserted); no download needed.
-    let _ = engine;
-    prog.initial_count - prog.discharge.count as usize
 }
 
 /// Puts removed particles back at random spots above the bed, without overlap.

@@ -1,0 +1,17 @@
+//! Helpers shared by the integration tests.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Seeded uniform numbers in [−1, 1), so test scenes are random but reproducible.
+pub struct Noise(ChaCha8Rng);
+
+impl Noise {
+    pub fn new(seed: u64) -> Self {
+        Self(ChaCha8Rng::seed_from_u64(seed))
+    }
+
+    pub fn next(&mut self) -> f64 {
+        self.0.random_range(-1.0..1.0)
+    }
+}
