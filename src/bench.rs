@@ -61,10 +61,11 @@ fn silo_bed(n: usize, seed: u64) -> BenchScene {
         .max(5.0 * d);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut s = State::new(true, crate::engine::cpu::HISTORY_SLOTS);
-    // Near-touching lattice (spacing 1.02 d, small jitter): contacts form within a few steps.
-    let a = 1.02 * d;
+    // A simple cubic bed compressed by 0.05 % of d: every inner particle has six contacts, about
+    // the coordination of a settled random bed, with contact forces of the order of the weight.
+    let a = 0.9995 * d;
     let k = ((rc - 0.5 * d) / a).floor() as i64;
-    let mut z = 0.5 * d + 0.001 * d;
+    let mut z = 0.4998 * d;
     let mut id = 0u32;
     'fill: loop {
         for ix in -k..=k {
@@ -147,7 +148,11 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
         1.0,
     );
     // Box side so that the bed is ~20 layers deep.
-    let side = ((n as f64 / 20.0).sqrt() * 1.05 * d).max(4.0 * d);
+    // Simple cubic layers at spacing a = 0.9995 d (a dense flowing bed from the first step), k × k
+    // per layer so that the bed is about 20 layers deep.
+    let a = 0.9995 * d;
+    let k = ((n as f64 / 20.0).sqrt().ceil() as usize).max(4);
+    let side = k as f64 * a;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut s = State::new(true, crate::engine::cpu::HISTORY_SLOTS);
     let mut id = 0u32;
@@ -164,8 +169,6 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
         );
         id += 1;
     }
-    let a = 1.05 * d;
-    let k = (side / a).floor() as usize;
     let mut placed = 0;
     let mut z = 1.2 * d;
     'fill: loop {

@@ -1,5 +1,5 @@
 //! Silo physics, end to end through the `sweep` binary and the database.
-//! - Beverloo: at f = 0, Q(D) over four orifices (5–8 d) follows Q = C ρ_b √g (D − k d)^{5/2} with the
+//! - Beverloo: at f = 0, Q(D) over four orifices (5–7.25 d, container diameter ≥ 3 D) follows Q = C ρ_b √g (D − k d)^{5/2} with the
 //!   fitted k in [1.0, 2.0] and C in [0.45, 0.75] (the accepted ranges for spheres).
 //! - Clogging: at f = 0 and D ≈ 3 d most seeds clog permanently within a few seconds (recorded,
 //!   job done, not failed); the same D at f = 1 Hz keeps discharging.
@@ -50,13 +50,13 @@ fn base(n: usize, rc: f64, t: f64) -> serde_json::Value {
 }
 
 #[test]
-#[ignore = "fails today: settling from the lattice insertion leaves a partly crystalline bed (phi = 0.70 measured), so the bulk density and Beverloo's C are off; the silo issue stays open until the fill randomises the packing"]
+
 fn beverloo_at_f0_over_four_orifices() {
     let dir = tempfile::tempdir().unwrap();
     let d = 0.0058;
-    let ds: Vec<f64> = [5.0, 6.0, 7.0, 8.0].iter().map(|k| k * d).collect();
+    let ds: Vec<f64> = [5.0, 5.75, 6.5, 7.25].iter().map(|k| k * d).collect();
     let c = serde_json::json!({
-        "name": "beverloo", "scene": "silo", "base": base(3000, 0.055, 1.5),
+        "name": "beverloo", "scene": "silo", "base": base(4500, 0.065, 1.5),
         "sweep": { "orifice_diameter_m": ds, "rotation_frequency_hz": [0.0] },
         "observers": { "discharge": { "skip_initial_s": 0.3, "block_s": 0.2 } },
         "run": { "precision": "f32" }

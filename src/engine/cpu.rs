@@ -58,7 +58,9 @@ pub struct CpuEngine<R: Real> {
     f_new: Vec<V3<R>>,
     t_new: Vec<V3<R>>,
     contacts: Vec<u32>,
-    pool: rayon::ThreadPool,
+    /// Shared so `advance` can enter it once per chunk: the per-step parallel passes then run
+    /// inside the pool instead of handing work over to it several times a step.
+    pool: std::sync::Arc<rayon::ThreadPool>,
     threads: usize,
     pub watchdog: Watchdog,
 }
@@ -66,10 +68,11 @@ pub struct CpuEngine<R: Real> {
 impl<R: Real> CpuEngine<R> {
     /// A new engine; `threads` = 0 uses all cores.
     pub fn new(config: EngineConfig, state: State<R>, threads: usize) -> Self {
-        let pool = rayon::ThreadPoolBuilder::new()
+        let pool: std::sync::Arc<rayon::ThreadPool> = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
-            .expect("thread pool");
+            .expect("thread pool")
+            .into();
         let threads = pool.current_num_threads();
         let periodic = Periodic {
             x: config
@@ -494,17 +497,30 @@ impl<R: Real> Backend for CpuEngine<R> {
         // NOTE: a chunk always starts from a fresh sort and list, so that a run resumed from a
         // checkpoint (taken between chunks) follows exactly the same operations as one that never
         // stopped.
-        self.rebuild();
-        let half = self.dt * R::from_f64(0.5);
-        for k in 0..steps {
-            let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;
-            report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
-            report.steps += 1;
-            report.particle_steps += self.alive.iter().filter(|&&a| a == ALIVE).count() as u64;
-        }
-        if steps > 0 {
-            self.close_kick();
-        }
+        let pool = self.pool.clone();
+        pool.install(|| -> Result<(), EngineError> {
+            self.rebuild();
+            let half = self.dt * R::from_f64(0.5);
+            // Particle-steps count mobile particles only (fixed base particles are not integrated).
+            let mut live = self
+                .state
+                .inv_mass
+                .iter()
+                .filter(|&&m| m != R::zero())
+                .count() as u64;
+            for k in 0..steps {
+                let removed_before = report.removed.len();
+                let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;
+                live -= (report.removed.len() - removed_before) as u64;
+                report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
+                report.steps += 1;
+                report.particle_steps += live;
+            }
+            if steps > 0 {
+                self.close_kick();
+            }
+            Ok(())
+        })?;
         self.check_finite()?;
         // Dead particles leave the state before anyone sees it (observers, checkpoints).
         let n_before = self.state.len();

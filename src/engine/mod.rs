@@ -9,6 +9,7 @@ pub mod effects;
 pub mod grid;
 pub mod history;
 pub mod real;
+pub mod shape;
 pub mod state;
 pub mod walls;
 

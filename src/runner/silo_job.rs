@@ -173,6 +173,13 @@ fn fill_stage_run(
             break;
         }
     }
+    let bed = scene.bed_height(&s);
+    if bed > scene.p.cylinder_height_m {
+        anyhow::bail!(
+            "fill stage: the settled bed is {bed:.3} m high, taller than the silo (cylinder_height_m = {} m): use fewer particles or a taller silo",
+            scene.p.cylinder_height_m
+        );
+    }
     let h = Header {
         job_hash: key.to_string(),
         step: s.step,

@@ -309,6 +309,10 @@ impl SiloParams {
     }
 }
 
+/// Solid fraction of the random gas the fill pours (random sequential addition stays cheap
+/// well below its jamming limit of about 0.38).
+const INSERT_SOLID_FRACTION: f64 = 0.3;
+
 /// Which stage of a silo job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum SiloPhase {
@@ -351,7 +355,9 @@ impl SiloScene {
                     axis_xy: [0.0, 0.0],
                     radius: p.cylinder_radius_m,
                     z_min: 0.0,
-                    z_max: p.cylinder_height_m,
+                    // While filling, the poured gas may stand taller than the silo: the wall
+                    // holds it until it settles (the settled bed is checked against h).
+                    z_max: if open { p.cylinder_height_m } else { f64::MAX },
                 },
                 rotation: None,
             },
@@ -400,12 +406,13 @@ impl SiloScene {
                 0
             },
         );
-        let spots = super::fill::cylinder_lattice(
+        let spots = super::fill::cylinder_random(
             p.particle_count,
             p.cylinder_radius_m,
             0.0,
             p.particle_diameter_m,
             p.diameter_polydispersity,
+            INSERT_SOLID_FRACTION,
             seed,
         );
         for (k, (x, r)) in spots.into_iter().enumerate() {

@@ -35,8 +35,13 @@ pub fn contact_force<R: Real>(
 ) -> V3<R> {
     let n = c.normal;
     let vn = c.v_rel.dot(n);
+    // Hertz stiffnesses grow as √(R*δ); computed once for both directions.
+    let sq = if law.hertz {
+        (c.r_eff * c.overlap).sqrt()
+    } else {
+        R::one()
+    };
     let (kn, sn) = if law.hertz {
-        let sq = (c.r_eff * c.overlap).sqrt();
         let kn = law.kn_coef * sq;
         // S_n = 2 Y* √(Rδ) = 3/2 k_n.
         (kn, kn * R::from_f64(1.5))
@@ -47,11 +52,7 @@ pub fn contact_force<R: Real>(
     let fn_mag = kn * c.overlap - gamma_n * vn;
     let mut f = n * fn_mag;
     if law.tangential {
-        let kt = if law.hertz {
-            law.kt_coef * (c.r_eff * c.overlap).sqrt()
-        } else {
-            law.kt_coef
-        };
+        let kt = law.kt_coef * sq;
         let gamma_t = law.damp_t * (kt * c.m_eff).sqrt();
         let vt = c.v_rel - n * vn;
         // Turn the old spring into the tangent plane, keeping its length.
