@@ -1,6 +1,7 @@
 //! Command-line definitions (clap derive) and dispatch; one file per subcommand in `cli/`.
 
 mod bench;
+mod info;
 mod launch;
 mod plan;
 mod report;
@@ -66,6 +67,8 @@ enum Command {
     Bench(bench::Arguments),
     /// Print the JSON Schema of campaign files (for editors).
     Schema,
+    /// GPU adapters found, their limits, and the backend `auto` and `gpu` would choose.
+    Info(info::Arguments),
 }
 
 /// Parses the command line and runs it; returns the exit code.
@@ -79,5 +82,6 @@ pub fn run() -> anyhow::Result<i32> {
         Command::Report(a) => report::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Schema => schema::run(),
+        Command::Info(a) => info::run(a),
     }
 }

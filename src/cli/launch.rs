@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::Context;
-use sweep::runner::backend::BackendChoice;
+use sweep::runner::backend::{auto_summary, BackendChoice};
 use sweep::runner::{run_pending, PoolOptions};
 
 use super::DbArg;
@@ -81,7 +81,7 @@ fn run_jobs(
     done: usize,
 ) -> anyhow::Result<i32> {
     if r.backend == BackendChoice::Auto {
-        eprintln!("sweep: backend auto: no GPU backend in this build yet, running on the CPU");
+        eprintln!("sweep: backend auto: {}", auto_summary());
     }
     let opts = PoolOptions {
         db: r.db.db.clone(),

@@ -52,6 +52,8 @@ pub enum EngineError {
     Overlap { ratio: f64, limit: f64, step: u64 },
     #[error("particle {id} has more than {slots} simultaneous contacts at step {step}: raise the history size")]
     HistoryFull { id: u32, slots: usize, step: u64 },
+    #[error("GPU device: {0}")]
+    Device(String),
 }
 
 /// A simulation backend.

@@ -1,0 +1,325 @@
+//! Device buffers of one run and their host images. Particles are packed for the kernels
+//! (position with radius, velocity with 1/m, ω, constants with the alive flag, force and torque,
+//! history slots); `pack` and `unpack` convert from and to `State<f64>`, the exchange format, so
+//! a checkpoint moves between backends. Scratch (lists, cells, scan runs) lives here, not in State.
+
+use wgpu::util::DeviceExt;
+
+use super::device::GpuDevice;
+use super::grid::GridSpec;
+use super::layout::{binding, Info, Load, Params, Slot, WallGpu, MAX_WALLS, STATUS_WORDS};
+use crate::engine::backend::EngineError;
+use crate::engine::history::History;
+use crate::engine::real::V3;
+use crate::engine::state::State;
+
+/// The particles of a State, in the kernels' f32 records.
+#[derive(Clone, Debug, Default)]
+pub struct Packed {
+    pub pos_r: Vec<[f32; 4]>,
+    pub vel_im: Vec<[f32; 4]>,
+    pub omega: Vec<[f32; 4]>,
+    pub info: Vec<Info>,
+    pub load: Vec<Load>,
+    /// Slot-major: slot s of particle i at s n + i.
+    pub hist: Vec<Slot>,
+}
+
+fn f4(v: &V3<f64>, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// The history of `s`, slot s of particle i at s n + i (the kernels' slot-major order).
+fn slot_major(s: &State<f64>) -> Vec<Slot> {
+    let (n, k) = (s.len(), s.history.slots);
+    let mut out = vec![Slot::default(); n * k];
+    for i in 0..n {
+        for q in 0..k {
+            let sp = s.history.spring[i * k + q];
+            out[q * n + i] = Slot {
+                spring: [sp.x as f32, sp.y as f32, sp.z as f32],
+                key: s.history.partner[i * k + q],
+            };
+        }
+    }
+    out
+}
+
+/// Packs `s` (every particle alive); each history row keeps its slot order.
+pub fn pack(s: &State<f64>) -> Packed {
+    let n = s.len();
+    let zero = V3::zero();
+    Packed {
+        pos_r: (0..n).map(|i| f4(&s.pos[i], s.radius[i])).collect(),
+        vel_im: (0..n).map(|i| f4(&s.vel[i], s.inv_mass[i])).collect(),
+        omega: (0..n)
+            .map(|i| f4(s.omega.get(i).unwrap_or(&zero), 0.0))
+            .collect(),
+        info: (0..n)
+            .map(|i| Info {
+                id: s.id[i],
+                alive: 1,
+                mass: s.mass[i] as f32,
+                inv_inertia: s.inv_inertia.get(i).copied().unwrap_or(0.0) as f32,
+            })
+            .collect(),
+        load: (0..n)
+            .map(|i| Load {
+                force: f4(&s.force[i], 0.0),
+                torque: f4(s.torque.get(i).unwrap_or(&zero), 0.0),
+            })
+            .collect(),
+        hist: slot_major(s),
+    }
+}
+
+/// The live particles of `p` as a State (removed ones dropped, order kept).
+pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) -> State<f64> {
+    let mut s = State::new(rotation, slots);
+    s.time = time;
+    s.step = step;
+    let v = |a: &[f32; 4]| V3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let mut history = History::new(slots);
+    let n = p.info.len();
+    for (i, info) in p.info.iter().enumerate() {
+        if info.alive == 0 {
+            continue;
+        }
+        s.id.push(info.id);
+        s.pos.push(v(&p.pos_r[i]));
+        s.radius.push(p.pos_r[i][3] as f64);
+        s.vel.push(v(&p.vel_im[i]));
+        s.inv_mass.push(p.vel_im[i][3] as f64);
+        s.mass.push(info.mass as f64);
+        s.force.push(v(&p.load[i].force));
+        if rotation {
+            s.omega.push(v(&p.omega[i]));
+            s.torque.push(v(&p.load[i].torque));
+            s.inv_inertia.push(info.inv_inertia as f64);
+        }
+        for slot in (0..slots).map(|q| &p.hist[q * n + i]) {
+            history.partner.push(slot.key);
+            history.spring.push(V3::new(
+                slot.spring[0] as f64,
+                slot.spring[1] as f64,
+                slot.spring[2] as f64,
+            ));
+        }
+    }
+    s.history = history;
+    s
+}
+
+/// Every buffer of one run on the device.
+pub struct GpuBuffers {
+    pub n: usize,
+    pub slots: usize,
+    pub params: wgpu::Buffer,
+    pub walls: wgpu::Buffer,
+    pub pos_r: wgpu::Buffer,
+    pub vel_im: wgpu::Buffer,
+    pub omega: wgpu::Buffer,
+    pub info: wgpu::Buffer,
+    pub load: wgpu::Buffer,
+    pub hist: wgpu::Buffer,
+    pub nbr: wgpu::Buffer,
+    pub ref_pos: wgpu::Buffer,
+    pub status: wgpu::Buffer,
+    pub events: wgpu::Buffer,
+    pub cell_rank: wgpu::Buffer,
+    pub cell_count: wgpu::Buffer,
+    pub cell_start: wgpu::Buffer,
+    pub chunk_sums: wgpu::Buffer,
+    pub sorted: wgpu::Buffer,
+    pub indirect: wgpu::Buffer,
+}
+
+const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_SRC)
+    .union(wgpu::BufferUsages::COPY_DST);
+
+impl GpuBuffers {
+    /// Allocates and fills the buffers of `p` with grid `g`.
+    ///
+    /// # Errors
+    /// A buffer larger than the device binds (`EngineError::Device`, naming it and the limit).
+    pub fn new(
+        dev: &GpuDevice,
+        params: &Params,
+        walls: &[WallGpu; MAX_WALLS],
+        p: &Packed,
+        g: &GridSpec,
+    ) -> Result<Self, EngineError> {
+        let n = p.pos_r.len();
+        let slots = params.slots as usize;
+        let max = dev.limits.max_storage_buffer_binding_size;
+        let check = |what: &str, bytes: u64| -> Result<(), EngineError> {
+            if bytes > max {
+                return Err(EngineError::Device(format!(
+                    "{n} particles need {:.0} MiB for the {what} buffer; {} binds at most {:.0} MiB",
+                    bytes as f64 / 1048576.0,
+                    dev.info.name,
+                    max as f64 / 1048576.0
+                )));
+            }
+            Ok(())
+        };
+        let nbr_words = n as u64 * (g.stride as u64 + 1);
+        check("history", (n * slots * 16) as u64)?;
+        check("neighbour list", nbr_words * 4)?;
+        check("load", n as u64 * 32)?;
+        let d = &dev.device;
+        let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+            // Zero-length bindings are invalid: every buffer holds at least one 32-byte record.
+            let mut data = bytes.to_vec();
+            if data.len() < 32 {
+                data.resize(32, 0);
+            }
+            d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &data,
+                usage,
+            })
+        };
+        let zeroed = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
+            d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(32).next_multiple_of(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        Ok(Self {
+            n,
+            slots,
+            params: init("params", bytemuck::bytes_of(params), uniform),
+            walls: init("walls", bytemuck::cast_slice(walls.as_slice()), uniform),
+            pos_r: init("pos_r", bytemuck::cast_slice(&p.pos_r), STORAGE),
+            vel_im: init("vel_im", bytemuck::cast_slice(&p.vel_im), STORAGE),
+            omega: init("omega", bytemuck::cast_slice(&p.omega), STORAGE),
+            info: init("info", bytemuck::cast_slice(&p.info), STORAGE),
+            load: init("load", bytemuck::cast_slice(&p.load), STORAGE),
+            hist: init("history", bytemuck::cast_slice(&p.hist), STORAGE),
+            nbr: zeroed("neighbour lists", nbr_words * 4, STORAGE),
+            ref_pos: zeroed("list reference positions", n as u64 * 16, STORAGE),
+            status: zeroed("status", STATUS_WORDS as u64 * 4, STORAGE),
+            events: zeroed("sink events", n as u64 * 8, STORAGE),
+            cell_rank: zeroed("cell and rank", n as u64 * 8, STORAGE),
+            cell_count: zeroed("cell counts", g.ncell as u64 * 4, STORAGE),
+            cell_start: zeroed("cell starts", (g.ncell as u64 + 1) * 4, STORAGE),
+            chunk_sums: zeroed("scan run totals", g.n_chunks as u64 * 4, STORAGE),
+            sorted: zeroed("cell-sorted indices", n as u64 * 4, STORAGE),
+            indirect: zeroed(
+                "rebuild dispatch sizes",
+                super::layout::REBUILD_PASSES.len() as u64 * 12,
+                STORAGE | wgpu::BufferUsages::INDIRECT,
+            ),
+        })
+    }
+
+    /// The buffer at a binding number (layout.rs `binding`).
+    pub fn get(&self, b: u32) -> &wgpu::Buffer {
+        match b {
+            binding::PARAMS => &self.params,
+            binding::WALLS => &self.walls,
+            binding::POS_R => &self.pos_r,
+            binding::VEL_IM => &self.vel_im,
+            binding::OMEGA => &self.omega,
+            binding::INFO => &self.info,
+            binding::LOAD => &self.load,
+            binding::HIST => &self.hist,
+            binding::NBR => &self.nbr,
+            binding::REF_POS => &self.ref_pos,
+            binding::STATUS => &self.status,
+            binding::EVENTS => &self.events,
+            binding::CELL_RANK => &self.cell_rank,
+            binding::CELL_COUNT => &self.cell_count,
+            binding::CELL_START => &self.cell_start,
+            binding::CHUNK_SUMS => &self.chunk_sums,
+            binding::SORTED => &self.sorted,
+            binding::INDIRECT => &self.indirect,
+            _ => unreachable!("no buffer at binding {b}"),
+        }
+    }
+
+    /// Reads the particle buffers back.
+    ///
+    /// # Errors
+    /// A failed map or poll (`EngineError::Device`).
+    pub fn read_particles(&self, dev: &GpuDevice) -> Result<Packed, EngineError> {
+        let n = self.n as u64;
+        let parts = read(
+            dev,
+            &[
+                (&self.pos_r, n * 16),
+                (&self.vel_im, n * 16),
+                (&self.omega, n * 16),
+                (&self.info, n * 16),
+                (&self.load, n * 32),
+                (&self.hist, n * self.slots as u64 * 16),
+            ],
+        )?;
+        Ok(Packed {
+            pos_r: bytemuck::pod_collect_to_vec(&parts[0]),
+            vel_im: bytemuck::pod_collect_to_vec(&parts[1]),
+            omega: bytemuck::pod_collect_to_vec(&parts[2]),
+            info: bytemuck::pod_collect_to_vec(&parts[3]),
+            load: bytemuck::pod_collect_to_vec(&parts[4]),
+            hist: bytemuck::pod_collect_to_vec(&parts[5]),
+        })
+    }
+}
+
+/// Copies `(buffer, bytes)` ranges into one MAP_READ buffer and returns their bytes.
+///
+/// # Errors
+/// A failed map or poll, or an error the device reported meanwhile (`EngineError::Device`).
+pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, EngineError> {
+    let total: u64 = parts.iter().map(|p| p.1).sum();
+    let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: total.max(4),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = dev
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
+    let mut off = 0;
+    for &(b, bytes) in parts {
+        if bytes > 0 {
+            enc.copy_buffer_to_buffer(b, 0, &staging, off, bytes);
+        }
+        off += bytes;
+    }
+    dev.queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    dev.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| EngineError::Device(format!("waiting for the device: {e}")))?;
+    let mapped = rx
+        .recv()
+        .map_err(|e| EngineError::Device(format!("readback never completed: {e}")))?;
+    mapped.map_err(|e| EngineError::Device(format!("reading results back: {e}")))?;
+    if let Some(e) = dev.take_error() {
+        return Err(EngineError::Device(e));
+    }
+    let view = staging
+        .get_mapped_range(..)
+        .map_err(|e| EngineError::Device(format!("reading results back: {e}")))?;
+    let mut out = Vec::with_capacity(parts.len());
+    let mut off = 0usize;
+    for &(_, bytes) in parts {
+        out.push(view[off..off + bytes as usize].to_vec());
+        off += bytes as usize;
+    }
+    drop(view);
+    staging.unmap();
+    Ok(out)
+}

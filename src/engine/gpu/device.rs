@@ -1,0 +1,201 @@
+//! Adapter discovery and device acquisition, kept apart from the work so that tests share one
+//! device and `sweep info` can list what is there. The instance is built from the environment
+//! (`WGPU_BACKEND`, `WGPU_ADAPTER_NAME`, …), so a user can pick a backend without a rebuild.
+//! Device errors are not allowed to panic in wgpu's default handler: they are recorded here and
+//! turned into `EngineError::Device` by the engine at the next chunk.
+
+use std::sync::{Arc, Mutex};
+
+use crate::engine::backend::EngineError;
+
+/// Which adapters an acquisition accepts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdapterPolicy {
+    /// Only a discrete or integrated GPU (what `--backend auto` wants).
+    Hardware,
+    /// Any adapter that can run the kernels, software rasterisers such as lavapipe included
+    /// (what `--backend gpu` accepts).
+    Any,
+}
+
+/// One adapter as `sweep info` shows it.
+#[derive(Clone, Debug)]
+pub struct AdapterReport {
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    /// Discrete or integrated GPU.
+    pub hardware: bool,
+    /// Why the engine cannot use it, if it cannot.
+    pub unusable: Option<String>,
+}
+
+/// A device and queue with the adapter they came from.
+#[derive(Clone)]
+pub struct GpuDevice {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Limits the device was created with.
+    pub limits: wgpu::Limits,
+    errors: Arc<Mutex<Option<String>>>,
+}
+
+/// The wgpu instance, configured from the environment.
+pub fn instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+/// Discrete or integrated GPU (not a software or virtual adapter).
+pub fn is_hardware(info: &wgpu::AdapterInfo) -> bool {
+    matches!(
+        info.device_type,
+        wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu
+    )
+}
+
+/// The limits the engine requests: WebGPU's defaults (8 storage buffers per stage, which every
+/// kernel respects) except the storage binding and buffer sizes, raised to what the adapter
+/// offers so that large runs fit.
+pub fn required_limits(adapter: &wgpu::Limits) -> wgpu::Limits {
+    wgpu::Limits {
+        max_storage_buffer_binding_size: adapter.max_storage_buffer_binding_size,
+        max_buffer_size: adapter.max_buffer_size,
+        ..wgpu::Limits::default()
+    }
+}
+
+fn unusable(adapter: &wgpu::Adapter) -> Option<String> {
+    let caps = adapter.get_downlevel_capabilities();
+    if !caps.flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
+        return Some("no compute shaders".into());
+    }
+    if !caps
+        .flags
+        .contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
+    {
+        return Some("no indirect dispatch".into());
+    }
+    let have = adapter.limits();
+    let want = required_limits(&have);
+    let mut missing = Vec::new();
+    want.check_limits_with_fail_fn(&have, false, |name, w, h| {
+        missing.push(format!("{name} {h} < {w}"));
+    });
+    if missing.is_empty() {
+        None
+    } else {
+        Some(format!("limits too small: {}", missing.join(", ")))
+    }
+}
+
+fn rank(info: &wgpu::AdapterInfo) -> u32 {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    // Prefer the native compute backends over GL at equal kind.
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    kind * 2 + backend
+}
+
+/// Every adapter the instance sees, best first.
+pub fn list_adapters() -> Vec<AdapterReport> {
+    let inst = instance();
+    let mut out: Vec<AdapterReport> =
+        pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all()))
+            .into_iter()
+            .map(|a| {
+                let info = a.get_info();
+                AdapterReport {
+                    hardware: is_hardware(&info),
+                    limits: a.limits(),
+                    unusable: unusable(&a),
+                    info,
+                }
+            })
+            .collect();
+    out.sort_by_key(|r| (r.unusable.is_some(), rank(&r.info)));
+    out
+}
+
+impl GpuDevice {
+    /// The best usable adapter under `policy`, as a device.
+    ///
+    /// # Errors
+    /// `EngineError::Device` when no adapter fits the policy or the device cannot be created.
+    pub fn acquire(policy: AdapterPolicy) -> Result<Self, EngineError> {
+        let inst = instance();
+        let mut adapters = pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all()));
+        adapters.retain(|a| {
+            unusable(a).is_none() && (policy == AdapterPolicy::Any || is_hardware(&a.get_info()))
+        });
+        adapters.sort_by_key(|a| rank(&a.get_info()));
+        let Some(adapter) = adapters.into_iter().next() else {
+            return Err(EngineError::Device(match policy {
+                AdapterPolicy::Hardware => "no discrete or integrated GPU adapter found".into(),
+                AdapterPolicy::Any => "no GPU adapter found (on Debian, `apt-get install mesa-vulkan-drivers` provides the lavapipe software adapter); `sweep info` lists what wgpu sees".into(),
+            }));
+        };
+        Self::from_adapter(&adapter)
+    }
+
+    /// A device on `adapter` with `required_limits`.
+    ///
+    /// # Errors
+    /// `EngineError::Device` when the device cannot be created.
+    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, EngineError> {
+        let info = adapter.get_info();
+        let limits = required_limits(&adapter.limits());
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("sweep device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| EngineError::Device(format!("{}: cannot create a device: {e}", info.name)))?;
+        let errors = Arc::new(Mutex::new(None::<String>));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert_with(|| e.to_string());
+        }));
+        let sink = errors.clone();
+        device.set_device_lost_callback(move |reason, msg| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert_with(|| format!("device lost ({reason:?}): {msg}"));
+        });
+        Ok(Self {
+            device,
+            queue,
+            info,
+            limits,
+            errors,
+        })
+    }
+
+    /// Whether this is a discrete or integrated GPU.
+    pub fn is_hardware(&self) -> bool {
+        is_hardware(&self.info)
+    }
+
+    /// The first device error since the last call, if any.
+    pub fn take_error(&self) -> Option<String> {
+        self.errors.lock().unwrap_or_else(|p| p.into_inner()).take()
+    }
+
+    /// Records an error found by the host side (a failed map, a failed poll).
+    pub fn record_error(&self, e: String) {
+        self.errors
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .get_or_insert(e);
+    }
+}

@@ -1,0 +1,297 @@
+//! The records the host and the shaders share: Pod structs mirrored field for field in
+//! `shaders/common.wgsl`, the binding numbers, and the constants injected into every shader as a
+//! generated prelude (so the workgroup size and the status words are one constant on both sides).
+//! It owns no device object.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::engine::contact::LawKernel;
+use crate::engine::history::{EMPTY, MAX_SLOTS};
+use crate::engine::walls::{Wall, WallShape};
+
+/// Invocations per workgroup of every per-particle and per-chunk kernel. 64 suits lavapipe (256-bit
+/// lanes, 8 wide) and is a safe multiple of the warp/wavefront size of real GPUs.
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Most walls a run may have (they live in one uniform array).
+pub const MAX_WALLS: usize = 16;
+
+/// Words of the status block (flags, counters and errors written by the kernels).
+pub const STATUS_WORDS: usize = 16;
+/// Set by `kick_drift` when some particle moved more than skin/2 since the last list build.
+pub const ST_REBUILD: usize = 0;
+/// Neighbour-list builds in this chunk.
+pub const ST_BUILDS: usize = 1;
+/// Particles that fell through the sink in this chunk (entries of the event buffer).
+pub const ST_DEATHS: usize = 2;
+/// Largest overlap ratio of the chunk, as f32 bits (non-negative floats order like u32).
+pub const ST_MAX_OVERLAP: usize = 3;
+/// First step (1-based in the chunk) whose overlap exceeded the watchdog limit.
+pub const ST_OVERLAP_STEP: usize = 4;
+/// First step (1-based in the chunk) at which a history table overflowed.
+pub const ST_FULL_STEP: usize = 5;
+/// Smallest particle index whose history table overflowed.
+pub const ST_FULL_INDEX: usize = 6;
+/// Largest neighbour count that did not fit in a list row (0: none).
+pub const ST_LIST_OVERFLOW: usize = 7;
+/// Steps completed in this chunk (advanced by `plan_step`).
+pub const ST_STEP: usize = 8;
+/// Sum of the contact counts at the chunk's end.
+pub const ST_CONTACTS: usize = 9;
+/// Smallest 4 i + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity).
+pub const ST_NONFINITE: usize = 10;
+
+/// Status words at the start of a chunk: a list build is due (the CPU rebuilds at every chunk
+/// start too), minima start at u32::MAX.
+pub fn status_initial() -> [u32; STATUS_WORDS] {
+    let mut s = [0u32; STATUS_WORDS];
+    s[ST_REBUILD] = 1;
+    s[ST_OVERLAP_STEP] = u32::MAX;
+    s[ST_FULL_STEP] = u32::MAX;
+    s[ST_FULL_INDEX] = u32::MAX;
+    s[ST_NONFINITE] = u32::MAX;
+    s
+}
+
+/// Binding numbers: one number per buffer in every shader (each kernel binds a subset).
+pub mod binding {
+    pub const PARAMS: u32 = 0;
+    pub const WALLS: u32 = 1;
+    pub const POS_R: u32 = 2;
+    pub const VEL_IM: u32 = 3;
+    pub const OMEGA: u32 = 4;
+    pub const INFO: u32 = 5;
+    pub const LOAD: u32 = 6;
+    pub const HIST: u32 = 7;
+    pub const NBR: u32 = 8;
+    pub const REF_POS: u32 = 9;
+    pub const STATUS: u32 = 10;
+    pub const EVENTS: u32 = 11;
+    pub const CELL_RANK: u32 = 12;
+    pub const CELL_COUNT: u32 = 13;
+    pub const CELL_START: u32 = 14;
+    pub const CHUNK_SUMS: u32 = 15;
+    pub const SORTED: u32 = 16;
+    pub const INDIRECT: u32 = 17;
+}
+
+/// Indirect dispatch slots (3 words each) of the list-rebuild passes, in execution order.
+pub const REBUILD_PASSES: [&str; 6] = [
+    "histogram",
+    "scan_chunks",
+    "scan_totals",
+    "scan_apply",
+    "scatter",
+    "build_list",
+];
+
+/// WGSL constants generated from this file, prepended to `common.wgsl`.
+pub fn prelude() -> String {
+    let mut s = format!(
+        "const WG: u32 = {WORKGROUP_SIZE}u;\nconst MAX_SLOTS: u32 = {MAX_SLOTS}u;\n\
+         const MAX_WALLS: u32 = {MAX_WALLS}u;\nconst EMPTY: u32 = {EMPTY}u;\n\
+         const WALL_KEY: u32 = {}u;\n",
+        crate::engine::history::wall_key(0)
+    );
+    for (name, v) in [
+        ("ST_REBUILD", ST_REBUILD),
+        ("ST_BUILDS", ST_BUILDS),
+        ("ST_DEATHS", ST_DEATHS),
+        ("ST_MAX_OVERLAP", ST_MAX_OVERLAP),
+        ("ST_OVERLAP_STEP", ST_OVERLAP_STEP),
+        ("ST_FULL_STEP", ST_FULL_STEP),
+        ("ST_FULL_INDEX", ST_FULL_INDEX),
+        ("ST_LIST_OVERFLOW", ST_LIST_OVERFLOW),
+        ("ST_STEP", ST_STEP),
+        ("ST_CONTACTS", ST_CONTACTS),
+        ("ST_NONFINITE", ST_NONFINITE),
+    ] {
+        s += &format!("const {name}: u32 = {v}u;\n");
+    }
+    s
+}
+
+/// A contact law as the shaders read it (`LawKernel<f32>`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct LawGpu {
+    pub hertz: u32,
+    pub tangential: u32,
+    pub kn: f32,
+    pub kt: f32,
+    pub damp_n: f32,
+    pub damp_t: f32,
+    pub mu: f32,
+    pub pad: f32,
+}
+
+impl From<LawKernel<f32>> for LawGpu {
+    fn from(l: LawKernel<f32>) -> Self {
+        Self {
+            hertz: l.hertz as u32,
+            tangential: l.tangential as u32,
+            kn: l.kn_coef,
+            kt: l.kt_coef,
+            damp_n: l.damp_n,
+            damp_t: l.damp_t,
+            mu: l.mu,
+            pad: 0.0,
+        }
+    }
+}
+
+/// Per-run constants (one uniform buffer, rewritten on upload).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Params {
+    pub n: u32,
+    /// History slots per particle (0: no tangential history).
+    pub slots: u32,
+    /// Neighbour-list capacity per particle (a row is stride + 1 words: count, then indices).
+    pub stride: u32,
+    pub n_walls: u32,
+    pub nx: u32,
+    pub ny: u32,
+    pub nz: u32,
+    pub ncell: u32,
+    pub periodic_x: u32,
+    pub periodic_y: u32,
+    pub rotation: u32,
+    pub has_sink: u32,
+    /// Cells summed by one invocation of the chunked scan.
+    pub scan_chunk: u32,
+    pub n_chunks: u32,
+    pub groups_particles: u32,
+    pub groups_chunks: u32,
+    pub lo_x: f32,
+    pub lo_y: f32,
+    pub lo_z: f32,
+    pub sink_z: f32,
+    pub width_x: f32,
+    pub width_y: f32,
+    pub width_z: f32,
+    pub skin: f32,
+    pub box_lo_x: f32,
+    pub box_lo_y: f32,
+    pub box_len_x: f32,
+    pub box_len_y: f32,
+    pub gravity_x: f32,
+    pub gravity_y: f32,
+    pub gravity_z: f32,
+    pub dt: f32,
+    pub half_dt: f32,
+    /// (skin/2)²: the displacement that triggers a list rebuild, squared.
+    pub half_skin2: f32,
+    pub overlap_limit: f32,
+    pub pad: f32,
+    pub law_pp: LawGpu,
+    pub law_pw: LawGpu,
+}
+
+/// A wall as the shaders read it (the same numbers as `WallKernel<f32>`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WallGpu {
+    pub a: [f32; 4],
+    pub b: [f32; 4],
+    /// Rotation centre (x, y, 0) and angular velocity (rad/s) in w.
+    pub rot: [f32; 4],
+    /// 0 plane, 1 cylinder, 2 orifice plate.
+    pub kind: u32,
+    pub r: f32,
+    pub z0: f32,
+    pub z1: f32,
+}
+
+impl WallGpu {
+    /// The same conversion as `Wall::kernel::<f32>()` (whose fields are private to walls.rs).
+    pub fn of(w: &Wall) -> Self {
+        let f = |x: f64| x as f32;
+        let rot = match w.rotation {
+            Some(r) => [f(r.axis_xy[0]), f(r.axis_xy[1]), 0.0, f(r.omega_rad_per_s)],
+            None => [0.0; 4],
+        };
+        match w.shape {
+            WallShape::Plane { point, normal } => {
+                let l = (normal[0].powi(2) + normal[1].powi(2) + normal[2].powi(2)).sqrt();
+                Self {
+                    a: [f(point[0]), f(point[1]), f(point[2]), 0.0],
+                    b: [f(normal[0] / l), f(normal[1] / l), f(normal[2] / l), 0.0],
+                    rot,
+                    kind: 0,
+                    r: 0.0,
+                    z0: 0.0,
+                    z1: 0.0,
+                }
+            }
+            WallShape::Cylinder {
+                axis_xy,
+                radius,
+                z_min,
+                z_max,
+            } => Self {
+                a: [f(axis_xy[0]), f(axis_xy[1]), 0.0, 0.0],
+                b: [0.0; 4],
+                rot,
+                kind: 1,
+                r: f(radius),
+                z0: f(z_min),
+                z1: f(z_max),
+            },
+            WallShape::OrificePlate {
+                z,
+                center_xy,
+                orifice_radius,
+            } => Self {
+                a: [f(center_xy[0]), f(center_xy[1]), f(z), 0.0],
+                b: [0.0; 4],
+                rot,
+                kind: 2,
+                r: f(orifice_radius),
+                z0: f(z),
+                z1: 0.0,
+            },
+        }
+    }
+}
+
+/// Per-particle constants and the alive flag.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Info {
+    pub id: u32,
+    /// 1 alive, 0 removed by the sink (kept in place until the host compacts).
+    pub alive: u32,
+    pub mass: f32,
+    pub inv_inertia: f32,
+}
+
+/// Force and torque of the last evaluation; force.w holds the contact count, torque.w the
+/// particle's largest overlap ratio.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Load {
+    pub force: [f32; 4],
+    pub torque: [f32; 4],
+}
+
+/// One history slot: the tangential spring and the partner key (`EMPTY` when free).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Slot {
+    pub spring: [f32; 3],
+    pub key: u32,
+}
+
+impl Default for Slot {
+    fn default() -> Self {
+        Self {
+            spring: [0.0; 3],
+            key: EMPTY,
+        }
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<Params>() == 208);
+const _: () = assert!(std::mem::size_of::<WallGpu>() == 64);
+const _: () = assert!(std::mem::size_of::<Slot>() == 16);

@@ -1,0 +1,18 @@
+//! The GPU backend (wgpu compute passes, WGSL in `shaders/`): device acquisition, buffers, grid
+//! choices, pipelines and the engine implementing `Backend` in f32.
+
+mod buffers;
+mod device;
+mod engine;
+mod grid;
+mod layout;
+mod pipelines;
+mod status;
+
+pub use buffers::{pack, unpack, Packed};
+pub use device::{
+    instance, is_hardware, list_adapters, required_limits, AdapterPolicy, AdapterReport, GpuDevice,
+};
+pub use engine::{GpuEngine, GpuOptions};
+pub use grid::{list_capacity, plan_grid, GridSpec};
+pub use layout::{MAX_WALLS, WORKGROUP_SIZE};

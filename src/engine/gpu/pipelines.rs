@@ -1,0 +1,297 @@
+//! Shader modules, explicit bind-group layouts and compute pipelines, built once per engine; bind
+//! groups are rebuilt whenever the buffers are (each upload). Every kernel binds only the buffers
+//! it uses, at most 8 storage buffers (WebGPU's default per-stage limit), in group 0 with the
+//! binding numbers of layout.rs.
+
+use std::num::NonZeroU64;
+
+use super::buffers::GpuBuffers;
+use super::device::GpuDevice;
+use super::layout::{binding as b, prelude, Params, WallGpu, MAX_WALLS, STATUS_WORDS};
+
+const INTEGRATE: &str = concat!(
+    include_str!("shaders/common.wgsl"),
+    include_str!("shaders/integrate.wgsl")
+);
+const GRID: &str = concat!(
+    include_str!("shaders/common.wgsl"),
+    include_str!("shaders/grid.wgsl")
+);
+const CONTACTS: &str = concat!(
+    include_str!("shaders/common.wgsl"),
+    include_str!("shaders/walls.wgsl"),
+    include_str!("shaders/contacts.wgsl")
+);
+
+/// The three shader modules.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Module {
+    Integrate,
+    Grid,
+    Contacts,
+}
+
+impl Module {
+    const ALL: [Module; 3] = [Module::Integrate, Module::Grid, Module::Contacts];
+
+    fn source(self) -> &'static str {
+        match self {
+            Module::Integrate => INTEGRATE,
+            Module::Grid => GRID,
+            Module::Contacts => CONTACTS,
+        }
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            Module::Integrate => "integrate.wgsl",
+            Module::Grid => "grid.wgsl",
+            Module::Contacts => "contacts.wgsl",
+        }
+    }
+
+    /// Whether a storage binding is declared `read` (not `read_write`) in this module.
+    fn read_only(self, binding: u32) -> bool {
+        match self {
+            Module::Integrate => matches!(binding, b::LOAD | b::REF_POS),
+            Module::Grid => matches!(binding, b::POS_R | b::INFO),
+            Module::Contacts => {
+                matches!(binding, b::POS_R | b::VEL_IM | b::OMEGA | b::INFO | b::NBR)
+            }
+        }
+    }
+}
+
+/// One compute kernel: its module, entry point and the bindings it uses.
+pub struct KernelSpec {
+    pub module: Module,
+    pub entry: &'static str,
+    pub bindings: &'static [u32],
+}
+
+/// Kernel indices into `KERNELS`.
+pub mod kernel {
+    pub const KICK_DRIFT: usize = 0;
+    pub const CLOSE_KICK: usize = 1;
+    pub const FINISH: usize = 2;
+    pub const PLAN_START: usize = 3;
+    pub const PLAN_STEP: usize = 4;
+    /// The six rebuild passes, in `layout::REBUILD_PASSES` order.
+    pub const REBUILD: [usize; 6] = [5, 6, 7, 8, 9, 10];
+    pub const COMPUTE_FORCES: usize = 11;
+}
+
+/// Every kernel of the engine.
+pub const KERNELS: [KernelSpec; 12] = [
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "kick_drift",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::REF_POS,
+            b::STATUS,
+            b::EVENTS,
+        ],
+    },
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "close_kick",
+        bindings: &[b::PARAMS, b::VEL_IM, b::OMEGA, b::INFO, b::LOAD],
+    },
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "finish",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::STATUS,
+        ],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "plan_start",
+        bindings: &[b::PARAMS, b::STATUS, b::INDIRECT],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "plan_step",
+        bindings: &[b::PARAMS, b::STATUS, b::INDIRECT],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "histogram",
+        bindings: &[b::PARAMS, b::POS_R, b::INFO, b::CELL_RANK, b::CELL_COUNT],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scan_chunks",
+        bindings: &[b::PARAMS, b::CELL_COUNT, b::CHUNK_SUMS],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scan_totals",
+        bindings: &[b::PARAMS, b::CHUNK_SUMS],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scan_apply",
+        bindings: &[b::PARAMS, b::CELL_COUNT, b::CELL_START, b::CHUNK_SUMS],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scatter",
+        bindings: &[b::PARAMS, b::INFO, b::CELL_RANK, b::CELL_START, b::SORTED],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "build_list",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::INFO,
+            b::NBR,
+            b::REF_POS,
+            b::STATUS,
+            b::CELL_RANK,
+            b::CELL_START,
+            b::SORTED,
+        ],
+    },
+    KernelSpec {
+        module: Module::Contacts,
+        entry: "compute_forces",
+        bindings: &[
+            b::PARAMS,
+            b::WALLS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::HIST,
+            b::NBR,
+            b::STATUS,
+        ],
+    },
+];
+
+/// Smallest valid binding size of each buffer: one record.
+fn min_size(binding: u32) -> u64 {
+    match binding {
+        b::PARAMS => std::mem::size_of::<Params>() as u64,
+        b::WALLS => (std::mem::size_of::<WallGpu>() * MAX_WALLS) as u64,
+        b::LOAD => 32,
+        b::STATUS => STATUS_WORDS as u64 * 4,
+        b::EVENTS | b::CELL_RANK => 8,
+        b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED => 4,
+        b::INDIRECT => 12,
+        _ => 16,
+    }
+}
+
+/// Layouts and pipelines of every kernel.
+pub struct Pipelines {
+    layouts: Vec<wgpu::BindGroupLayout>,
+    pub pipelines: Vec<wgpu::ComputePipeline>,
+}
+
+/// The bind groups of one set of buffers, one per kernel.
+pub struct BindGroups(pub Vec<wgpu::BindGroup>);
+
+impl Pipelines {
+    /// Compiles every module and builds every pipeline.
+    pub fn new(dev: &GpuDevice) -> Self {
+        let d = &dev.device;
+        let pre = prelude();
+        let modules: Vec<wgpu::ShaderModule> = Module::ALL
+            .iter()
+            .map(|m| {
+                d.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(m.label()),
+                    source: wgpu::ShaderSource::Wgsl(format!("{pre}{}", m.source()).into()),
+                })
+            })
+            .collect();
+        let mut layouts = Vec::new();
+        let mut pipelines = Vec::new();
+        for k in &KERNELS {
+            let entries: Vec<wgpu::BindGroupLayoutEntry> = k
+                .bindings
+                .iter()
+                .map(|&n| wgpu::BindGroupLayoutEntry {
+                    binding: n,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: if n == b::PARAMS || n == b::WALLS {
+                            wgpu::BufferBindingType::Uniform
+                        } else {
+                            wgpu::BufferBindingType::Storage {
+                                read_only: k.module.read_only(n),
+                            }
+                        },
+                        has_dynamic_offset: false,
+                        min_binding_size: NonZeroU64::new(min_size(n)),
+                    },
+                    count: None,
+                })
+                .collect();
+            let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(k.entry),
+                entries: &entries,
+            });
+            let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(k.entry),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let module = &modules[Module::ALL.iter().position(|&m| m == k.module).unwrap_or(0)];
+            pipelines.push(d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(k.entry),
+                layout: Some(&pl),
+                module,
+                entry_point: Some(k.entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &[],
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            }));
+            layouts.push(layout);
+        }
+        Self { layouts, pipelines }
+    }
+
+    /// Bind groups of every kernel over `bufs`.
+    pub fn bind(&self, dev: &GpuDevice, bufs: &GpuBuffers) -> BindGroups {
+        BindGroups(
+            KERNELS
+                .iter()
+                .zip(&self.layouts)
+                .map(|(k, layout)| {
+                    let entries: Vec<wgpu::BindGroupEntry> = k
+                        .bindings
+                        .iter()
+                        .map(|&n| wgpu::BindGroupEntry {
+                            binding: n,
+                            resource: bufs.get(n).as_entire_binding(),
+                        })
+                        .collect();
+                    dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(k.entry),
+                        layout,
+                        entries: &entries,
+                    })
+                })
+                .collect(),
+        )
+    }
+}

@@ -1,0 +1,142 @@
+// Shared by every kernel: the records of layout.rs, the uniform parameters and the periodic
+// minimum image. The generated prelude before this file defines WG, MAX_SLOTS, MAX_WALLS, EMPTY,
+// WALL_KEY and the ST_* status words. Arithmetic is written in the CPU engine's order
+// (contact/force.rs, grid.rs, cpu.rs) so that f32 results agree to rounding.
+
+struct Law {
+    hertz: u32,
+    tangential: u32,
+    kn: f32,
+    kt: f32,
+    damp_n: f32,
+    damp_t: f32,
+    mu: f32,
+    pad: f32,
+}
+
+struct Params {
+    n: u32,
+    slots: u32,
+    stride: u32,
+    n_walls: u32,
+    nx: u32,
+    ny: u32,
+    nz: u32,
+    ncell: u32,
+    periodic_x: u32,
+    periodic_y: u32,
+    rotation: u32,
+    has_sink: u32,
+    scan_chunk: u32,
+    n_chunks: u32,
+    groups_particles: u32,
+    groups_chunks: u32,
+    lo_x: f32,
+    lo_y: f32,
+    lo_z: f32,
+    sink_z: f32,
+    width_x: f32,
+    width_y: f32,
+    width_z: f32,
+    skin: f32,
+    box_lo_x: f32,
+    box_lo_y: f32,
+    box_len_x: f32,
+    box_len_y: f32,
+    gravity_x: f32,
+    gravity_y: f32,
+    gravity_z: f32,
+    dt: f32,
+    half_dt: f32,
+    half_skin2: f32,
+    overlap_limit: f32,
+    pad: f32,
+    law_pp: Law,
+    law_pw: Law,
+}
+
+struct Wall {
+    a: vec4<f32>,
+    b: vec4<f32>,
+    rot: vec4<f32>,
+    kind: u32,
+    r: f32,
+    z0: f32,
+    z1: f32,
+}
+
+struct Walls {
+    w: array<Wall, MAX_WALLS>,
+}
+
+struct Info {
+    id: u32,
+    alive: u32,
+    mass: f32,
+    inv_inertia: f32,
+}
+
+struct Load {
+    force: vec4<f32>,
+    torque: vec4<f32>,
+}
+
+struct Slot {
+    spring: vec3<f32>,
+    key: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+
+// a · b summed left to right, as V3::dot.
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+// a × b, as V3::cross.
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+// Minimum-image separation b − a (Periodic::delta).
+fn min_image(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    var d = b - a;
+    if (params.periodic_x != 0u) {
+        let l = params.box_len_x;
+        d.x = d.x - l * floor(d.x / l + 0.5);
+    }
+    if (params.periodic_y != 0u) {
+        let l = params.box_len_y;
+        d.y = d.y - l * floor(d.y / l + 0.5);
+    }
+    return d;
+}
+
+// A position wrapped into the periodic box (Periodic::wrap).
+fn wrap(p: vec3<f32>) -> vec3<f32> {
+    var q = p;
+    if (params.periodic_x != 0u) {
+        let l = params.box_len_x;
+        q.x = q.x - l * floor((q.x - params.box_lo_x) / l);
+    }
+    if (params.periodic_y != 0u) {
+        let l = params.box_len_y;
+        q.y = q.y - l * floor((q.y - params.box_lo_y) / l);
+    }
+    return q;
+}
+
+// Neighbour lists and history slots are stored slot-major (word k of particle i at k n + i), so
+// that neighbouring invocations read neighbouring words (coalesced on a GPU, one cache line per
+// SIMD group on lavapipe). List word 0 is the count, words 1.. the neighbours.
+fn nbr_at(i: u32, k: u32) -> u32 {
+    return k * params.n + i;
+}
+
+fn slot_at(i: u32, s: u32) -> u32 {
+    return s * params.n + i;
+}
+
+fn gravity() -> vec3<f32> {
+    return vec3<f32>(params.gravity_x, params.gravity_y, params.gravity_z);
+}

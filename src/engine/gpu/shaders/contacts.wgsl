@@ -1,0 +1,222 @@
+// Contact forces, gathered per particle (each particle computes the forces on itself from its
+// full list: no float atomics), with the contact law of contact/force.rs and the history rows of
+// history.rs: the old rows are read into private memory, looked up by partner key, and rewritten
+// packed with only the contacts that exist this step (particles in list order, then walls).
+
+@group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> vel_im: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> omega: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> info: array<Info>;
+@group(0) @binding(6) var<storage, read_write> load: array<Load>;
+@group(0) @binding(7) var<storage, read_write> hist: array<Slot>;
+@group(0) @binding(8) var<storage, read> nbr: array<u32>;
+@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
+
+var<private> old_key: array<u32, MAX_SLOTS>;
+var<private> old_spring: array<vec3<f32>, MAX_SLOTS>;
+var<private> old_len: u32;
+var<private> new_len: u32;
+var<private> full: bool;
+
+fn rows_open(i: u32) {
+    old_len = 0u;
+    new_len = 0u;
+    full = false;
+    loop {
+        if (old_len >= params.slots) { break; }
+        let s = hist[slot_at(i, old_len)];
+        if (s.key == EMPTY) { break; }
+        old_key[old_len] = s.key;
+        old_spring[old_len] = s.spring;
+        old_len++;
+    }
+}
+
+fn rows_get(key: u32) -> vec3<f32> {
+    for (var s = 0u; s < old_len; s++) {
+        if (old_key[s] == key) { return old_spring[s]; }
+    }
+    return vec3<f32>(0.0);
+}
+
+fn rows_put(i: u32, key: u32, spring: vec3<f32>) {
+    if (new_len >= params.slots) {
+        full = true;
+        return;
+    }
+    hist[slot_at(i, new_len)] = Slot(spring, key);
+    new_len++;
+}
+
+fn rows_close(i: u32) {
+    for (var s = new_len; s < max(old_len, new_len); s++) {
+        hist[slot_at(i, s)] = Slot(vec3<f32>(0.0), EMPTY);
+    }
+}
+
+// The force on i (contact_force in contact/force.rs); updates the tangential spring in place.
+fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: f32, m_eff: f32,
+                 spring: ptr<function, vec3<f32>>) -> vec3<f32> {
+    let vn = dot3(v_rel, n);
+    // Hertz stiffnesses grow as √(R*δ); computed once for both directions.
+    var sq = 1.0;
+    if (law.hertz != 0u) {
+        sq = sqrt(r_eff * overlap);
+    }
+    var kn = law.kn;
+    var sn = law.kn;
+    if (law.hertz != 0u) {
+        kn = law.kn * sq;
+        // S_n = 2 Y* √(Rδ) = 3/2 k_n.
+        sn = kn * 1.5;
+    }
+    let gamma_n = law.damp_n * sqrt(sn * m_eff);
+    let fn_mag = kn * overlap - gamma_n * vn;
+    var f = n * fn_mag;
+    if (law.tangential != 0u) {
+        let kt = law.kt * sq;
+        let gamma_t = law.damp_t * sqrt(kt * m_eff);
+        let vt = v_rel - n * vn;
+        // Turn the old spring into the tangent plane, keeping its length.
+        let old = *spring;
+        let old2 = dot3(old, old);
+        var s = old - n * dot3(old, n);
+        let s2 = dot3(s, s);
+        if (s2 > 0.0) {
+            s = s * sqrt(old2 / s2);
+        }
+        s = s + vt * params.dt;
+        var ft = -(s * kt) - vt * gamma_t;
+        let limit = law.mu * abs(fn_mag);
+        let ft2 = dot3(ft, ft);
+        if (ft2 > limit * limit) {
+            ft = ft * (limit / sqrt(ft2));
+            s = -(ft + vt * gamma_t) * (1.0 / kt);
+        }
+        *spring = s;
+        f = f + ft;
+    }
+    return f;
+}
+
+@compute @workgroup_size(WG)
+fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    let use_rows = params.slots > 0u;
+    if (use_rows) {
+        rows_open(i);
+    }
+    var f = vec3<f32>(0.0);
+    var t = vec3<f32>(0.0);
+    var max_ov = 0.0;
+    var nc = 0u;
+    let me = info[i];
+    if (me.alive == 0u) {
+        if (use_rows) {
+            rows_close(i);
+        }
+        load[i] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        return;
+    }
+    let p4 = pos_r[i];
+    let pi = p4.xyz;
+    let ri = p4.w;
+    let mi = me.mass;
+    let v4 = vel_im[i];
+    let vi = v4.xyz;
+    let rotation = params.rotation != 0u;
+    var wi = vec3<f32>(0.0);
+    if (rotation) {
+        wi = omega[i].xyz;
+    }
+    let fixed_i = v4.w == 0.0;
+    let cnt = nbr[nbr_at(i, 0u)];
+    for (var q = 0u; q < cnt; q++) {
+        let j = nbr[nbr_at(i, 1u + q)];
+        let other = info[j];
+        if (other.alive == 0u) { continue; }
+        let vj4 = vel_im[j];
+        // Fixed particles feel no force: skip pairs of two fixed ones entirely.
+        let fixed_j = vj4.w == 0.0;
+        if (fixed_i && fixed_j) { continue; }
+        let pj4 = pos_r[j];
+        let d = min_image(pj4.xyz, pi); // from j to i
+        let rj = pj4.w;
+        let dist2 = dot3(d, d);
+        let sum = ri + rj;
+        if (dist2 >= sum * sum) { continue; }
+        let dist = sqrt(dist2);
+        let n = d * (1.0 / dist);
+        let overlap = sum - dist;
+        let half_ov = overlap * 0.5;
+        let bi = -(n * (ri - half_ov));
+        let bj = n * (rj - half_ov);
+        var wj = vec3<f32>(0.0);
+        if (rotation) {
+            wj = omega[j].xyz;
+        }
+        let v_rel = (vi + cross3(wi, bi)) - (vj4.xyz + cross3(wj, bj));
+        let mj = other.mass;
+        // A fixed partner acts as infinitely heavy.
+        var m_eff = mi * mj / (mi + mj);
+        if (fixed_j) {
+            m_eff = mi;
+        } else if (fixed_i) {
+            m_eff = mj;
+        }
+        var spring = vec3<f32>(0.0);
+        if (use_rows) {
+            spring = rows_get(other.id);
+        }
+        let fc = contact_force(params.law_pp, overlap, n, v_rel, ri * rj / sum, m_eff, &spring);
+        if (use_rows) {
+            rows_put(i, other.id, spring);
+        }
+        f = f + fc;
+        t = t + cross3(bi, fc);
+        max_ov = max(max_ov, overlap / (min(ri, rj) * 2.0));
+        nc++;
+    }
+    if (!fixed_i) {
+        for (var w = 0u; w < params.n_walls; w++) {
+            let wc = wall_touch(walls.w[w], pi, ri);
+            if (!wc.hit) { continue; }
+            let n = wc.normal;
+            let bi = -(n * (ri - wc.overlap * 0.5));
+            let v_rel = vi + cross3(wi, bi) - wc.wall_velocity;
+            let key = WALL_KEY | w;
+            var spring = vec3<f32>(0.0);
+            if (use_rows) {
+                spring = rows_get(key);
+            }
+            let fc = contact_force(params.law_pw, wc.overlap, n, v_rel, ri, mi, &spring);
+            if (use_rows) {
+                rows_put(i, key, spring);
+            }
+            f = f + fc;
+            t = t + cross3(bi, fc);
+            max_ov = max(max_ov, wc.overlap / (ri * 2.0));
+            nc++;
+        }
+    }
+    if (fixed_i) {
+        f = vec3<f32>(0.0);
+        t = vec3<f32>(0.0);
+    }
+    if (use_rows) {
+        rows_close(i);
+    }
+    load[i] = Load(vec4<f32>(f, f32(nc)), vec4<f32>(t, max_ov));
+    let k = atomicLoad(&status[ST_STEP]);
+    if (full) {
+        atomicMin(&status[ST_FULL_STEP], k);
+        atomicMin(&status[ST_FULL_INDEX], i);
+    }
+    if (max_ov > bitcast<f32>(atomicLoad(&status[ST_MAX_OVERLAP]))) {
+        atomicMax(&status[ST_MAX_OVERLAP], bitcast<u32>(max_ov));
+    }
+    if (max_ov > params.overlap_limit) {
+        atomicMin(&status[ST_OVERLAP_STEP], k);
+    }
+}

@@ -1,0 +1,218 @@
+// Neighbour search: a uniform cell grid filled by a counting sort (atomic histogram, chunked
+// prefix sum, scatter of particle indices), then a full Verlet list per particle with cutoff
+// r_i + r_j + skin, sorted by particle index so that force sums do not depend on the order the
+// atomics happened to run in. `plan_*` decide on the device whether the rebuild passes run: they
+// write the indirect dispatch sizes (zero workgroups when the lists are still valid).
+
+@group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> info: array<Info>;
+@group(0) @binding(8) var<storage, read_write> nbr: array<u32>;
+@group(0) @binding(9) var<storage, read_write> ref_pos: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> cell_rank: array<vec2<u32>>;
+@group(0) @binding(13) var<storage, read_write> cell_count: array<atomic<u32>>;
+@group(0) @binding(14) var<storage, read_write> cell_start: array<u32>;
+@group(0) @binding(15) var<storage, read_write> chunk_sums: array<u32>;
+@group(0) @binding(16) var<storage, read_write> sorted: array<u32>;
+@group(0) @binding(17) var<storage, read_write> indirect: array<u32>;
+
+fn set_groups(pass_index: u32, groups: u32) {
+    indirect[pass_index * 3u] = groups;
+    indirect[pass_index * 3u + 1u] = 1u;
+    indirect[pass_index * 3u + 2u] = 1u;
+}
+
+fn plan(inc: u32) {
+    atomicStore(&status[ST_STEP], atomicLoad(&status[ST_STEP]) + inc);
+    let go = atomicLoad(&status[ST_REBUILD]) != 0u;
+    atomicStore(&status[ST_REBUILD], 0u);
+    if (go) {
+        atomicAdd(&status[ST_BUILDS], 1u);
+    }
+    let gp = select(0u, params.groups_particles, go);
+    let gc = select(0u, params.groups_chunks, go);
+    set_groups(0u, gp); // histogram
+    set_groups(1u, gc); // scan_chunks
+    set_groups(2u, select(0u, 1u, go)); // scan_totals
+    set_groups(3u, gc); // scan_apply
+    set_groups(4u, gp); // scatter
+    set_groups(5u, gp); // build_list
+}
+
+// Chunk start: the lists are always rebuilt (as on the CPU), the step counter stays.
+@compute @workgroup_size(1)
+fn plan_start() {
+    plan(0u);
+}
+
+// After each step's drift: one more step done; rebuild if some particle moved > skin/2.
+@compute @workgroup_size(1)
+fn plan_step() {
+    plan(1u);
+}
+
+fn axis_cell(x: f32, lo: f32, w: f32, n: u32, periodic: bool) -> u32 {
+    let c = i32(clamp(floor((x - lo) / w), -1.0e9, 1.0e9));
+    let ni = i32(n);
+    if (periodic) {
+        return u32(((c % ni) + ni) % ni);
+    }
+    return u32(clamp(c, 0, ni - 1));
+}
+
+fn cell_of(p: vec3<f32>) -> vec3<u32> {
+    return vec3<u32>(
+        axis_cell(p.x, params.lo_x, params.width_x, params.nx, params.periodic_x != 0u),
+        axis_cell(p.y, params.lo_y, params.width_y, params.ny, params.periodic_y != 0u),
+        axis_cell(p.z, params.lo_z, params.width_z, params.nz, false),
+    );
+}
+
+@compute @workgroup_size(WG)
+fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    if (info[i].alive == 0u) { return; }
+    let c3 = cell_of(pos_r[i].xyz);
+    let c = (c3.z * params.ny + c3.y) * params.nx + c3.x;
+    cell_rank[i] = vec2<u32>(c, atomicAdd(&cell_count[c], 1u));
+}
+
+// Chunked exclusive scan, barrier-free: each invocation sums a run of scan_chunk cells...
+@compute @workgroup_size(WG)
+fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = gid.x;
+    if (c >= params.n_chunks) { return; }
+    let a = c * params.scan_chunk;
+    let b = min(a + params.scan_chunk, params.ncell);
+    var s = 0u;
+    for (var k = a; k < b; k++) {
+        s += atomicLoad(&cell_count[k]);
+    }
+    chunk_sums[c] = s;
+}
+
+// ...one invocation scans the run totals...
+@compute @workgroup_size(1)
+fn scan_totals() {
+    var run = 0u;
+    for (var c = 0u; c < params.n_chunks; c++) {
+        let s = chunk_sums[c];
+        chunk_sums[c] = run;
+        run += s;
+    }
+}
+
+// ...and each invocation writes its run's starts, zeroing the counts for the next build.
+@compute @workgroup_size(WG)
+fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = gid.x;
+    if (c >= params.n_chunks) { return; }
+    let a = c * params.scan_chunk;
+    let b = min(a + params.scan_chunk, params.ncell);
+    var run = chunk_sums[c];
+    for (var k = a; k < b; k++) {
+        cell_start[k] = run;
+        run += atomicLoad(&cell_count[k]);
+        atomicStore(&cell_count[k], 0u);
+    }
+    if (c + 1u == params.n_chunks) {
+        cell_start[params.ncell] = run;
+    }
+}
+
+@compute @workgroup_size(WG)
+fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    if (info[i].alive == 0u) { return; }
+    let cr = cell_rank[i];
+    sorted[cell_start[cr.x] + cr.y] = i;
+}
+
+// The o-th (0, 1, 2) neighbour of cell c on an axis of n cells, or −1. On a periodic axis with
+// fewer than 3 cells the offsets −1 and +1 meet the same cells and are visited once (grid.rs).
+fn around(c: u32, o: u32, n: u32, periodic: bool) -> i32 {
+    let ni = i32(n);
+    if (periodic) {
+        if (o >= n) { return -1; }
+        let d = select(select(-1, 1, o == 1u), 0, o == 0u);
+        return (i32(c) + d + ni) % ni;
+    }
+    let x = i32(c) + i32(o) - 1;
+    if (x < 0 || x >= ni) { return -1; }
+    return x;
+}
+
+// Appends the particles of sorted[a..b) within the cutoff of i to i's row; returns the count.
+fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
+    var k = k0;
+    for (var s = a; s < b; s++) {
+        let j = sorted[s];
+        if (j == i) { continue; }
+        let pj = pos_r[j];
+        let d = min_image(p, pj.xyz);
+        let cut = ri + pj.w + params.skin;
+        if (dot3(d, d) < cut * cut) {
+            if (k < params.stride) {
+                nbr[nbr_at(i, 1u + k)] = j;
+            }
+            k++;
+        }
+    }
+    return k;
+}
+
+@compute @workgroup_size(WG)
+fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    let p4 = pos_r[i];
+    ref_pos[i] = p4;
+    if (info[i].alive == 0u) {
+        nbr[nbr_at(i, 0u)] = 0u;
+        return;
+    }
+    let p = p4.xyz;
+    let c = cell_of(p);
+    let px = params.periodic_x != 0u;
+    // Three x-adjacent cells are one contiguous run of `sorted` unless the run wraps.
+    let contiguous = !px || (params.nx >= 3u && c.x >= 1u && c.x + 2u <= params.nx);
+    let x_lo = select(c.x, c.x - 1u, c.x >= 1u);
+    let x_hi = min(c.x + 1u, params.nx - 1u);
+    var k = 0u;
+    for (var oz = 0u; oz < 3u; oz++) {
+        let z = around(c.z, oz, params.nz, false);
+        if (z < 0) { continue; }
+        for (var oy = 0u; oy < 3u; oy++) {
+            let y = around(c.y, oy, params.ny, params.periodic_y != 0u);
+            if (y < 0) { continue; }
+            let base = (u32(z) * params.ny + u32(y)) * params.nx;
+            if (contiguous) {
+                k = scan_range(i, p, p4.w, cell_start[base + x_lo], cell_start[base + x_hi + 1u], k);
+            } else {
+                for (var ox = 0u; ox < 3u; ox++) {
+                    let x = around(c.x, ox, params.nx, px);
+                    if (x < 0) { continue; }
+                    let cc = base + u32(x);
+                    k = scan_range(i, p, p4.w, cell_start[cc], cell_start[cc + 1u], k);
+                }
+            }
+        }
+    }
+    let m = min(k, params.stride);
+    // Insertion sort by particle index: a deterministic summation order.
+    for (var a = 1u; a < m; a++) {
+        let v = nbr[nbr_at(i, 1u + a)];
+        var b = a;
+        while (b > 0u && nbr[nbr_at(i, b)] > v) {
+            nbr[nbr_at(i, 1u + b)] = nbr[nbr_at(i, b)];
+            b--;
+        }
+        nbr[nbr_at(i, 1u + b)] = v;
+    }
+    nbr[nbr_at(i, 0u)] = m;
+    if (k > params.stride) {
+        atomicMax(&status[ST_LIST_OVERFLOW], k);
+    }
+}

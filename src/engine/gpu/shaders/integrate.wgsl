@@ -1,0 +1,83 @@
+// Velocity Verlet with the fused kick of cpu.rs: `kick_drift` kicks by dt/2 at a chunk's first
+// step and by dt after (the previous step's closing half kick and this step's opening one),
+// drifts, wraps, flags sink deaths and list staleness; `close_kick` is the chunk's closing half
+// kick; `finish` checks finiteness and counts contacts.
+
+@group(0) @binding(2) var<storage, read_write> pos_r: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> vel_im: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> omega: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> info: array<Info>;
+@group(0) @binding(6) var<storage, read> load: array<Load>;
+@group(0) @binding(9) var<storage, read> ref_pos: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(11) var<storage, read_write> events: array<vec2<u32>>;
+
+@compute @workgroup_size(WG)
+fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    let k = atomicLoad(&status[ST_STEP]);
+    let kick = select(params.dt, params.half_dt, k == 0u);
+    if (params.rotation != 0u) {
+        // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
+        let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * kick);
+        omega[i] = vec4<f32>(w, 0.0);
+    }
+    let vi = vel_im[i];
+    let im = vi.w;
+    if (im == 0.0 || info[i].alive == 0u) { return; }
+    let v = vi.xyz + (load[i].force.xyz * im + gravity()) * kick;
+    let x = wrap(pos_r[i].xyz + v * params.dt);
+    vel_im[i] = vec4<f32>(v, im);
+    pos_r[i] = vec4<f32>(x, pos_r[i].w);
+    if (params.has_sink != 0u && x.z < params.sink_z) {
+        info[i].alive = 0u;
+        let e = atomicAdd(&status[ST_DEATHS], 1u);
+        events[e] = vec2<u32>(i, k);
+    }
+    let d = min_image(ref_pos[i].xyz, x);
+    if (dot3(d, d) > params.half_skin2 && atomicLoad(&status[ST_REBUILD]) == 0u) {
+        atomicStore(&status[ST_REBUILD], 1u);
+    }
+}
+
+@compute @workgroup_size(WG)
+fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    let half = params.half_dt;
+    let vi = vel_im[i];
+    let im = vi.w;
+    if (im != 0.0 && info[i].alive != 0u) {
+        let v = vi.xyz + (load[i].force.xyz * im + gravity()) * half;
+        vel_im[i] = vec4<f32>(v, im);
+    }
+    if (params.rotation != 0u) {
+        let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * half);
+        omega[i] = vec4<f32>(w, 0.0);
+    }
+}
+
+fn is_finite3(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+@compute @workgroup_size(WG)
+fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    if (info[i].alive == 0u) { return; }
+    atomicAdd(&status[ST_CONTACTS], u32(load[i].force.w));
+    var kind = 3u;
+    if (!is_finite3(pos_r[i].xyz)) {
+        kind = 0u;
+    } else if (!is_finite3(vel_im[i].xyz)) {
+        kind = 1u;
+    } else if (params.rotation != 0u && !is_finite3(omega[i].xyz)) {
+        kind = 2u;
+    }
+    if (kind < 3u) {
+        atomicMin(&status[ST_NONFINITE], i * 4u + kind);
+    }
+}
