@@ -4,6 +4,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release
-./target/release/sweep launch campaigns/silo_QvsF_quick.json --db quick.db
+./target/release/sweep launch campaigns/silo_QvsF_quick.json --db quick.db --parallel 2
 ./target/release/sweep report --figure fig3 --db quick.db --out figures
 ./target/release/sweep report --figure fig4 --db quick.db --out figures
