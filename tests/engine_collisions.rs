@@ -6,71 +6,18 @@
 //!
 //! A failure means the force law, its damping or the integrator is wrong.
 
+mod common;
+
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
+use sweep::engine::CpuEngine;
 
 const R: f64 = 0.0029;
 const RHO: f64 = 2655.0;
 
-fn config(law: ContactLaw, dt: f64) -> EngineConfig {
-    EngineConfig {
-        dt_s: dt,
-        gravity: [0.0; 3],
-        particle_law: law,
-        wall_law: law,
-        walls: vec![],
-        periodic_x: None,
-        periodic_y: None,
-        sink_z: None,
-        skin_m: 0.2 * R,
-    }
-}
-
-/// Runs a head-on collision at relative speed `v`; returns (restitution, contact time).
+/// Runs a head-on collision at relative speed `v` on the CPU; returns (restitution, contact time).
 fn collide(law: ContactLaw, v: f64, n_c: f64) -> (f64, f64) {
-    let m = RHO * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
-    let pair = ContactPair {
-        r_eff: R / 2.0,
-        m_eff: m / 2.0,
-    };
-    let tc = contact_time(&law, pair, v);
-    let dt = tc / n_c;
-    let mut s = State::<f64>::new(law.friction > 0.0, if law.friction > 0.0 { 16 } else { 0 });
-    let gap = 0.5 * v * 5.0 * dt; // touch after ~5 steps
-    s.push_sphere(
-        0,
-        [-(R + gap / 2.0), 0.0, 0.0],
-        [v / 2.0, 0.0, 0.0],
-        R,
-        RHO,
-        false,
-    );
-    s.push_sphere(
-        1,
-        [R + gap / 2.0, 0.0, 0.0],
-        [-v / 2.0, 0.0, 0.0],
-        R,
-        RHO,
-        false,
-    );
-    let mut e = CpuEngine::new(config(law, dt), s, 1);
-    let mut t_in = None;
-    for _ in 0..(20.0 * n_c) as usize {
-        e.advance(1).unwrap();
-        let st = e.download();
-        let (a, b) = if st.id[0] == 0 { (0, 1) } else { (1, 0) };
-        let d = st.pos[b].x - st.pos[a].x;
-        if d < 2.0 * R && t_in.is_none() {
-            // Interpolate the touching instant within the step from the approach speed.
-            t_in = Some(st.time - (2.0 * R - d) / v);
-        }
-        if let (true, Some(t0)) = (d >= 2.0 * R, t_in) {
-            let vrel = st.vel[b].x - st.vel[a].x;
-            let t_out = st.time - (d - 2.0 * R) / vrel;
-            return (vrel / v, t_out - t0);
-        }
-    }
-    panic!("no separation");
+    let (config, state) = common::collision::head_on(law, v, n_c, R, RHO);
+    common::collision::collide(&mut CpuEngine::new(config, state, 1), v, R)
 }
 
 fn linear(e: f64, kn: f64) -> ContactLaw {

@@ -431,58 +431,6 @@ fn one_step_forces_and_torques_match_the_cpu() {
     }
 }
 
-/// A head-on collision at relative speed `v` on `b`; returns (restitution, contact time).
-fn collide(b: &mut dyn Backend, v: f64) -> (f64, f64) {
-    let mut t_in = None;
-    for _ in 0..100_000 {
-        b.advance(1).unwrap();
-        let st = b.download();
-        let (a, c) = if st.id[0] == 0 { (0, 1) } else { (1, 0) };
-        let d = st.pos[c].x - st.pos[a].x;
-        if d < 2.0 * R && t_in.is_none() {
-            t_in = Some(st.time - (2.0 * R - d) / v);
-        }
-        if let (true, Some(t0)) = (d >= 2.0 * R, t_in) {
-            let vrel = st.vel[c].x - st.vel[a].x;
-            let t_out = st.time - (d - 2.0 * R) / vrel;
-            return (vrel / v, t_out - t0);
-        }
-    }
-    panic!("no separation");
-}
-
-/// Two spheres approaching at `v`, touching after about 5 steps, and the time step t_c / n_c.
-fn pair(law: ContactLaw, v: f64, n_c: f64) -> (EngineConfig, State<f64>) {
-    let tc = contact_time(
-        &law,
-        ContactPair {
-            r_eff: R / 2.0,
-            m_eff: mass() / 2.0,
-        },
-        v,
-    );
-    let dt = tc / n_c;
-    let mut s = State::<f64>::new(false, 0);
-    let gap = 0.5 * v * 5.0 * dt;
-    s.push_sphere(
-        0,
-        [-(R + gap / 2.0), 0.0, 0.0],
-        [v / 2.0, 0.0, 0.0],
-        R,
-        RHO,
-        false,
-    );
-    s.push_sphere(
-        1,
-        [R + gap / 2.0, 0.0, 0.0],
-        [-v / 2.0, 0.0, 0.0],
-        R,
-        RHO,
-        false,
-    );
-    (config(law, dt, vec![], None), s)
-}
-
 #[test]
 fn restitution_and_contact_time_on_the_gpu() {
     let Some(dev) = device() else { return };
@@ -496,9 +444,9 @@ fn restitution_and_contact_time_on_the_gpu() {
     let omega = (kn / m_eff - (gamma / (2.0 * m_eff)).powi(2)).sqrt();
     for (law, tol, n_c) in [(lin, 0.01, 100.0), (hertz(0.9, 0.0), 0.02, 100.0)] {
         for v in [0.1, 1.0] {
-            let (cfg, s) = pair(law, v, n_c);
-            let (e_gpu, t_gpu) = collide(&mut gpu(&dev, &cfg, &s), v);
-            let (e_cpu, t_cpu) = collide(&mut cpu(&cfg, &s), v);
+            let (cfg, s) = common::collision::head_on(law, v, n_c, R, RHO);
+            let (e_gpu, t_gpu) = common::collision::collide(&mut gpu(&dev, &cfg, &s), v, R);
+            let (e_cpu, t_cpu) = common::collision::collide(&mut cpu(&cfg, &s), v, R);
             eprintln!("v = {v}: GPU e = {e_gpu:.6}, t_c = {t_gpu:.4e}; CPU f32 e = {e_cpu:.6}, t_c = {t_cpu:.4e}");
             assert!((e_gpu - 0.9).abs() / 0.9 < tol, "v = {v}: e = {e_gpu}");
             assert!(

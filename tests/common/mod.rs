@@ -1,4 +1,7 @@
-//! Helpers shared by the integration tests.
+//! Helpers shared by the integration tests. Each test crate uses only some of them.
+#![allow(dead_code)]
+
+pub mod collision;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
