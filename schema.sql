@@ -1,4 +1,5 @@
--- sweep's store. Version 1 (PRAGMA user_version = 1).
+-- sweep's store. Version 2 (PRAGMA user_version = 2). Every statement is idempotent (IF NOT EXISTS):
+-- migrating from an older version runs the whole file again, which adds the new tables.
 -- Units are in column names (SI). Results tables are meant for plain SQL use.
 
 CREATE TABLE IF NOT EXISTS campaigns (
@@ -95,4 +96,95 @@ CREATE TABLE IF NOT EXISTS bench_runs (
     state_checksum          TEXT NOT NULL,
     machine                 TEXT NOT NULL,
     created_at              TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+
+-- Chute flow of spherocylinders (Soft Matter 2022), one row per job. z is the height above the
+-- centres of the rough base's spheres (m); blocks are layers of height L (the particle length).
+CREATE TABLE IF NOT EXISTS chute_summary (
+    job_id                  INTEGER PRIMARY KEY REFERENCES jobs(id),
+    aspect_ratio            REAL NOT NULL,          -- xi = L/d
+    inclination_deg         REAL NOT NULL,          -- alpha
+    total_length_m          REAL NOT NULL,          -- L = l + d
+    diameter_m              REAL NOT NULL,          -- d
+    particles               INTEGER NOT NULL,       -- flowing particles (base excluded)
+    bed_height_m            REAL NOT NULL,          -- height where the time-averaged density falls to half its bulk value
+    steady_time_s           REAL,                   -- when the steady state was detected; NULL if never
+    steady_stress_ratio     REAL,                   -- bulk sigma_xz/sigma_zz at that time (-> tan alpha)
+    measure_start_s         REAL NOT NULL,
+    measure_end_s           REAL NOT NULL,
+    samples                 INTEGER NOT NULL,       -- snapshots used for the profiles
+    msd_fit_min_lag_s       REAL NOT NULL,          -- D is fitted to MSD_z = 2 D tau + c on this lag range
+    msd_fit_max_lag_s       REAL NOT NULL,
+    mean_cos_theta          REAL NOT NULL,          -- <cos theta>, theta between the axis and the plane normal to the flow
+    d_perp_m                REAL NOT NULL,          -- sqrt(4/pi (d l <cos theta> + pi d^2/4))
+    cg_width_m              REAL NOT NULL,          -- coarse-graining width w (cutoff 4 w)
+    steady                  INTEGER NOT NULL        -- 1 if the criteria held when measurement started
+);
+
+-- Per block of height L: D(z), shear rate and fields averaged over the block, v_z statistics.
+CREATE TABLE IF NOT EXISTS chute_blocks (
+    job_id                  INTEGER NOT NULL REFERENCES jobs(id),
+    block                   INTEGER NOT NULL,       -- k: particles with mean height in [k L, (k+1) L)
+    z_m                     REAL NOT NULL,          -- block centre
+    diffusion_m2_per_s      REAL,                   -- D_z from the MSD fit; NULL if too few particles
+    diffusion_stderr_m2_per_s REAL,
+    msd_fit_r               REAL,                   -- correlation coefficient of the MSD fit
+    shear_rate_per_s        REAL NOT NULL,          -- dV_x/dz averaged over the block
+    velocity_x_m_per_s      REAL NOT NULL,
+    solid_fraction          REAL NOT NULL,
+    mean_particles          REAL NOT NULL,          -- particles per snapshot in the block
+    vz_std_m_per_s          REAL,
+    vz_skewness             REAL,
+    correlation_length_m    REAL,                   -- from the fit ln C(r)/C(0) = -r/l
+    PRIMARY KEY (job_id, block)
+);
+
+-- MSD_z(tau) per block.
+CREATE TABLE IF NOT EXISTS chute_msd (
+    job_id      INTEGER NOT NULL REFERENCES jobs(id),
+    block       INTEGER NOT NULL,
+    lag_s       REAL NOT NULL,
+    msd_m2      REAL NOT NULL,
+    pairs       INTEGER NOT NULL,                   -- (particle, origin) pairs averaged
+    PRIMARY KEY (job_id, block, lag_s)
+);
+
+-- Coarse-grained z profiles (time averaged), on a grid finer than the blocks.
+CREATE TABLE IF NOT EXISTS chute_fields (
+    job_id               INTEGER NOT NULL REFERENCES jobs(id),
+    z_m                  REAL NOT NULL,
+    density_kg_per_m3    REAL NOT NULL,
+    velocity_x_m_per_s   REAL NOT NULL,
+    shear_rate_per_s     REAL NOT NULL,
+    stress_xz_pa         REAL NOT NULL,             -- kinetic + contact, compressive positive
+    stress_zz_pa         REAL NOT NULL,
+    PRIMARY KEY (job_id, z_m)
+);
+
+-- Standardised v_z PDF per block: (v_z - <v_z>)/std, histogram normalised to unit area.
+CREATE TABLE IF NOT EXISTS chute_vz_pdf (
+    job_id      INTEGER NOT NULL REFERENCES jobs(id),
+    block       INTEGER NOT NULL,
+    x           REAL NOT NULL,                      -- bin centre, in standard deviations
+    density     REAL NOT NULL,
+    PRIMARY KEY (job_id, block, x)
+);
+
+-- Spatial correlation of v_z fluctuations per block, bins of width L/4.
+CREATE TABLE IF NOT EXISTS chute_correlation (
+    job_id      INTEGER NOT NULL REFERENCES jobs(id),
+    block       INTEGER NOT NULL,
+    r_m         REAL NOT NULL,                      -- bin centre
+    c_m2_per_s2 REAL NOT NULL,
+    pairs       INTEGER NOT NULL,
+    PRIMARY KEY (job_id, block, r_m)
+);
+
+-- The approach to steady state: kinetic energy and bulk stress ratio over time.
+CREATE TABLE IF NOT EXISTS chute_series (
+    job_id              INTEGER NOT NULL REFERENCES jobs(id),
+    t_s                 REAL NOT NULL,
+    kinetic_energy_j    REAL NOT NULL,
+    stress_ratio        REAL,                       -- bulk sigma_xz/sigma_zz; NULL when not sampled
+    PRIMARY KEY (job_id, t_s)
 );

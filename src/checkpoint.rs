@@ -8,11 +8,12 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::engine::real::V3;
+use crate::engine::shape::Quat;
 use crate::engine::State;
 
 const MAGIC: &[u8; 8] = b"SWEEPCK\0";
 /// Format version; bump on any layout change (older files are then refused, not misread).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Header fields, readable without the payload.
 #[derive(Clone, Debug, PartialEq)]
@@ -159,6 +160,16 @@ pub fn encode(h: &Header, s: &State<f64>, extra: &str) -> Vec<u8> {
     p.v3s(&s.omega);
     p.v3s(&s.torque);
     p.f64s(&s.inv_inertia);
+    p.u32(s.oriented as u32);
+    p.u64(s.orientation.len() as u64);
+    for q in &s.orientation {
+        for x in q.to_f64() {
+            p.f64(x);
+        }
+    }
+    p.v3s(&s.ang_mom);
+    p.v3s(&s.inv_inertia_body);
+    p.f64s(&s.half_length);
     p.u64(s.history.slots as u64);
     p.u64(s.history.partner.len() as u64);
     for &k in &s.history.partner {
@@ -253,6 +264,21 @@ pub fn decode(
     let omega = p.v3s("angular velocities")?;
     let torque = p.v3s("torques")?;
     let inv_inertia = p.f64s("inverse inertia")?;
+    let oriented = p.u32("orientation flag")? != 0;
+    let nq = p.len("orientations", 32)?;
+    let mut orientation = Vec::with_capacity(nq);
+    for _ in 0..nq {
+        let q = [
+            p.f64("orientations")?,
+            p.f64("orientations")?,
+            p.f64("orientations")?,
+            p.f64("orientations")?,
+        ];
+        orientation.push(Quat::from_f64(q));
+    }
+    let ang_mom = p.v3s("angular momenta")?;
+    let inv_inertia_body = p.v3s("inverse principal moments")?;
+    let half_length = p.f64s("half lengths")?;
     let slots = p.u64("history slots")? as usize;
     let hn = p.len("history", 4)?;
     let partner = (0..hn)
@@ -273,6 +299,11 @@ pub fn decode(
     s.omega = omega;
     s.torque = torque;
     s.inv_inertia = inv_inertia;
+    s.oriented = oriented;
+    s.orientation = orientation;
+    s.ang_mom = ang_mom;
+    s.inv_inertia_body = inv_inertia_body;
+    s.half_length = half_length;
     s.history.partner = partner;
     s.history.spring = spring;
     s.time = time;

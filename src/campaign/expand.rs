@@ -8,13 +8,19 @@ use sha2::{Digest, Sha256};
 
 use super::error::{CampaignError, FieldProblem};
 use super::file::{CampaignFile, Observers, Precision, SceneKind};
-use crate::scene::SiloParams;
+use crate::scene::{ChuteParams, SiloParams};
 
 /// A fully resolved job.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct JobSpec {
     pub scene: SceneKind,
-    pub silo: SiloParams,
+    /// The silo's parameters (silo jobs); serialised as before chutes existed, so silo job
+    /// identities are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub silo: Option<SiloParams>,
+    /// The chute's parameters (chute jobs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chute: Option<ChuteParams>,
     pub observers: Observers,
     pub precision: Precision,
     /// Human-readable point of the sweep, e.g. "orifice_diameter_m=0.015,rotation_frequency_hz=0.5,replica=0".
@@ -41,9 +47,41 @@ impl JobSpec {
         u64::from_le_bytes(h[..8].try_into().expect("8 bytes"))
     }
 
+    /// The silo parameters of a silo job.
+    ///
+    /// # Panics
+    /// On a job of another scene (callers dispatch on `scene` first).
+    pub fn silo(&self) -> &SiloParams {
+        self.silo.as_ref().expect("a silo job")
+    }
+
+    /// The chute parameters of a chute job.
+    ///
+    /// # Panics
+    /// On a job of another scene.
+    pub fn chute(&self) -> &ChuteParams {
+        self.chute.as_ref().expect("a chute job")
+    }
+
+    /// Simulated time the job runs at most (s): the progress bar's target.
+    pub fn target_time_s(&self) -> f64 {
+        match self.scene {
+            SceneKind::Silo => self.silo().discharge_time_s,
+            SceneKind::Chute => self.chute().max_time_s(),
+        }
+    }
+
+    /// Number of mobile particles at the start.
+    pub fn particle_count(&self) -> usize {
+        match self.scene {
+            SceneKind::Silo => self.silo().particle_count,
+            SceneKind::Chute => self.chute().count(),
+        }
+    }
+
     /// Seed and key of the filling stage, shared by jobs that agree on the fill parameters.
     pub fn fill_key(&self) -> (String, u64) {
-        let v = serde_json::json!({ "scene": self.scene, "fill": self.silo.fill_stage(), "precision": self.precision });
+        let v = serde_json::json!({ "scene": self.scene, "fill": self.silo().fill_stage(), "precision": self.precision });
         let h = Sha256::digest(serde_json::to_string(&v).expect("json").as_bytes());
         (
             hex(&h),
@@ -63,7 +101,11 @@ fn hex(b: &[u8]) -> String {
 /// with the JSON path it came from (`sweep.orifice_diameter_m[2]`).
 pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignError> {
     let mut problems = Vec::new();
-    let known: Map<String, Value> = match serde_json::to_value(SiloParams::default()) {
+    let defaults = match c.scene {
+        SceneKind::Silo => serde_json::to_value(SiloParams::default()),
+        SceneKind::Chute => serde_json::to_value(ChuteParams::default()),
+    };
+    let known: Map<String, Value> = match defaults {
         Ok(Value::Object(m)) => m,
         _ => Map::new(),
     };
@@ -75,7 +117,7 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                 path: format!("{section}.{k}"),
                 message: format!(
                     "unknown {:?} parameter; expected one of: {}",
-                    c.scene,
+                    c.scene.name(),
                     names
                         .iter()
                         .map(|s| s.as_str())
@@ -153,6 +195,14 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             });
         }
     }
+    if let Some(ch) = &c.observers.chute {
+        for p in ch.problems() {
+            problems.push(FieldProblem {
+                path: format!("observers.chute.{}", p.field),
+                message: p.message,
+            });
+        }
+    }
     if !problems.is_empty() {
         return Err(CampaignError::Invalid {
             file: file.into(),
@@ -203,19 +253,41 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                     .find(|(k, _, _)| k == field)
                     .map_or_else(|| format!("base.{field}"), |(_, _, s)| s.clone())
             };
-            let params: SiloParams = match serde_path_to_error::deserialize(Value::Object(obj)) {
-                Ok(p) => p,
-                Err(e) => {
-                    let field = e.path().to_string();
-                    let field = field.split('.').next().unwrap_or("").to_string();
-                    problems.push(FieldProblem {
-                        path: source(&field),
-                        message: e.into_inner().to_string(),
-                    });
-                    continue;
+            let problem = |e: serde_path_to_error::Error<serde_json::Error>| {
+                let field = e.path().to_string();
+                let field = field.split('.').next().unwrap_or("").to_string();
+                FieldProblem {
+                    path: source(&field),
+                    message: e.into_inner().to_string(),
                 }
             };
-            for fe in params.validate() {
+            let (silo, chute, field_errors) = match c.scene {
+                SceneKind::Silo => {
+                    match serde_path_to_error::deserialize::<_, SiloParams>(Value::Object(obj)) {
+                        Ok(p) => {
+                            let e = p.validate();
+                            (Some(p), None, e)
+                        }
+                        Err(e) => {
+                            problems.push(problem(e));
+                            continue;
+                        }
+                    }
+                }
+                SceneKind::Chute => {
+                    match serde_path_to_error::deserialize::<_, ChuteParams>(Value::Object(obj)) {
+                        Ok(p) => {
+                            let e = p.validate();
+                            (None, Some(p), e)
+                        }
+                        Err(e) => {
+                            problems.push(problem(e));
+                            continue;
+                        }
+                    }
+                }
+            };
+            for fe in field_errors {
                 let p = FieldProblem {
                     path: source(&fe.field),
                     message: fe.message,
@@ -226,10 +298,15 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             }
             let mut label: Vec<String> = point.iter().map(|(k, v, _)| format!("{k}={v}")).collect();
             label.push(format!("replica={replica}"));
+            let mut observers = c.observers.clone();
+            if c.scene == SceneKind::Chute && observers.chute.is_none() {
+                observers.chute = Some(Default::default());
+            }
             jobs.push(JobSpec {
                 scene: c.scene,
-                silo: params,
-                observers: c.observers.clone(),
+                silo,
+                chute,
+                observers,
                 precision: c.run.precision,
                 label: label.join(","),
             });

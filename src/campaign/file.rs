@@ -6,6 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::error::CampaignError;
+use crate::observe::chute::ChuteObserverSettings;
 use crate::observe::discharge::DischargeSettings;
 
 /// Scene kinds a campaign can run.
@@ -14,6 +15,17 @@ use crate::observe::discharge::DischargeSettings;
 pub enum SceneKind {
     /// Silo with a rotating bottom (PRE 2020); parameters: see `SiloParams`.
     Silo,
+    /// Chute flow of spherocylinders (Soft Matter 2022); parameters: see `ChuteParams`.
+    Chute,
+}
+
+impl SceneKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKind::Silo => "silo",
+            SceneKind::Chute => "chute",
+        }
+    }
 }
 
 /// Floating-point precision of the run.
@@ -42,6 +54,10 @@ impl Precision {
 pub struct Observers {
     /// M(t), clogs and Q (silo).
     pub discharge: DischargeSettings,
+    /// MSD, D(z), coarse-grained profiles, v_z statistics, C(r) (chute). Absent from a silo
+    /// job's recorded parameters (so silo job identities do not depend on it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chute: Option<ChuteObserverSettings>,
 }
 
 /// How jobs run (none of these change results except `precision`).

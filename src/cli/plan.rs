@@ -67,21 +67,21 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         "job", "dt_s", "N", "steps", "particle-st", "wall_s"
     );
     for (k, j) in jobs.iter().enumerate() {
-        let scene = SiloScene::new(j.silo.clone()).map_err(|e| anyhow::anyhow!(e))?;
-        let steps_discharge = (j.silo.discharge_time_s / scene.dt).ceil();
+        let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
+        let steps_discharge = (j.silo().discharge_time_s / scene.dt).ceil();
         // The fill stage is shared by jobs with the same fill parameters: count it once.
         let fill = if fills.insert(j.fill_key().0) {
-            (j.silo.settle_max_time_s.min(1.0) / scene.dt).ceil()
+            (j.silo().settle_max_time_s.min(1.0) / scene.dt).ceil()
         } else {
             0.0
         };
         // Without re-insertion the silo empties towards `stop_remaining_fraction`: on average
         // about the mean of the start and the end counts are simulated.
-        let n = j.silo.particle_count as f64;
-        let n_mean = if j.silo.reinsert {
+        let n = j.silo().particle_count as f64;
+        let n_mean = if j.silo().reinsert {
             n
         } else {
-            n * (1.0 + j.silo.stop_remaining_fraction.max(0.5)) / 2.0
+            n * (1.0 + j.silo().stop_remaining_fraction.max(0.5)) / 2.0
         };
         let ps = n * fill + n_mean * steps_discharge;
         total_ps += ps;
@@ -90,7 +90,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
             k + 1,
             scene.dt,
-            j.silo.particle_count,
+            j.silo().particle_count,
             fill + steps_discharge,
             ps,
             wall,

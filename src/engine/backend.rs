@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::contact::ContactRecord;
 use super::state::State;
 
 /// A particle removed by the sink.
@@ -68,5 +69,11 @@ pub trait Backend: Send {
     fn download(&mut self) -> State<f64>;
     /// Replaces the state (a checkpoint being resumed, or particles inserted between chunks).
     fn upload(&mut self, state: &State<f64>);
+    /// Every contact of the current state, each once, with its force (stress observers ask for
+    /// it between chunks; the step loop never builds it).
+    ///
+    /// # Errors
+    /// A backend that cannot provide it, or a device failure.
+    fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError>;
     fn describe(&self) -> BackendInfo;
 }

@@ -6,9 +6,10 @@ use rayon::prelude::*;
 
 use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
-use super::contact::{contact_force, ContactInput, LawKernel};
+use super::contact::{contact_force, ContactInput, ContactRecord, LawKernel};
 use super::grid::{self, NeighbourList, Periodic};
 use super::history::{wall_key, Rows, MAX_SLOTS};
+use super::oriented::{self, OrientedContext};
 use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
@@ -151,6 +152,49 @@ impl<R: Real> CpuEngine<R> {
         };
 
         let full = self.pool.install(|| {
+            if self.state.oriented && slots == 0 {
+                return self
+                    .f_new
+                    .par_iter_mut()
+                    .zip(self.t_new.par_iter_mut())
+                    .zip(self.contacts.par_iter_mut())
+                    .enumerate()
+                    .with_min_len(MIN_LEN)
+                    .map(|(i, ((f, t), nc))| {
+                        let r = ctx.oriented(i).particle::<false>(i, None, &mut Vec::new());
+                        *f = r.0;
+                        *t = r.1;
+                        *nc = r.3;
+                        (r.4, r.2)
+                    })
+                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)));
+            }
+            if self.state.oriented {
+                let out = self
+                    .f_new
+                    .par_iter_mut()
+                    .zip(self.t_new.par_iter_mut())
+                    .zip(self.contacts.par_iter_mut());
+                return out
+                    .zip(
+                        hist.partner
+                            .par_chunks_mut(slots)
+                            .zip(hist.spring.par_chunks_mut(slots)),
+                    )
+                    .enumerate()
+                    .with_min_len(MIN_LEN)
+                    .map(|(i, (((f, t), nc), (p, s)))| {
+                        let mut rows = Rows::open(p, s);
+                        let r =
+                            ctx.oriented(i)
+                                .particle::<false>(i, Some(&mut rows), &mut Vec::new());
+                        *f = r.0;
+                        *t = r.1;
+                        *nc = r.3;
+                        (r.4, r.2)
+                    })
+                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)));
+            }
             let out = self
                 .f_new
                 .par_iter_mut()
@@ -166,7 +210,7 @@ impl<R: Real> CpuEngine<R> {
                 .with_min_len(MIN_LEN)
                 .map(|(i, (((f, t), nc), (p, s)))| {
                     let mut rows = Rows::open(p, s);
-                    let r = ctx.particle(i, Some(&mut rows));
+                    let r = ctx.particle::<false>(i, Some(&mut rows), &mut Vec::new());
                     *f = r.0;
                     *t = r.1;
                     *nc = r.3;
@@ -177,7 +221,7 @@ impl<R: Real> CpuEngine<R> {
                 out.enumerate()
                     .with_min_len(MIN_LEN)
                     .map(|(i, ((f, t), nc))| {
-                        let r = ctx.particle(i, None);
+                        let r = ctx.particle::<false>(i, None, &mut Vec::new());
                         *f = r.0;
                         *t = r.1;
                         *nc = r.3;
@@ -218,6 +262,61 @@ impl<R: Real> CpuEngine<R> {
         let alive = &mut self.alive;
         let refs = &self.list.ref_pos;
         let stale = refs.len() != s.pos.len();
+        if s.oriented {
+            let ref_axis = &self.list.ref_axis;
+            let stale = stale || ref_axis.len() != s.pos.len();
+            let half_skin = self.skin * R::from_f64(0.5);
+            return self.pool.install(|| {
+                (
+                    (
+                        s.vel.par_iter_mut(),
+                        s.pos.par_iter_mut(),
+                        s.force.par_iter(),
+                        s.inv_mass.par_iter(),
+                        alive.par_iter_mut(),
+                    ),
+                    (
+                        s.orientation.par_iter_mut(),
+                        s.ang_mom.par_iter_mut(),
+                        s.omega.par_iter_mut(),
+                        s.torque.par_iter(),
+                        s.inv_inertia_body.par_iter(),
+                        s.half_length.par_iter(),
+                    ),
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .with_min_len(MIN_LEN)
+                    .map(|(i, ((v, x, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
+                        if im == R::zero() || *a != ALIVE {
+                            return (false, false);
+                        }
+                        *v += (f * im + g) * kick;
+                        *x += *v * dt;
+                        periodic.wrap(x);
+                        let turned = oriented::kick_rotate(
+                            q,
+                            l,
+                            w,
+                            t,
+                            ii,
+                            h,
+                            (!stale).then(|| ref_axis[i]),
+                            kick,
+                            dt,
+                        );
+                        let died = matches!(sink, Some(zs) if x.z < zs);
+                        if died {
+                            *a = DYING;
+                        }
+                        // The ends of a rod move by at most |Δc| + (l/2)|Δu|.
+                        let moved =
+                            stale || periodic.delta(refs[i], *x).norm() + turned > half_skin;
+                        (died, moved)
+                    })
+                    .reduce(|| (false, false), |p, q| (p.0 || q.0, p.1 || q.1))
+            });
+        }
         self.pool.install(|| {
             if s.rotation {
                 (
@@ -279,7 +378,9 @@ impl<R: Real> CpuEngine<R> {
                         *v += (f * im + g) * half;
                     }
                 });
-            if s.rotation {
+            if s.oriented {
+                oriented::close_kick(s, half);
+            } else if s.rotation {
                 (
                     s.omega.par_iter_mut(),
                     s.torque.par_iter(),
@@ -327,6 +428,40 @@ impl<R: Real> CpuEngine<R> {
         Ok(max_ov)
     }
 
+    /// Every contact of the current state, each once, with the force of the last step (the
+    /// stored springs, not advanced: dt = 0), for stress observers. Runs only when asked.
+    pub fn contact_records(&mut self) -> Vec<ContactRecord> {
+        self.rebuild();
+        let n = self.state.len();
+        let slots = self.state.history.slots;
+        let mut hist = self.state.history.clone();
+        let ctx = ForceContext {
+            s: &self.state,
+            list: &self.list,
+            alive: &self.alive,
+            law_pp: &self.law_pp,
+            law_pw: &self.law_pw,
+            walls: &self.walls,
+            periodic: &self.periodic,
+            dt: R::zero(),
+        };
+        let mut out = Vec::new();
+        for i in 0..n {
+            let mut rows = (slots > 0).then(|| {
+                Rows::open(
+                    &mut hist.partner[i * slots..(i + 1) * slots],
+                    &mut hist.spring[i * slots..(i + 1) * slots],
+                )
+            });
+            if self.state.oriented {
+                ctx.oriented(i).particle::<true>(i, rows.as_mut(), &mut out);
+            } else {
+                ctx.particle::<true>(i, rows.as_mut(), &mut out);
+            }
+        }
+        out
+    }
+
     fn check_finite(&self) -> Result<(), EngineError> {
         let s = &self.state;
         for i in 0..s.len() {
@@ -339,6 +474,8 @@ impl<R: Real> CpuEngine<R> {
                 "velocity"
             } else if s.rotation && !s.omega[i].is_finite() {
                 "angular velocity"
+            } else if s.oriented && !(s.orientation[i].norm2().is_finite()) {
+                "orientation"
             } else {
                 continue;
             };
@@ -365,13 +502,33 @@ struct ForceContext<'a, R: Real> {
     dt: R,
 }
 
-impl<R: Real> ForceContext<'_, R> {
-    /// Force, torque, largest overlap ratio, contact count and "history full" for particle i.
+impl<'a, R: Real> ForceContext<'a, R> {
+    /// The gather of oriented particle i (`oriented.rs`).
     #[inline]
-    fn particle(
+    fn oriented(&self, i: usize) -> OrientedContext<'a, R> {
+        let cnt = self.list.count[i] as usize;
+        OrientedContext {
+            s: self.s,
+            neighbours: &self.list.index[i * self.list.stride..i * self.list.stride + cnt],
+            alive: self.alive,
+            alive_flag: ALIVE,
+            law_pp: self.law_pp,
+            law_pw: self.law_pw,
+            walls: self.walls,
+            periodic: self.periodic,
+            dt: self.dt,
+        }
+    }
+
+    /// Force, torque, largest overlap ratio, contact count and "history full" for particle i.
+    /// With `RECORD`, also appends each contact once (from the lower id, or from the mobile
+    /// particle when the partner is fixed) to `records`.
+    #[inline]
+    fn particle<const RECORD: bool>(
         &self,
         i: usize,
         mut rows: Option<&mut Rows<'_, R>>,
+        records: &mut Vec<ContactRecord>,
     ) -> (V3<R>, V3<R>, R, u32, bool) {
         let s = self.s;
         let mut f = V3::zero();
@@ -448,6 +605,16 @@ impl<R: Real> ForceContext<'_, R> {
             t += bi.cross(fc);
             max_ov = max_ov.max(overlap / (ri.min(rj) * R::from_f64(2.0)));
             nc += 1;
+            if RECORD && !fixed_i && (fixed_j || s.id[i] < s.id[j]) {
+                records.push(ContactRecord {
+                    i: s.id[i],
+                    j: Some(s.id[j]),
+                    pos_i: pi.to_f64(),
+                    branch: d.to_f64(),
+                    force_on_i: fc.to_f64(),
+                    j_fixed: fixed_j,
+                });
+            }
         }
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
@@ -479,6 +646,16 @@ impl<R: Real> ForceContext<'_, R> {
                     t += bi.cross(fc);
                     max_ov = max_ov.max(wc.overlap / (ri * R::from_f64(2.0)));
                     nc += 1;
+                    if RECORD {
+                        records.push(ContactRecord {
+                            i: s.id[i],
+                            j: None,
+                            pos_i: pi.to_f64(),
+                            branch: (-bi).to_f64(),
+                            force_on_i: fc.to_f64(),
+                            j_fixed: true,
+                        });
+                    }
                 }
             }
         }
@@ -543,6 +720,10 @@ impl<R: Real> Backend for CpuEngine<R> {
         self.state = state.convert();
         self.alive = vec![ALIVE; self.state.len()];
         self.list = NeighbourList::default();
+    }
+
+    fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
+        Ok(self.contact_records())
     }
 
     fn describe(&self) -> BackendInfo {

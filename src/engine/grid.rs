@@ -53,6 +53,8 @@ pub struct NeighbourList<R: Real> {
     pub index: Vec<u32>,
     /// Positions when the list was built (for the skin criterion).
     pub ref_pos: Vec<V3<R>>,
+    /// Axes when the list was built (oriented particles: a turn moves the ends too).
+    pub ref_axis: Vec<V3<R>>,
     pub builds: u64,
 }
 
@@ -105,7 +107,8 @@ fn axis<R: Real>(lo: f64, hi: f64, cell: f64, periodic: bool) -> Axis<R> {
     }
 }
 
-/// Sorts `state` by cell and rebuilds `list` with cutoff r_i + r_j + skin.
+/// Sorts `state` by cell and rebuilds `list` with cutoff r_i + r_j + skin (r the reach: the
+/// radius, plus l/2 for a spherocylinder).
 pub fn build<R: Real>(
     state: &mut State<R>,
     periodic: &Periodic<R>,
@@ -120,11 +123,19 @@ pub fn build<R: Real>(
         list.ref_pos.clear();
         return;
     }
-    let r_max = state
-        .radius
-        .iter()
-        .fold(R::zero(), |a, &b| a.max(b))
-        .to_f64();
+    // The reach of a particle from its centre: its radius, plus l/2 for a spherocylinder. Cells
+    // are sized from the longest particle.
+    let reach: Vec<R> = if state.oriented {
+        state
+            .radius
+            .iter()
+            .zip(&state.half_length)
+            .map(|(&r, &h)| r + h)
+            .collect()
+    } else {
+        state.radius.clone()
+    };
+    let r_max = reach.iter().fold(R::zero(), |a, &b| a.max(b)).to_f64();
     let mut cell = 2.0 * r_max + skin.to_f64();
     let mut lo = [f64::MAX; 3];
     let mut hi = [f64::MIN; 3];
@@ -178,12 +189,13 @@ pub fn build<R: Real>(
         fill[c as usize] += 1;
     }
     state.permute(&order);
+    let reach: Vec<R> = order.iter().map(|&o| reach[o as usize]).collect();
 
     if list.stride == 0 {
         list.stride = 32;
     }
     let pos = &state.pos;
-    let rad = &state.radius;
+    let rad = &reach;
     loop {
         let stride = list.stride;
         list.count.resize(n, 0);
@@ -240,4 +252,9 @@ pub fn build<R: Real>(
     }
     list.ref_pos.clear();
     list.ref_pos.extend_from_slice(&state.pos);
+    list.ref_axis.clear();
+    if state.oriented {
+        list.ref_axis
+            .extend(state.orientation.iter().map(|q| q.axis_z()));
+    }
 }

@@ -9,6 +9,7 @@ pub mod effects;
 pub mod gpu;
 pub mod grid;
 pub mod history;
+mod oriented;
 pub mod real;
 pub mod shape;
 pub mod state;

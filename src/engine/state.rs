@@ -5,6 +5,7 @@
 
 use super::history::History;
 use super::real::{Real, V3};
+use super::shape::{angular_momentum, angular_velocity, Quat, Spherocylinder};
 
 /// Particles of one run. Arrays that an effect does not need are empty (a sphere run without
 /// rotation has empty `omega` and `torque`).
@@ -30,6 +31,18 @@ pub struct State<R: Real> {
     pub history: History<R>,
     /// Whether angular velocities exist and are integrated.
     pub rotation: bool,
+    /// Whether particles have orientations (spherocylinders). Then `omega` is the lab angular
+    /// velocity derived from `ang_mom`, and the four arrays below exist; otherwise they are empty
+    /// and no orientation code runs.
+    pub oriented: bool,
+    /// Orientation, body → lab; the body z axis is the particle's axis.
+    pub orientation: Vec<Quat<R>>,
+    /// Angular momentum in the lab frame (kg m²/s): the integrated rotational variable.
+    pub ang_mom: Vec<V3<R>>,
+    /// Inverse principal moments (body frame, 1/(kg m²)); zero for fixed particles.
+    pub inv_inertia_body: Vec<V3<R>>,
+    /// Half the axis segment l/2 (m); 0 for spheres (the rough base).
+    pub half_length: Vec<R>,
     /// Simulated time (s) and step count.
     pub time: f64,
     pub step: u64,
@@ -41,6 +54,11 @@ impl<R: Real> State<R> {
     pub fn new(rotation: bool, history_slots: usize) -> Self {
         Self {
             rotation,
+            oriented: false,
+            orientation: Vec::new(),
+            ang_mom: Vec::new(),
+            inv_inertia_body: Vec::new(),
+            half_length: Vec::new(),
             id: Vec::new(),
             pos: Vec::new(),
             vel: Vec::new(),
@@ -55,6 +73,14 @@ impl<R: Real> State<R> {
             time: 0.0,
             step: 0,
         }
+    }
+
+    /// An empty state of oriented particles (spherocylinders; spheres among them have l = 0).
+    /// Rotation is always on.
+    pub fn new_oriented(history_slots: usize) -> Self {
+        let mut s = Self::new(true, history_slots);
+        s.oriented = true;
+        s
     }
 
     pub fn len(&self) -> usize {
@@ -76,6 +102,10 @@ impl<R: Real> State<R> {
         rho: f64,
         fixed: bool,
     ) {
+        if self.oriented {
+            let shape = Spherocylinder::sphere(radius);
+            return self.push_spherocylinder(id, pos, vel, [0.0, 0.0, 0.0, 1.0], shape, rho, fixed);
+        }
         let m = rho * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
         self.id.push(id);
         self.pos.push(V3::from_f64(pos));
@@ -93,6 +123,73 @@ impl<R: Real> State<R> {
                 .push(R::from_f64(if fixed { 0.0 } else { 1.0 / inertia }));
         }
         self.history.push_particle();
+    }
+
+    /// Adds a spherocylinder of density `rho` with orientation `q` ([x, y, z, w], body → lab) to
+    /// an oriented state, at rest in rotation. A `fixed` particle never moves or turns.
+    #[allow(clippy::too_many_arguments)]
+    pub fn push_spherocylinder(
+        &mut self,
+        id: u32,
+        pos: [f64; 3],
+        vel: [f64; 3],
+        q: [f64; 4],
+        shape: Spherocylinder<f64>,
+        rho: f64,
+        fixed: bool,
+    ) {
+        assert!(self.oriented, "push_spherocylinder needs an oriented state");
+        let m = shape.mass(rho);
+        let inertia = shape.inertia(rho);
+        self.id.push(id);
+        self.pos.push(V3::from_f64(pos));
+        self.vel.push(V3::from_f64(vel));
+        self.force.push(V3::zero());
+        self.radius.push(R::from_f64(shape.radius));
+        self.mass.push(R::from_f64(m));
+        self.inv_mass
+            .push(R::from_f64(if fixed { 0.0 } else { 1.0 / m }));
+        self.omega.push(V3::zero());
+        self.torque.push(V3::zero());
+        let inv = if fixed {
+            [0.0; 3]
+        } else {
+            [1.0 / inertia.x, 1.0 / inertia.y, 1.0 / inertia.z]
+        };
+        self.inv_inertia_body.push(V3::from_f64(inv));
+        self.orientation.push(Quat::from_f64(q).normalize());
+        self.ang_mom.push(V3::zero());
+        self.half_length.push(R::from_f64(shape.half_length));
+        self.history.push_particle();
+    }
+
+    /// Sets particle k's lab angular velocity (oriented states: through L = R I Rᵀ ω).
+    pub fn set_angular_velocity(&mut self, k: usize, omega: [f64; 3]) {
+        let w = V3::from_f64(omega);
+        if self.oriented {
+            let inv = self.inv_inertia_body[k];
+            let recip = |x: R| {
+                if x > R::zero() {
+                    R::one() / x
+                } else {
+                    R::zero()
+                }
+            };
+            let inertia = V3::new(recip(inv.x), recip(inv.y), recip(inv.z));
+            self.ang_mom[k] = angular_momentum(self.orientation[k], inertia, w);
+            self.omega[k] = angular_velocity(self.orientation[k], inv, self.ang_mom[k]);
+        } else {
+            self.omega[k] = w;
+        }
+    }
+
+    /// The unit axis (body z in the lab frame) of particle k; +z for unoriented states.
+    pub fn axis(&self, k: usize) -> V3<R> {
+        if self.oriented {
+            self.orientation[k].axis_z()
+        } else {
+            V3::new(R::zero(), R::zero(), R::one())
+        }
     }
 
     /// Reorders every array by `order` (new index k takes old index `order[k]`).
@@ -114,6 +211,10 @@ impl<R: Real> State<R> {
         take(&mut self.omega, order);
         take(&mut self.torque, order);
         take(&mut self.inv_inertia, order);
+        take(&mut self.orientation, order);
+        take(&mut self.ang_mom, order);
+        take(&mut self.inv_inertia_body, order);
+        take(&mut self.half_length, order);
         self.history.permute(order);
     }
 
@@ -133,7 +234,10 @@ impl<R: Real> State<R> {
                 continue;
             }
             e += 0.5 * self.mass[i].to_f64() * self.vel[i].norm2().to_f64();
-            if self.rotation {
+            if self.oriented {
+                // ½ ω·L with ω = R I⁻¹ Rᵀ L.
+                e += 0.5 * self.omega[i].dot(self.ang_mom[i]).to_f64();
+            } else if self.rotation {
                 let inv_i = self.inv_inertia[i].to_f64();
                 if inv_i > 0.0 {
                     e += 0.5 / inv_i * self.omega[i].norm2().to_f64();
@@ -180,6 +284,15 @@ impl<R: Real> State<R> {
             inv_inertia: c(&self.inv_inertia),
             history: self.history.convert(),
             rotation: self.rotation,
+            oriented: self.oriented,
+            orientation: self
+                .orientation
+                .iter()
+                .map(|q| Quat::from_f64(q.to_f64()))
+                .collect(),
+            ang_mom: cv(&self.ang_mom),
+            inv_inertia_body: cv(&self.inv_inertia_body),
+            half_length: c(&self.half_length),
             time: self.time,
             step: self.step,
         }

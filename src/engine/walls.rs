@@ -6,6 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::real::{Real, V3};
+use super::shape::{contact_plane, PlaneContact, Spherocylinder};
 
 /// Geometry of a wall (SI units).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -206,5 +207,67 @@ impl<R: Real> WallKernel<R> {
             overlap: rad - dist,
             wall_velocity,
         })
+    }
+
+    /// The contact of a spherocylinder (centre `c`, unit axis `axis`) with this wall, if they
+    /// overlap, and the wall's surface velocity there. Planes are exact (`shape::contact_plane`,
+    /// which gives a rod lying flat its contact under the centre). Cylinder and orifice plate
+    /// take the deepest of the axis' two end spheres and its centre sphere: exact for a rod
+    /// touching with one end, approximate for one lying along the surface (no scene of sweep puts
+    /// rods against those walls yet).
+    #[inline]
+    pub fn touch_oriented(
+        &self,
+        c: V3<R>,
+        axis: V3<R>,
+        shape: &Spherocylinder<R>,
+    ) -> Option<(PlaneContact<R>, V3<R>)> {
+        if self.kind == 0 || shape.half_length == R::zero() {
+            let pc = if self.kind == 0 {
+                contact_plane(c, axis, shape, self.a, self.b)?
+            } else {
+                let wc = self.touch(c, shape.radius)?;
+                let arm = -(wc.normal * (shape.radius - wc.overlap * R::from_f64(0.5)));
+                return Some((
+                    PlaneContact {
+                        normal: wc.normal,
+                        overlap: wc.overlap,
+                        arm,
+                    },
+                    wc.wall_velocity,
+                ));
+            };
+            let v = self.surface_velocity(c + pc.arm);
+            return Some((pc, v));
+        }
+        let h = axis * shape.half_length;
+        let mut best: Option<(PlaneContact<R>, V3<R>)> = None;
+        for offset in [h, -h, V3::zero()] {
+            if let Some(wc) = self.touch(c + offset, shape.radius) {
+                if best.is_none_or(|(b, _)| wc.overlap > b.overlap) {
+                    let arm = offset - wc.normal * (shape.radius - wc.overlap * R::from_f64(0.5));
+                    best = Some((
+                        PlaneContact {
+                            normal: wc.normal,
+                            overlap: wc.overlap,
+                            arm,
+                        },
+                        wc.wall_velocity,
+                    ));
+                }
+            }
+        }
+        best
+    }
+
+    /// Velocity of the wall's surface at `point` (zero unless the wall rotates).
+    #[inline]
+    fn surface_velocity(&self, point: V3<R>) -> V3<R> {
+        if self.omega != R::zero() {
+            let rel = point - self.rot_center;
+            V3::new(-self.omega * rel.y, self.omega * rel.x, R::zero())
+        } else {
+            V3::zero()
+        }
     }
 }

@@ -1,5 +1,10 @@
 //! Observers: read downloaded particle state, never change it; and the statistics and fits
 //! that turn their samples into results.
 
+pub mod chute;
+pub mod chute_stats;
+pub mod coarse_grain;
 pub mod discharge;
 pub mod fits;
+pub mod msd;
+pub mod steady;

@@ -1,8 +1,9 @@
 //! Job lifecycle: claim, run in chunks, heartbeat, checkpoint, resume, finish. `silo_job` runs one
-//! silo job; `pool` runs a campaign's pending jobs K at a time on this machine (the local
+//! silo job, `chute_job` one chute job; `pool` runs a campaign's pending jobs K at a time on this machine (the local
 //! executor); `backend` picks and builds the simulation backend.
 
 pub mod backend;
+pub mod chute_job;
 pub mod pool;
 pub mod silo_job;
 

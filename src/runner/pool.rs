@@ -123,7 +123,14 @@ pub fn run_pending(
                 if !bars {
                     println!("job {} started: {}", job.id, job.label);
                 }
-                let outcome = match run_silo_job(&mut conn, &job, &lease, &ctx) {
+                let scene = serde_json::from_str::<serde_json::Value>(&job.params_json)
+                    .ok()
+                    .and_then(|v| v["scene"].as_str().map(String::from));
+                let run = match scene.as_deref() {
+                    Some("chute") => super::chute_job::run_chute_job,
+                    _ => run_silo_job,
+                };
+                let outcome = match run(&mut conn, &job, &lease, &ctx) {
                     Ok(o) => o,
                     Err(e) => Outcome::Failed(format!("{e:#}")),
                 };

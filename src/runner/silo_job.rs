@@ -63,7 +63,8 @@ struct Progress {
     initial_count: usize,
 }
 
-fn job_dir(work: &Path, hash: &str) -> PathBuf {
+/// A job's own directory (checkpoints) under the work directory.
+pub(super) fn job_dir(work: &Path, hash: &str) -> PathBuf {
     work.join("jobs").join(&hash[..16])
 }
 
@@ -203,7 +204,7 @@ pub fn run_silo_job(
 ) -> anyhow::Result<Outcome> {
     let spec: JobSpec = serde_json::from_str(&job.params_json)
         .with_context(|| format!("job {}: stored parameters unreadable", job.id))?;
-    let scene = match SiloScene::new(spec.silo.clone()) {
+    let scene = match SiloScene::new(spec.silo().clone()) {
         Ok(s) => s,
         Err(e) => return Ok(Outcome::Failed(e)),
     };

@@ -1,7 +1,10 @@
 //! Scenes turn a job's physical parameters into an engine configuration, an initial state and the
-//! stage logic around the engine (filling, opening the orifice, re-insertion).
+//! stage logic around the engine (filling, opening the orifice, re-insertion, steady state).
 
+pub mod chute;
 pub mod fill;
+pub mod fill_rods;
 pub mod silo;
 
+pub use chute::{ChuteParams, ChuteScene};
 pub use silo::{SiloParams, SiloScene};

@@ -54,20 +54,20 @@ pub fn register(
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let spec = serde_json::to_string(c)?;
     tx.execute(
-        "INSERT INTO campaigns (name, file, scene, spec_json) VALUES (?1, ?2, 'silo', ?3)
+        "INSERT INTO campaigns (name, file, scene, spec_json) VALUES (?1, ?2, ?4, ?3)
          ON CONFLICT(name) DO UPDATE SET file = excluded.file, spec_json = excluded.spec_json",
-        params![c.name, file, spec],
+        params![c.name, file, spec, c.scene.name()],
     )?;
     let cid: i64 = tx.query_row("SELECT id FROM campaigns WHERE name = ?1", [&c.name], |r| {
         r.get(0)
     })?;
     let mut added = 0;
     for j in jobs {
-        let target = j.silo.discharge_time_s;
+        let target = j.target_time_s();
         let n = tx.execute(
             "INSERT OR IGNORE INTO jobs (hash, scene, params_json, seed, target_time_s, particles, precision, program_version)
-             VALUES (?1, 'silo', ?2, ?3, ?4, ?5, ?6, ?7)",
-            params![j.hash(), j.resolved_json(), j.seed() as i64, target, j.silo.particle_count as i64, j.precision.name(), env!("CARGO_PKG_VERSION")],
+             VALUES (?1, ?8, ?2, ?3, ?4, ?5, ?6, ?7)",
+            params![j.hash(), j.resolved_json(), j.seed() as i64, target, j.particle_count() as i64, j.precision.name(), env!("CARGO_PKG_VERSION"), j.scene.name()],
         )?;
         added += n;
         let jid: i64 = tx.query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| {

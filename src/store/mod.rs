@@ -1,6 +1,7 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
-//! (`results`). Every write that marks progress is one transaction.
+//! (`results`; `chute_results` for the chute). Every write that marks progress is one transaction.
 
+mod chute_results;
 pub mod jobs;
 mod open;
 mod results;

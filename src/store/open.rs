@@ -7,7 +7,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 1;
+pub const SCHEMA_VERSION: i64 = 2;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -47,7 +47,8 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
         );
     }
     if v < SCHEMA_VERSION {
-        // Version 0 → 1: the initial schema. Later versions add their steps here.
+        // 0 → 1 created the silo tables, 1 → 2 adds the chute tables: schema.sql is idempotent, so
+        // every step is running it again.
         tx.execute_batch(include_str!("../../schema.sql"))?;
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }

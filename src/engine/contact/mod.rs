@@ -4,7 +4,9 @@
 mod duration;
 mod force;
 mod law;
+mod record;
 
 pub use duration::{contact_time, ContactPair};
 pub use force::{contact_force, ContactInput};
 pub use law::{ContactLaw, Elasticity, LawKernel, NormalModel};
+pub use record::ContactRecord;

@@ -18,6 +18,7 @@ use super::pipelines::{kernel, BindGroups, Pipelines};
 use super::status::{read_chunk, ChunkContext};
 use crate::engine::backend::{Backend, BackendInfo, ChunkReport, EngineError};
 use crate::engine::config::EngineConfig;
+use crate::engine::contact::ContactRecord;
 use crate::engine::cpu::Watchdog;
 use crate::engine::history::MAX_SLOTS;
 use crate::engine::state::State;
@@ -85,6 +86,11 @@ impl GpuEngine {
         state: &State<f64>,
         options: GpuOptions,
     ) -> Result<Self, EngineError> {
+        if state.oriented {
+            return Err(EngineError::Device(
+                "spherocylinders (oriented particles) are not in the GPU kernels yet: run this scene with --backend cpu".into(),
+            ));
+        }
         if config.walls.len() > MAX_WALLS {
             return Err(EngineError::Device(format!(
                 "{} walls; the GPU backend holds at most {MAX_WALLS}",
@@ -385,6 +391,15 @@ impl Backend for GpuEngine {
         if let Err(e) = self.load(state) {
             self.pending = Some(e);
         }
+    }
+
+    /// Computed from a download by the CPU engine's f32 kernels (the same arithmetic as the
+    /// device's): stress observers sample rarely, so one O(N) copy per sample is cheap.
+    fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
+        let state = self.read_state()?;
+        let mut cpu =
+            crate::engine::cpu::CpuEngine::<f32>::new(self.config.clone(), state.convert(), 1);
+        Ok(cpu.contact_records())
     }
 
     fn describe(&self) -> BackendInfo {

@@ -1,0 +1,16 @@
+//! The chute observer (Soft Matter 2022): settings and geometry (`settings`), the streaming
+//! state and its per-snapshot stage (`observer`), the rows it produces (`results`) and the
+//! stage that produces them (`finish`).
+
+mod finish;
+mod observer;
+mod results;
+mod settings;
+
+pub use finish::PDF_HALF_RANGE_STD;
+pub use observer::{ChuteObserver, ChuteSnapshot};
+pub use results::{
+    ChuteBlockRow, ChuteCorrelationRow, ChuteFieldRow, ChuteMsdRow, ChuteResults, ChuteSummaryRow,
+    ChuteVzPdfRow,
+};
+pub use settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem};

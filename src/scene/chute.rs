@@ -1,0 +1,464 @@
+//! Chute flow of spherocylinders (Hernández-Delfín, Weinhart & Hidalgo, Soft Matter 18, 3335,
+//! 2022): a box periodic in x and y over a rough base of fixed random spheres of radius L/2,
+//! gravity g (sin α, 0, −cos α), a linear spring–dashpot law with k_n = 2·10⁵ m_p g / ℓ and
+//! k_t = 2/7 k_n. Particles are poured in as a loose random gas and flow from rest; the job waits
+//! for the steady state and then measures.
+//!
+//! Choices the paper leaves open, each a parameter recorded with the job:
+//! - ℓ in k_n: the paper writes "m_p g / l" with l the cylinder length, which is 0 for ξ = 1 and
+//!   tiny for ξ = 1.01 (k_n would diverge); the default is the total length L (`stiffness_length`
+//!   = "total_length"), the same for every ξ since L is fixed; "cylinder_length" reads the paper
+//!   literally (refused for ξ = 1), "diameter" is Weinhart et al.'s sphere convention.
+//! - e_n is not given; 0.88 (as in Weinhart et al., Phys. Fluids 25, 070605, 2013 — the paper's
+//!   ref. 30 setup) is the default.
+//! - The base: a random monolayer of spheres (centres at z = 0) at area fraction 0.5, over a
+//!   plane at z = −L/2 that catches any particle slipping through a gap.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::engine::contact::{contact_time, ContactLaw, ContactPair, NormalModel};
+use crate::engine::shape::Spherocylinder;
+use crate::engine::walls::{Wall, WallShape};
+use crate::engine::{EngineConfig, State};
+
+use super::silo::FieldError;
+
+/// Which length sets k_n = factor · m_p g / ℓ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StiffnessLength {
+    /// ℓ = L = l + d (fixed across ξ).
+    TotalLength,
+    /// ℓ = l, the paper's text read literally (undefined for ξ = 1).
+    CylinderLength,
+    /// ℓ = d.
+    Diameter,
+}
+
+/// Every physical and numerical parameter of a chute job. Defaults are the paper's values where
+/// it gives them (module doc for the rest).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ChuteParams {
+    /// Aspect ratio ξ = L/d. Paper: 1.00, 1.01, 1.30, 1.50, 2.00, 2.50, 3.00.
+    pub aspect_ratio: f64,
+    /// Total particle length L = l + d (m). Paper: 2/16.
+    pub particle_length_m: f64,
+    /// Inclination α (degrees), between α_c1(ξ) and α_c2(ξ) for steady flow.
+    pub inclination_deg: f64,
+    /// Box length along the flow, in L. Paper: 16.
+    pub box_x_lengths: f64,
+    /// Box width, in L. Paper: 16.
+    pub box_y_lengths: f64,
+    /// Target bed thickness ΔZ in L (paper: about 20): sets the particle count through
+    /// `flowing_solid_fraction`, unless `particle_count` is given.
+    pub bed_height_lengths: f64,
+    /// Solid fraction assumed to turn the bed height into a particle count.
+    pub flowing_solid_fraction: f64,
+    /// Number of flowing particles; overrides `bed_height_lengths`.
+    pub particle_count: Option<usize>,
+    /// Particle density ρ_p (kg/m³). Paper: 2600.
+    pub particle_density_kg_per_m3: f64,
+    /// |g| (m/s²). Paper: 1.
+    pub gravity_m_per_s2: f64,
+    /// k_n = this · m_p g / ℓ. Paper: 2·10⁵.
+    pub stiffness_factor: f64,
+    /// ℓ in k_n (module doc). Default: the total length L.
+    pub stiffness_length: StiffnessLength,
+    /// k_t / k_n. Paper: 2/7.
+    pub tangential_stiffness_ratio: f64,
+    /// Normal restitution e_n (also used for the tangential damping, as the paper does).
+    /// Not given in the paper; default 0.88.
+    pub restitution: f64,
+    /// Particle–particle friction μ (and particle–base). Paper: 0.5.
+    pub friction: f64,
+    /// n_c = t_c / dt. Paper: 50.
+    pub contact_steps: f64,
+    /// Base sphere radius, in L. Paper: 1/2.
+    pub base_radius_lengths: f64,
+    /// Area fraction of the base monolayer (random sequential addition jams near 0.547).
+    pub base_coverage: f64,
+    /// Steady state is not looked for before this time (s).
+    pub steady_min_time_s: f64,
+    /// Measurement starts at this time at the latest, steady or not (the job then records that
+    /// the criteria did not hold).
+    pub steady_max_time_s: f64,
+    /// Trailing window over which the steady criteria must hold (s).
+    pub steady_window_s: f64,
+    /// Largest relative change of the kinetic energy over the window.
+    pub steady_kinetic_tolerance: f64,
+    /// Largest relative deviation of the bulk σ_xz/σ_zz from tan α.
+    pub steady_stress_tolerance: f64,
+    /// Simulated measurement time after the steady state (s).
+    pub measure_time_s: f64,
+    /// Verlet skin as a fraction of d.
+    pub skin_ratio: f64,
+    /// Replica index (seed).
+    pub replica: u32,
+}
+
+impl Default for ChuteParams {
+    fn default() -> Self {
+        Self {
+            aspect_ratio: 1.5,
+            particle_length_m: 0.125,
+            inclination_deg: 28.0,
+            box_x_lengths: 16.0,
+            box_y_lengths: 16.0,
+            bed_height_lengths: 20.0,
+            flowing_solid_fraction: 0.55,
+            particle_count: None,
+            particle_density_kg_per_m3: 2600.0,
+            gravity_m_per_s2: 1.0,
+            stiffness_factor: 2.0e5,
+            stiffness_length: StiffnessLength::TotalLength,
+            tangential_stiffness_ratio: 2.0 / 7.0,
+            restitution: 0.88,
+            friction: 0.5,
+            contact_steps: 50.0,
+            base_radius_lengths: 0.5,
+            base_coverage: 0.5,
+            steady_min_time_s: 20.0,
+            steady_max_time_s: 200.0,
+            steady_window_s: 10.0,
+            steady_kinetic_tolerance: 0.05,
+            steady_stress_tolerance: 0.05,
+            measure_time_s: 50.0,
+            skin_ratio: 0.2,
+            replica: 0,
+        }
+    }
+}
+
+/// Solid fraction of the poured gas.
+const INSERT_SOLID_FRACTION: f64 = 0.2;
+
+impl ChuteParams {
+    /// Checks ranges; returns every problem found.
+    pub fn validate(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let mut pos = |field: &str, v: f64, what: &str| {
+            if !(v > 0.0 && v.is_finite()) {
+                e.push(FieldError {
+                    field: field.into(),
+                    message: format!("expected {what} > 0, got {v}"),
+                });
+            }
+        };
+        pos("particle_length_m", self.particle_length_m, "metres");
+        pos("box_x_lengths", self.box_x_lengths, "a multiple of L");
+        pos("box_y_lengths", self.box_y_lengths, "a multiple of L");
+        pos(
+            "bed_height_lengths",
+            self.bed_height_lengths,
+            "a multiple of L",
+        );
+        pos(
+            "particle_density_kg_per_m3",
+            self.particle_density_kg_per_m3,
+            "kg/m³",
+        );
+        pos("gravity_m_per_s2", self.gravity_m_per_s2, "m/s²");
+        pos("stiffness_factor", self.stiffness_factor, "a number");
+        pos(
+            "tangential_stiffness_ratio",
+            self.tangential_stiffness_ratio,
+            "a ratio",
+        );
+        pos("contact_steps", self.contact_steps, "steps");
+        pos(
+            "base_radius_lengths",
+            self.base_radius_lengths,
+            "a multiple of L",
+        );
+        pos("steady_window_s", self.steady_window_s, "seconds");
+        pos("measure_time_s", self.measure_time_s, "seconds");
+        pos("skin_ratio", self.skin_ratio, "a fraction of d");
+        let mut err = |field: &str, message: String| {
+            e.push(FieldError {
+                field: field.into(),
+                message,
+            })
+        };
+        if !(self.aspect_ratio >= 1.0 && self.aspect_ratio.is_finite()) {
+            err(
+                "aspect_ratio",
+                format!("expected ξ = L/d ≥ 1, got {}", self.aspect_ratio),
+            );
+        }
+        if !(self.inclination_deg > 0.0 && self.inclination_deg < 90.0) {
+            err(
+                "inclination_deg",
+                format!("expected 0 < α < 90 degrees, got {}", self.inclination_deg),
+            );
+        }
+        if !(self.flowing_solid_fraction > 0.0 && self.flowing_solid_fraction < 0.8) {
+            err(
+                "flowing_solid_fraction",
+                format!("expected 0 < φ < 0.8, got {}", self.flowing_solid_fraction),
+            );
+        }
+        if !(self.restitution > 0.0 && self.restitution <= 1.0) {
+            err(
+                "restitution",
+                format!("expected 0 < e_n ≤ 1, got {}", self.restitution),
+            );
+        }
+        if !(self.friction >= 0.0 && self.friction.is_finite()) {
+            err("friction", format!("expected μ ≥ 0, got {}", self.friction));
+        }
+        if !(self.base_coverage > 0.0 && self.base_coverage <= 0.547) {
+            err(
+                "base_coverage",
+                format!(
+                    "expected an area fraction in (0, 0.547] (random disks jam at 0.547), got {}",
+                    self.base_coverage
+                ),
+            );
+        }
+        if self.particle_count == Some(0) {
+            err("particle_count", "expected at least one particle".into());
+        }
+        if self.stiffness_length == StiffnessLength::CylinderLength && self.aspect_ratio <= 1.0 {
+            err(
+                "stiffness_length",
+                "\"cylinder_length\" is undefined for ξ = 1 (l = 0): use \"total_length\"".into(),
+            );
+        }
+        if !(self.steady_min_time_s >= 0.0 && self.steady_max_time_s >= self.steady_min_time_s) {
+            err(
+                "steady_max_time_s",
+                format!(
+                    "expected 0 ≤ steady_min_time_s ≤ steady_max_time_s, got {} and {}",
+                    self.steady_min_time_s, self.steady_max_time_s
+                ),
+            );
+        }
+        e
+    }
+
+    /// The particle shape.
+    pub fn shape(&self) -> Spherocylinder<f64> {
+        Spherocylinder::from_aspect_ratio(self.particle_length_m, self.aspect_ratio)
+            .expect("validated aspect ratio")
+    }
+
+    /// Particle mass m_p (kg).
+    pub fn particle_mass(&self) -> f64 {
+        self.shape().mass(self.particle_density_kg_per_m3)
+    }
+
+    /// Box extents (m).
+    pub fn box_size(&self) -> (f64, f64) {
+        (
+            self.box_x_lengths * self.particle_length_m,
+            self.box_y_lengths * self.particle_length_m,
+        )
+    }
+
+    /// Number of flowing particles.
+    pub fn count(&self) -> usize {
+        self.particle_count.unwrap_or_else(|| {
+            let (lx, ly) = self.box_size();
+            let h = self.bed_height_lengths * self.particle_length_m;
+            (self.flowing_solid_fraction * lx * ly * h / self.shape().volume()).round() as usize
+        })
+    }
+
+    /// The length ℓ in k_n (m).
+    pub fn stiffness_length_m(&self) -> f64 {
+        let s = self.shape();
+        match self.stiffness_length {
+            StiffnessLength::TotalLength => self.particle_length_m,
+            StiffnessLength::CylinderLength => 2.0 * s.half_length,
+            StiffnessLength::Diameter => 2.0 * s.radius,
+        }
+    }
+
+    /// k_n (N/m).
+    pub fn normal_stiffness(&self) -> f64 {
+        self.stiffness_factor * self.particle_mass() * self.gravity_m_per_s2
+            / self.stiffness_length_m()
+    }
+
+    /// The contact law (particle–particle, particle–base and the catch plane).
+    pub fn law(&self) -> ContactLaw {
+        let kn = self.normal_stiffness();
+        ContactLaw {
+            normal: NormalModel::Linear {
+                kn_n_per_m: kn,
+                kt_n_per_m: self.tangential_stiffness_ratio * kn,
+            },
+            restitution: self.restitution,
+            tangential_restitution: self.restitution,
+            friction: self.friction,
+        }
+    }
+
+    /// t_c of the lightest pair (two particles, m* = m_p/2; against the fixed base m* = m_p).
+    pub fn contact_time(&self) -> f64 {
+        let m = self.particle_mass();
+        let r = 0.5 * self.particle_length_m / self.aspect_ratio;
+        contact_time(
+            &self.law(),
+            ContactPair {
+                r_eff: r / 2.0,
+                m_eff: m / 2.0,
+            },
+            1.0,
+        )
+    }
+
+    /// dt = t_c / n_c, refusing n_c < 5.
+    pub fn time_step(&self) -> Result<f64, String> {
+        if self.contact_steps < 5.0 {
+            return Err(format!(
+                "contact_steps = {} resolves a contact in fewer than 5 steps (dt > t_c/5)",
+                self.contact_steps
+            ));
+        }
+        Ok(self.contact_time() / self.contact_steps)
+    }
+
+    /// Total simulated time the job may take (s): the longest wait for steady state plus the
+    /// measurement.
+    pub fn max_time_s(&self) -> f64 {
+        self.steady_max_time_s + self.measure_time_s
+    }
+}
+
+/// A chute job's scene.
+#[derive(Clone, Debug)]
+pub struct ChuteScene {
+    pub p: ChuteParams,
+    pub dt: f64,
+}
+
+impl ChuteScene {
+    /// # Errors
+    /// The first validation problem, as text.
+    pub fn new(p: ChuteParams) -> Result<Self, String> {
+        if let Some(e) = p.validate().into_iter().next() {
+            return Err(format!("{}: {}", e.field, e.message));
+        }
+        let dt = p.time_step()?;
+        Ok(Self { p, dt })
+    }
+
+    /// tan α.
+    pub fn tan_alpha(&self) -> f64 {
+        self.p.inclination_deg.to_radians().tan()
+    }
+
+    /// Radius of the base spheres (m).
+    pub fn base_radius(&self) -> f64 {
+        self.p.base_radius_lengths * self.p.particle_length_m
+    }
+
+    pub fn engine_config(&self) -> EngineConfig {
+        let p = &self.p;
+        let a = p.inclination_deg.to_radians();
+        let (lx, ly) = p.box_size();
+        let law = p.law();
+        EngineConfig {
+            dt_s: self.dt,
+            gravity: [
+                p.gravity_m_per_s2 * a.sin(),
+                0.0,
+                -p.gravity_m_per_s2 * a.cos(),
+            ],
+            particle_law: law,
+            wall_law: law,
+            walls: vec![Wall {
+                shape: WallShape::Plane {
+                    point: [0.0, 0.0, -self.base_radius()],
+                    normal: [0.0, 0.0, 1.0],
+                },
+                rotation: None,
+            }],
+            periodic_x: Some([0.0, lx]),
+            periodic_y: Some([0.0, ly]),
+            sink_z: None,
+            skin_m: p.skin_ratio * 2.0 * p.shape().radius,
+        }
+    }
+
+    /// The base spheres (fixed, ids from 0) and the poured gas of spherocylinders above them
+    /// (ids after the base), at rest. Flowing particles are those with inverse mass > 0.
+    pub fn initial_state(&self, seed: u64) -> State<f64> {
+        let p = &self.p;
+        let (lx, ly) = p.box_size();
+        let rb = self.base_radius();
+        let slots = if p.friction > 0.0 {
+            crate::engine::cpu::HISTORY_SLOTS
+        } else {
+            0
+        };
+        let mut s = State::new_oriented(slots);
+        let base = super::fill_rods::base_monolayer(lx, ly, rb, 0.0, p.base_coverage, seed);
+        for (k, c) in base.iter().enumerate() {
+            s.push_sphere(
+                k as u32,
+                *c,
+                [0.0; 3],
+                rb,
+                p.particle_density_kg_per_m3,
+                true,
+            );
+        }
+        let shape = p.shape();
+        let rods = super::fill_rods::box_random_rods(
+            p.count(),
+            shape,
+            lx,
+            ly,
+            rb,
+            INSERT_SOLID_FRACTION,
+            seed ^ 0x9E37_79B9_7F4A_7C15,
+        );
+        let n0 = base.len() as u32;
+        for (k, r) in rods.iter().enumerate() {
+            s.push_spherocylinder(
+                n0 + k as u32,
+                r.pos,
+                [0.0; 3],
+                r.q,
+                shape,
+                p.particle_density_kg_per_m3,
+                false,
+            );
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_defaults_give_the_papers_time_scales() {
+        let s = ChuteScene::new(ChuteParams::default()).unwrap();
+        // k_n = 2e5 m g / L with m* = m/2: t_c ≈ π √(L / (4e5 g)) (slightly longer with damping).
+        let undamped = std::f64::consts::PI * (0.125f64 / 4e5).sqrt();
+        let tc = s.p.contact_time();
+        assert!(tc > undamped && tc < 1.05 * undamped, "t_c = {tc}");
+        assert!((s.dt - tc / 50.0).abs() < 1e-15);
+        // 16 L × 16 L × 20 L at φ = 0.55 of ξ = 1.5 rods.
+        let n = s.p.count();
+        assert!(n > 9000 && n < 11000, "N = {n}");
+    }
+
+    #[test]
+    fn bad_values_are_named() {
+        let p = ChuteParams {
+            aspect_ratio: 0.5,
+            inclination_deg: 95.0,
+            ..ChuteParams::default()
+        };
+        let e = p.validate();
+        assert!(e.iter().any(|e| e.field == "aspect_ratio"));
+        assert!(e.iter().any(|e| e.field == "inclination_deg"));
+    }
+}

@@ -1,0 +1,176 @@
+//! Results of a chute job: the rows of `ChuteResults` and the steady-state series, written for
+//! one job in one transaction. Each table's rows for the job are deleted first, so a retried
+//! commit replaces rather than duplicates.
+
+use anyhow::Context;
+use rusqlite::{params, Connection, Transaction, TransactionBehavior};
+
+use crate::observe::chute::ChuteResults;
+
+impl ChuteResults {
+    /// Writes every chute table for `job_id`, and `series` (t (s), kinetic energy (J), bulk
+    /// μ) into `chute_series`, in one IMMEDIATE transaction.
+    ///
+    /// # Errors
+    /// Database errors (among them: a transaction already open on `conn`: use `write` inside
+    /// it), or a non-finite value bound for a NOT NULL column.
+    pub fn commit(
+        &self,
+        conn: &Connection,
+        job_id: i64,
+        series: &[(f64, f64, Option<f64>)],
+    ) -> anyhow::Result<()> {
+        let tx = Transaction::new_unchecked(conn, TransactionBehavior::Immediate)?;
+        self.write(&tx, job_id, series)?;
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// The statements of `commit` without the transaction, for a caller that also marks the job
+    /// done in its own transaction (a `Transaction` derefs to `Connection`).
+    ///
+    /// # Errors
+    /// As `commit`.
+    pub fn write(
+        &self,
+        conn: &Connection,
+        job_id: i64,
+        series: &[(f64, f64, Option<f64>)],
+    ) -> anyhow::Result<()> {
+        // SQLite stores NaN as NULL: a NaN here would fail a NOT NULL constraint with a less
+        // helpful message, or land as NULL in a nullable one.
+        let finite = |what: &str, v: f64| -> anyhow::Result<f64> {
+            anyhow::ensure!(
+                v.is_finite(),
+                "chute results: {what} is {v}, not a finite number"
+            );
+            Ok(v)
+        };
+        let opt = |v: Option<f64>| v.filter(|x| x.is_finite());
+        for table in [
+            "chute_summary",
+            "chute_blocks",
+            "chute_msd",
+            "chute_fields",
+            "chute_vz_pdf",
+            "chute_correlation",
+            "chute_series",
+        ] {
+            conn.execute(&format!("DELETE FROM {table} WHERE job_id = ?1"), [job_id])
+                .with_context(|| format!("clearing {table} for job {job_id}"))?;
+        }
+        let s = &self.summary;
+        conn.execute(
+            "INSERT INTO chute_summary (job_id, aspect_ratio, inclination_deg, total_length_m, diameter_m, particles,
+                bed_height_m, steady_time_s, steady_stress_ratio, measure_start_s, measure_end_s, samples,
+                msd_fit_min_lag_s, msd_fit_max_lag_s, mean_cos_theta, d_perp_m, cg_width_m, steady)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
+            params![
+                job_id,
+                finite("aspect_ratio", s.aspect_ratio)?,
+                finite("inclination_deg", s.inclination_deg)?,
+                finite("total_length_m", s.total_length_m)?,
+                finite("diameter_m", s.diameter_m)?,
+                s.particles as i64,
+                finite("bed_height_m", s.bed_height_m)?,
+                opt(s.steady_time_s),
+                opt(s.steady_stress_ratio),
+                finite("measure_start_s", s.measure_start_s)?,
+                finite("measure_end_s", s.measure_end_s)?,
+                s.samples as i64,
+                finite("msd_fit_min_lag_s", s.msd_fit_min_lag_s)?,
+                finite("msd_fit_max_lag_s", s.msd_fit_max_lag_s)?,
+                finite("mean_cos_theta", s.mean_cos_theta)?,
+                finite("d_perp_m", s.d_perp_m)?,
+                finite("cg_width_m", s.cg_width_m)?,
+                i64::from(s.steady),
+            ],
+        )?;
+        let mut ins = conn.prepare(
+            "INSERT INTO chute_blocks (job_id, block, z_m, diffusion_m2_per_s, diffusion_stderr_m2_per_s, msd_fit_r,
+                shear_rate_per_s, velocity_x_m_per_s, solid_fraction, mean_particles, vz_std_m_per_s, vz_skewness,
+                correlation_length_m)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+        )?;
+        for b in &self.blocks {
+            ins.execute(params![
+                job_id,
+                b.block,
+                finite("block z_m", b.z_m)?,
+                opt(b.diffusion_m2_per_s),
+                opt(b.diffusion_stderr_m2_per_s),
+                opt(b.msd_fit_r),
+                finite("block shear_rate_per_s", b.shear_rate_per_s)?,
+                finite("block velocity_x_m_per_s", b.velocity_x_m_per_s)?,
+                finite("block solid_fraction", b.solid_fraction)?,
+                finite("block mean_particles", b.mean_particles)?,
+                opt(b.vz_std_m_per_s),
+                opt(b.vz_skewness),
+                opt(b.correlation_length_m),
+            ])?;
+        }
+        let mut ins = conn.prepare(
+            "INSERT INTO chute_msd (job_id, block, lag_s, msd_m2, pairs) VALUES (?1, ?2, ?3, ?4, ?5)",
+        )?;
+        for m in &self.msd {
+            ins.execute(params![
+                job_id,
+                m.block,
+                m.lag_s,
+                finite("msd_m2", m.msd_m2)?,
+                m.pairs as i64
+            ])?;
+        }
+        let mut ins = conn.prepare(
+            "INSERT INTO chute_fields (job_id, z_m, density_kg_per_m3, velocity_x_m_per_s, shear_rate_per_s,
+                stress_xz_pa, stress_zz_pa) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+        )?;
+        for f in &self.fields {
+            ins.execute(params![
+                job_id,
+                finite("field z_m", f.z_m)?,
+                finite("density_kg_per_m3", f.density_kg_per_m3)?,
+                finite("field velocity_x_m_per_s", f.velocity_x_m_per_s)?,
+                finite("field shear_rate_per_s", f.shear_rate_per_s)?,
+                finite("stress_xz_pa", f.stress_xz_pa)?,
+                finite("stress_zz_pa", f.stress_zz_pa)?,
+            ])?;
+        }
+        let mut ins = conn.prepare(
+            "INSERT INTO chute_vz_pdf (job_id, block, x, density) VALUES (?1, ?2, ?3, ?4)",
+        )?;
+        for p in &self.vz_pdf {
+            ins.execute(params![
+                job_id,
+                p.block,
+                p.x,
+                finite("vz pdf density", p.density)?
+            ])?;
+        }
+        let mut ins = conn.prepare(
+            "INSERT INTO chute_correlation (job_id, block, r_m, c_m2_per_s2, pairs) VALUES (?1, ?2, ?3, ?4, ?5)",
+        )?;
+        for c in &self.correlation {
+            ins.execute(params![
+                job_id,
+                c.block,
+                c.r_m,
+                finite("c_m2_per_s2", c.c_m2_per_s2)?,
+                c.pairs as i64
+            ])?;
+        }
+        // A repeated time (a resumed run re-sampling its checkpoint's instant) keeps the later row.
+        let mut ins = conn.prepare(
+            "INSERT OR REPLACE INTO chute_series (job_id, t_s, kinetic_energy_j, stress_ratio) VALUES (?1, ?2, ?3, ?4)",
+        )?;
+        for &(t, ke, ratio) in series {
+            ins.execute(params![
+                job_id,
+                finite("series t_s", t)?,
+                finite("kinetic_energy_j", ke)?,
+                opt(ratio)
+            ])?;
+        }
+        Ok(())
+    }
+}
