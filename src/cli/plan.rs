@@ -4,6 +4,8 @@
 use std::collections::BTreeSet;
 
 use sweep::engine::Effects;
+use sweep::campaign::SceneKind;
+use sweep::scene::chute::ChuteScene;
 use sweep::scene::silo::{SiloPhase, SiloScene};
 
 use super::DbArg;
@@ -32,11 +34,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     };
+    // The bench scene that resembles the campaign's (chute-bed is spheres: rods cost more per
+    // particle-step, so chute estimates are lower bounds).
+    let bench_scene = match file.scene {
+        SceneKind::Silo => "silo-bed",
+        SceneKind::Chute => "chute-bed",
+    };
     let rate: Option<f64> = if a.db.db.exists() {
         let conn = sweep::store::open(&a.db.db)?;
         conn.query_row(
-            "SELECT particle_steps_per_s FROM bench_runs WHERE scene = 'silo-bed' AND backend = 'cpu' AND precision = ?1 AND threads = ?2 ORDER BY id DESC LIMIT 1",
-            rusqlite::params![file.run.precision.name(), threads as i64],
+            "SELECT particle_steps_per_s FROM bench_runs WHERE scene = ?3 AND backend = 'cpu' AND precision = ?1 AND threads = ?2 ORDER BY id DESC LIMIT 1",
+            rusqlite::params![file.run.precision.name(), threads as i64, bench_scene],
             |r| r.get(0),
         )
         .ok()
@@ -51,9 +59,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         threads
     );
     match rate {
-        Some(r) => println!("throughput from `sweep bench` (silo-bed, cpu, {}): {r:.3e} particle-steps/s", file.run.precision.name()),
+        Some(r) => println!("throughput from `sweep bench` ({bench_scene}, cpu, {}): {r:.3e} particle-steps/s", file.run.precision.name()),
         None => println!(
-            "no `sweep bench` result for silo-bed/cpu/{}/{} threads in {}: run `sweep bench --scene silo-bed --precision {} --threads {threads}` to get wall-time estimates",
+            "no `sweep bench` result for {bench_scene}/cpu/{}/{} threads in {}: run `sweep bench --scene {bench_scene} --precision {} --threads {threads}` to get wall-time estimates",
             file.run.precision.name(),
             threads,
             a.db.db.display(),
@@ -67,6 +75,30 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         "job", "dt_s", "N", "steps", "particle-st", "wall_s"
     );
     for (k, j) in jobs.iter().enumerate() {
+        if j.scene == SceneKind::Chute {
+            let scene = ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?;
+            // At most: the longest wait for the steady state plus the measurement.
+            let steps = (j.chute().max_time_s() / scene.dt).ceil();
+            let n = j.chute().count() as f64;
+            let ps = n * steps;
+            total_ps += ps;
+            let wall = rate.map_or("?".to_string(), |r| format!("≤{:.0}", ps / r));
+            println!(
+                "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
+                k + 1,
+                scene.dt,
+                j.chute().count(),
+                steps,
+                ps,
+                wall,
+                j.label
+            );
+            if k == 0 {
+                let effects = Effects::of(&scene.engine_config(), true, true);
+                println!("      effects: {}", serde_json::to_string(&effects)?);
+            }
+            continue;
+        }
         let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
         let steps_discharge = (j.silo().discharge_time_s / scene.dt).ceil();
         // The fill stage is shared by jobs with the same fill parameters: count it once.
@@ -97,7 +129,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             j.label
         );
         if k == 0 {
-            let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false);
+            let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false, false);
             println!("      effects: {}", serde_json::to_string(&effects)?);
         }
     }

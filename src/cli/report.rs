@@ -6,10 +6,10 @@ use super::DbArg;
 
 #[derive(clap::Args)]
 pub struct Arguments {
-    /// fig2, fig3, fig4 or fig5 (silo paper).
+    /// A figure of the campaign's scene: silo fig2..fig5, chute fig2..fig7 (or scene:figN).
     #[arg(long)]
     pub figure: String,
-    /// Campaign name (default: the most recent silo campaign).
+    /// Campaign name (default: the most recent campaign; its scene picks the figure set).
     #[arg(long)]
     pub campaign: Option<String>,
     /// Output directory.

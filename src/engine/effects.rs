@@ -11,7 +11,8 @@ use super::walls::WallShape;
 /// What one run simulates. Printed by `sweep plan` and recorded with each job.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Effects {
-    /// Particle shape; only spheres in this engine so far.
+    /// Particle shape: "sphere", or "spherocylinder" (orientations and the oriented contact
+    /// path; spheres among them, such as a rough base, have l = 0).
     pub shape: String,
     /// "hertz_mindlin" or "linear_spring_dashpot".
     pub contact_law: String,
@@ -32,8 +33,9 @@ pub struct Effects {
 }
 
 impl Effects {
-    /// Effects of a configuration; `fixed_particles` comes from the scene's initial state.
-    pub fn of(config: &EngineConfig, fixed_particles: bool) -> Self {
+    /// Effects of a configuration; `fixed_particles` and `oriented` come from the scene's
+    /// initial state.
+    pub fn of(config: &EngineConfig, fixed_particles: bool, oriented: bool) -> Self {
         let law = match config.particle_law.normal {
             NormalModel::Hertz(_) => "hertz_mindlin",
             NormalModel::Linear { .. } => "linear_spring_dashpot",
@@ -57,10 +59,11 @@ impl Effects {
             .collect();
         walls.dedup();
         Effects {
-            shape: "sphere".into(),
+            shape: if oriented { "spherocylinder" } else { "sphere" }.into(),
             contact_law: law.into(),
             tangential_history: tangential,
-            rotation: tangential,
+            // Rods turn under any off-centre normal force; spheres only under friction.
+            rotation: tangential || oriented,
             walls,
             wall_motion: config
                 .walls

@@ -1,4 +1,4 @@
-//! Which campaign a report is about: by name, or the most recent one of a scene. Read-only.
+//! Which campaign a report is about: by name, or the most recent one (of a scene). Read-only.
 
 use anyhow::{bail, Result};
 use rusqlite::{params, Connection, OptionalExtension};
@@ -14,11 +14,16 @@ pub struct CampaignRef {
     pub scene: String,
 }
 
-/// The campaign named `name`, or when None the most recent campaign of `scene`.
+/// The campaign named `name`, or when None the most recent campaign of `scene` (of any scene
+/// when `scene` is None). A named campaign must belong to `scene` when one is given.
 ///
 /// # Errors
 /// When no campaign matches, when the named one belongs to another scene, or on a database error.
-pub fn find_campaign(conn: &Connection, name: Option<&str>, scene: &str) -> Result<CampaignRef> {
+pub fn find_campaign(
+    conn: &Connection,
+    name: Option<&str>,
+    scene: Option<&str>,
+) -> Result<CampaignRef> {
     let row = |r: &rusqlite::Row<'_>| {
         Ok(CampaignRef {
             id: r.get(0)?,
@@ -29,15 +34,18 @@ pub fn find_campaign(conn: &Connection, name: Option<&str>, scene: &str) -> Resu
     let Some(name) = name else {
         let found = conn
             .query_row(
-                "SELECT id, name, scene FROM campaigns WHERE scene = ?1 \
+                "SELECT id, name, scene FROM campaigns WHERE ?1 IS NULL OR scene = ?1 \
                  ORDER BY created_at DESC, id DESC LIMIT 1",
                 params![scene],
                 row,
             )
             .optional()?;
-        return match found {
-            Some(c) => Ok(c),
-            None => bail!("no campaign with scene '{scene}' in the database: launch one first"),
+        return match (found, scene) {
+            (Some(c), _) => Ok(c),
+            (None, Some(scene)) => {
+                bail!("no campaign with scene '{scene}' in the database: launch one first")
+            }
+            (None, None) => bail!("no campaign in the database: launch one first"),
         };
     };
     let found = conn
@@ -47,14 +55,14 @@ pub fn find_campaign(conn: &Connection, name: Option<&str>, scene: &str) -> Resu
             row,
         )
         .optional()?;
-    match found {
-        Some(c) if c.scene == scene => Ok(c),
-        Some(c) => bail!(
+    match (found, scene) {
+        (Some(c), Some(scene)) if c.scene != scene => bail!(
             "campaign '{}' is a '{}' campaign; this figure needs a '{scene}' campaign",
             c.name,
             c.scene
         ),
-        None => {
+        (Some(c), _) => Ok(c),
+        (None, _) => {
             let mut stmt = conn.prepare("SELECT name FROM campaigns ORDER BY name")?;
             let names = stmt
                 .query_map([], |r| r.get::<_, String>(0))?

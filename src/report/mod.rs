@@ -1,7 +1,14 @@
 //! Reports: the papers' figures redrawn from the database only (a query, a plot in SVG and PNG,
-//! a CSV of the plotted data, a text table), and which jobs a figure still lacks.
+//! a CSV of the plotted data, a text table), and which jobs a figure still lacks. The campaign's
+//! scene picks the paper: silo (PRE 2020) or chute (Soft Matter 2022).
 
 mod campaign;
+mod chute;
+mod chute_data;
+mod chute_profiles;
+mod chute_scaling;
+mod chute_velocity;
+mod drawn;
 mod missing;
 mod plot;
 mod render;
@@ -13,5 +20,5 @@ mod table;
 pub use campaign::{find_campaign, CampaignRef};
 pub use missing::{campaign_completion, Completion};
 pub use plot::{Axis, Figure, Legend, Panel, Scale, Series, SeriesKind};
-pub use render::{render_figure, FigureReport, FIGURES};
+pub use render::{figures_of, render_figure, FigureReport, FIGURES};
 pub use table::Table;

@@ -338,6 +338,15 @@ fn tick_label(v: f64) -> String {
     }
 }
 
+/// A linear-axis tick that is zero up to rounding (plotters may place one at −2.8e-17) as 0.
+fn snap_zero(v: f64, scale: Scale, lo: f64, hi: f64) -> f64 {
+    if scale == Scale::Linear && v.abs() <= 1e-9 * lo.abs().max(hi.abs()) {
+        0.0
+    } else {
+        v
+    }
+}
+
 fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<()> {
     let (xs, ys) = (panel.x.scale, panel.y.scale);
     let pts = || panel.series.iter().flat_map(move |s| s.visible(xs, ys));
@@ -380,13 +389,15 @@ where
     }
     let mut chart = builder.build_cartesian_2d(x, y).map_err(plot_err)?;
     let y_bottom = chart.y_range().start;
-    let fmt = |v: &f64| tick_label(*v);
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let x_fmt = |v: &f64| tick_label(snap_zero(*v, panel.x.scale, xr.start, xr.end));
+    let y_fmt = |v: &f64| tick_label(snap_zero(*v, panel.y.scale, yr.start, yr.end));
     chart
         .configure_mesh()
         .x_desc(panel.x.label.as_str())
         .y_desc(panel.y.label.as_str())
-        .x_label_formatter(&fmt)
-        .y_label_formatter(&fmt)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
         .label_style((FONT, 16))
         .axis_desc_style((FONT, 19))
         .light_line_style(RGBColor(235, 235, 235))
@@ -478,6 +489,9 @@ mod tests {
         assert_eq!(tick_label(0.0125), "0.0125");
         assert_eq!(tick_label(0.0), "0");
         assert_eq!(tick_label(2.5e-5), "2.5e-5");
+        assert_eq!(snap_zero(-2.8e-17, Scale::Linear, -0.15, 0.15), 0.0);
+        assert_eq!(snap_zero(1e-12, Scale::Log, 1e-13, 1.0), 1e-12);
+        assert_eq!(snap_zero(2.5e-5, Scale::Linear, 0.0, 1e-4), 2.5e-5);
     }
 
     #[test]

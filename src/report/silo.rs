@@ -4,12 +4,13 @@
 //! discharge_series of the campaign's done jobs; nothing from the paper is hard-coded.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
+use super::drawn::{write_all, Drawn};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
 use super::silo_data::{
     combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, mass_series, same_value,
@@ -27,22 +28,6 @@ const LARGE_ORIFICE_D_OVER_PARTICLE: f64 = 4.5;
 const MAX_FIG5_PANELS: usize = 4;
 /// Used for Beverloo only when no job parameter gives gravity; the table says so.
 const STANDARD_GRAVITY_M_PER_S2: f64 = 9.806_65;
-
-/// What one figure produced, before the campaign-level notes are added.
-pub(crate) struct Drawn {
-    /// The text table.
-    pub text: String,
-    /// SVG, PNG, CSV.
-    pub files: Vec<PathBuf>,
-}
-
-fn write_all(fig: &Figure, csv: &Table, out_dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-    let mut files = fig.write(out_dir, stem)?;
-    let csv_path = out_dir.join(format!("{stem}.csv"));
-    csv.write_csv(&csv_path)?;
-    files.push(csv_path);
-    Ok(files)
-}
 
 /// Fig. 2: discharged mass M(t) for up to eight (D, f), spread over the D and f present.
 pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
@@ -529,8 +514,8 @@ mod tests {
         }
     }
 
-    /// The synthetic silo campaign 'rotating' over `freqs`, plus an older silo campaign and a
-    /// newer chute campaign that must not be picked by default.
+    /// The synthetic silo campaign 'rotating' over `freqs`, the most recent campaign (so the
+    /// default), plus an older silo campaign and an older chute campaign.
     fn synthetic_db(freqs: &[f64]) -> Connection {
         let conn = Connection::open_in_memory().expect("in-memory db");
         conn.execute_batch(include_str!("../../schema.sql"))
@@ -538,7 +523,7 @@ mod tests {
         let old = add_campaign(&conn, "old_silo", "silo", "2020-01-01T00:00:00.000Z");
         add_job(&conn, old, "old", "done", 0.03, 0.5, Some((9.0, 0.1)));
         let id = add_campaign(&conn, "rotating", "silo", "2025-01-01T00:00:00.000Z");
-        add_campaign(&conn, "chute_later", "chute", "2026-01-01T00:00:00.000Z");
+        add_campaign(&conn, "chute_earlier", "chute", "2024-01-01T00:00:00.000Z");
         for (i, &d) in ORIFICES_M.iter().enumerate() {
             for &f in freqs {
                 let q = law(d, f);
@@ -809,9 +794,18 @@ mod tests {
         assert!(msg.contains("nope") && msg.contains("rotating"), "{msg}");
         let msg = format!(
             "{:#}",
-            render_figure(&conn, "fig3", Some("chute_later"), dir.path()).expect_err("scene")
+            render_figure(&conn, "silo:fig3", Some("chute_earlier"), dir.path())
+                .expect_err("scene")
         );
-        assert!(msg.contains("chute"), "{msg}");
+        assert!(msg.contains("'chute' campaign"), "{msg}");
+        let msg = format!(
+            "{:#}",
+            render_figure(&conn, "fig6", None, dir.path()).expect_err("chute only")
+        );
+        assert!(
+            msg.contains("scene 'silo'") && msg.contains("chute figure"),
+            "{msg}"
+        );
         let old = render_figure(&conn, "fig3", Some("old_silo"), dir.path()).expect("old campaign");
         assert!(
             old.missing.is_empty() && old.table.contains("needs >= 3 orifices"),
