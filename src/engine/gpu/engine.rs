@@ -14,7 +14,7 @@ use super::layout::{
     status_initial, LawGpu, Params, WallGpu, MAX_WALLS, REBUILD_PASSES, STATUS_WORDS,
     WORKGROUP_SIZE,
 };
-use super::pipelines::{kernel, BindGroups, Pipelines};
+use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::status::{read_chunk, ChunkContext};
 use crate::engine::backend::{Backend, BackendInfo, ChunkReport, EngineError};
 use crate::engine::config::EngineConfig;
@@ -31,6 +31,9 @@ pub struct GpuOptions {
     pub steps_per_submit: u64,
     /// Run length of the chunked prefix scan (default ⌈√cells⌉).
     pub scan_chunk: Option<u32>,
+    /// Only `max_overlap_ratio` applies: the energy check needs the kinetic energy, which the
+    /// status block does not carry (a device-side sum would need float atomics or a reduction
+    /// pass per chunk).
     pub watchdog: Watchdog,
 }
 
@@ -101,7 +104,10 @@ impl GpuEngine {
         for (w, wall) in walls.iter_mut().zip(&config.walls) {
             *w = WallGpu::of(wall);
         }
-        let pipes = Pipelines::new(dev);
+        let pipes = Pipelines::new(
+            dev,
+            Specialization::of(&config, state.rotation, state.history.slots),
+        );
         if let Some(e) = dev.take_error() {
             return Err(EngineError::Device(format!("building the kernels: {e}")));
         }
@@ -194,6 +200,20 @@ impl GpuEngine {
                 "{} history slots per particle; the GPU backend holds at most {MAX_SLOTS}",
                 self.slots
             )));
+        }
+        if state.oriented {
+            return Err(EngineError::Device(
+                "spherocylinders (oriented particles) are not in the GPU kernels yet: run this scene with --backend cpu".into(),
+            ));
+        }
+        // The kernels are compiled for the effects of the state they run: recompile when an
+        // upload changes them (never within one job).
+        let spec = Specialization::of(&self.config, state.rotation, state.history.slots);
+        if spec != self.pipes.spec {
+            self.pipes = Pipelines::new(&self.dev, spec);
+            if let Some(e) = self.dev.take_error() {
+                return Err(EngineError::Device(format!("building the kernels: {e}")));
+            }
         }
         if state.is_empty() {
             return Ok(());

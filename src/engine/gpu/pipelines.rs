@@ -8,6 +8,7 @@ use std::num::NonZeroU64;
 use super::buffers::GpuBuffers;
 use super::device::GpuDevice;
 use super::layout::{binding as b, prelude, Params, WallGpu, MAX_WALLS, STATUS_WORDS};
+use crate::engine::config::EngineConfig;
 
 const INTEGRATE: &str = concat!(
     include_str!("shaders/common.wgsl"),
@@ -198,18 +199,77 @@ fn min_size(binding: u32) -> u64 {
     }
 }
 
+/// The effects a run switches on, compiled into the kernels as WGSL pipeline-overridable
+/// constants (common.wgsl): a branch an effect does not need is removed by the shader compiler,
+/// not tested at run time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Specialization {
+    /// Angular velocities are integrated and enter contacts.
+    pub rotation: bool,
+    /// Tangential springs are kept per contact.
+    pub history: bool,
+    /// Some contact law is Hertz–Mindlin; some is linear.
+    pub any_hertz: bool,
+    pub any_linear: bool,
+    pub walls: bool,
+    pub periodic_x: bool,
+    pub periodic_y: bool,
+    pub sink: bool,
+}
+
+impl Specialization {
+    /// The effects of `config` with particles carrying `rotation` and `history_slots`.
+    pub fn of(config: &EngineConfig, rotation: bool, history_slots: usize) -> Self {
+        let laws = if config.walls.is_empty() {
+            vec![config.particle_law]
+        } else {
+            vec![config.particle_law, config.wall_law]
+        };
+        let hertz = |l: &crate::engine::contact::ContactLaw| {
+            matches!(l.normal, crate::engine::contact::NormalModel::Hertz(_))
+        };
+        Self {
+            rotation,
+            history: history_slots > 0,
+            any_hertz: laws.iter().any(hertz),
+            any_linear: laws.iter().any(|l| !hertz(l)),
+            walls: !config.walls.is_empty(),
+            periodic_x: config.periodic_x.is_some(),
+            periodic_y: config.periodic_y.is_some(),
+            sink: config.sink_z.is_some(),
+        }
+    }
+
+    fn constants(&self) -> [(&'static str, f64); 8] {
+        let b = |x: bool| if x { 1.0 } else { 0.0 };
+        [
+            ("ROTATION", b(self.rotation)),
+            ("HISTORY", b(self.history)),
+            ("ANY_HERTZ", b(self.any_hertz)),
+            ("ANY_LINEAR", b(self.any_linear)),
+            ("WALLS", b(self.walls)),
+            ("PERIODIC_X", b(self.periodic_x)),
+            ("PERIODIC_Y", b(self.periodic_y)),
+            ("SINK", b(self.sink)),
+        ]
+    }
+}
+
 /// Layouts and pipelines of every kernel.
 pub struct Pipelines {
     layouts: Vec<wgpu::BindGroupLayout>,
     pub pipelines: Vec<wgpu::ComputePipeline>,
+    /// The effects the kernels were compiled for.
+    pub spec: Specialization,
 }
 
 /// The bind groups of one set of buffers, one per kernel.
 pub struct BindGroups(pub Vec<wgpu::BindGroup>);
 
 impl Pipelines {
-    /// Compiles every module and builds every pipeline.
-    pub fn new(dev: &GpuDevice) -> Self {
+    /// Compiles every module and builds every pipeline, specialised for `spec`.
+    pub fn new(dev: &GpuDevice, spec: Specialization) -> Self {
+        let constants = spec.constants();
         let d = &dev.device;
         let pre = prelude();
         let modules: Vec<wgpu::ShaderModule> = Module::ALL
@@ -260,14 +320,18 @@ impl Pipelines {
                 module,
                 entry_point: Some(k.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &[],
+                    constants: &constants,
                     zero_initialize_workgroup_memory: false,
                 },
                 cache: None,
             }));
             layouts.push(layout);
         }
-        Self { layouts, pipelines }
+        Self {
+            layouts,
+            pipelines,
+            spec,
+        }
     }
 
     /// Bind groups of every kernel over `bufs`.

@@ -3,6 +3,17 @@
 // WALL_KEY and the ST_* status words. Arithmetic is written in the CPU engine's order
 // (contact/force.rs, grid.rs, cpu.rs) so that f32 results agree to rounding.
 
+// The run's effects, fixed when the pipelines are built (pipelines.rs, `Specialization`): the
+// shader compiler drops every branch a run does not need, as the CPU engine skips those kernels.
+override ROTATION: bool = true;
+override HISTORY: bool = true;
+override ANY_HERTZ: bool = true;
+override ANY_LINEAR: bool = true;
+override WALLS: bool = true;
+override PERIODIC_X: bool = true;
+override PERIODIC_Y: bool = true;
+override SINK: bool = true;
+
 struct Law {
     hertz: u32,
     tangential: u32,
@@ -101,11 +112,11 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 // Minimum-image separation b − a (Periodic::delta).
 fn min_image(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
     var d = b - a;
-    if (params.periodic_x != 0u) {
+    if (PERIODIC_X) {
         let l = params.box_len_x;
         d.x = d.x - l * floor(d.x / l + 0.5);
     }
-    if (params.periodic_y != 0u) {
+    if (PERIODIC_Y) {
         let l = params.box_len_y;
         d.y = d.y - l * floor(d.y / l + 0.5);
     }
@@ -115,11 +126,11 @@ fn min_image(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 // A position wrapped into the periodic box (Periodic::wrap).
 fn wrap(p: vec3<f32>) -> vec3<f32> {
     var q = p;
-    if (params.periodic_x != 0u) {
+    if (PERIODIC_X) {
         let l = params.box_len_x;
         q.x = q.x - l * floor((q.x - params.box_lo_x) / l);
     }
-    if (params.periodic_y != 0u) {
+    if (PERIODIC_Y) {
         let l = params.box_len_y;
         q.y = q.y - l * floor((q.y - params.box_lo_y) / l);
     }

@@ -59,13 +59,15 @@ fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: 
                  spring: ptr<function, vec3<f32>>) -> vec3<f32> {
     let vn = dot3(v_rel, n);
     // Hertz stiffnesses grow as √(R*δ); computed once for both directions.
+    // Folds to a constant unless the run mixes both laws.
+    let hertz = ANY_HERTZ && (!ANY_LINEAR || law.hertz != 0u);
     var sq = 1.0;
-    if (law.hertz != 0u) {
+    if (hertz) {
         sq = sqrt(r_eff * overlap);
     }
     var kn = law.kn;
     var sn = law.kn;
-    if (law.hertz != 0u) {
+    if (hertz) {
         kn = law.kn * sq;
         // S_n = 2 Y* √(Rδ) = 3/2 k_n.
         sn = kn * 1.5;
@@ -103,7 +105,7 @@ fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: 
 fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if (i >= params.n) { return; }
-    let use_rows = params.slots > 0u;
+    let use_rows = HISTORY;
     if (use_rows) {
         rows_open(i);
     }
@@ -125,7 +127,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let mi = me.mass;
     let v4 = vel_im[i];
     let vi = v4.xyz;
-    let rotation = params.rotation != 0u;
+    let rotation = ROTATION;
     var wi = vec3<f32>(0.0);
     if (rotation) {
         wi = omega[i].xyz;
@@ -178,7 +180,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
         max_ov = max(max_ov, overlap / (min(ri, rj) * 2.0));
         nc++;
     }
-    if (!fixed_i) {
+    if (WALLS && !fixed_i) {
         for (var w = 0u; w < params.n_walls; w++) {
             let wc = wall_touch(walls.w[w], pi, ri);
             if (!wc.hit) { continue; }

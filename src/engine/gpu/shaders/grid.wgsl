@@ -62,8 +62,8 @@ fn axis_cell(x: f32, lo: f32, w: f32, n: u32, periodic: bool) -> u32 {
 
 fn cell_of(p: vec3<f32>) -> vec3<u32> {
     return vec3<u32>(
-        axis_cell(p.x, params.lo_x, params.width_x, params.nx, params.periodic_x != 0u),
-        axis_cell(p.y, params.lo_y, params.width_y, params.ny, params.periodic_y != 0u),
+        axis_cell(p.x, params.lo_x, params.width_x, params.nx, PERIODIC_X),
+        axis_cell(p.y, params.lo_y, params.width_y, params.ny, PERIODIC_Y),
         axis_cell(p.z, params.lo_z, params.width_z, params.nz, false),
     );
 }
@@ -175,7 +175,7 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let p = p4.xyz;
     let c = cell_of(p);
-    let px = params.periodic_x != 0u;
+    let px = PERIODIC_X;
     // Three x-adjacent cells are one contiguous run of `sorted` unless the run wraps.
     let contiguous = !px || (params.nx >= 3u && c.x >= 1u && c.x + 2u <= params.nx);
     let x_lo = select(c.x, c.x - 1u, c.x >= 1u);
@@ -185,7 +185,7 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
         let z = around(c.z, oz, params.nz, false);
         if (z < 0) { continue; }
         for (var oy = 0u; oy < 3u; oy++) {
-            let y = around(c.y, oy, params.ny, params.periodic_y != 0u);
+            let y = around(c.y, oy, params.ny, PERIODIC_Y);
             if (y < 0) { continue; }
             let base = (u32(z) * params.ny + u32(y)) * params.nx;
             if (contiguous) {

@@ -18,7 +18,7 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= params.n) { return; }
     let k = atomicLoad(&status[ST_STEP]);
     let kick = select(params.dt, params.half_dt, k == 0u);
-    if (params.rotation != 0u) {
+    if (ROTATION) {
         // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
         let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * kick);
         omega[i] = vec4<f32>(w, 0.0);
@@ -30,7 +30,7 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = wrap(pos_r[i].xyz + v * params.dt);
     vel_im[i] = vec4<f32>(v, im);
     pos_r[i] = vec4<f32>(x, pos_r[i].w);
-    if (params.has_sink != 0u && x.z < params.sink_z) {
+    if (SINK && x.z < params.sink_z) {
         info[i].alive = 0u;
         let e = atomicAdd(&status[ST_DEATHS], 1u);
         events[e] = vec2<u32>(i, k);
@@ -52,7 +52,7 @@ fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
         let v = vi.xyz + (load[i].force.xyz * im + gravity()) * half;
         vel_im[i] = vec4<f32>(v, im);
     }
-    if (params.rotation != 0u) {
+    if (ROTATION) {
         let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * half);
         omega[i] = vec4<f32>(w, 0.0);
     }
@@ -74,7 +74,7 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
         kind = 0u;
     } else if (!is_finite3(vel_im[i].xyz)) {
         kind = 1u;
-    } else if (params.rotation != 0u && !is_finite3(omega[i].xyz)) {
+    } else if (ROTATION && !is_finite3(omega[i].xyz)) {
         kind = 2u;
     }
     if (kind < 3u) {
