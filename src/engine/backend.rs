@@ -25,6 +25,10 @@ pub struct ChunkReport {
     /// Mean number of contacts per particle at the end of the chunk.
     pub contacts_per_particle: f64,
     pub list_builds: u64,
+    /// K₁ / B of the energy watchdog (`watchdog::EnergyBudget`): the chunk's final kinetic
+    /// energy over the most gravity, moving walls and stored elastic energy could supply. None
+    /// when not measured (the GPU engine, or the check switched off).
+    pub kinetic_growth: Option<f64>,
 }
 
 /// Which backend ran and with what.
@@ -51,6 +55,16 @@ pub enum EngineError {
     },
     #[error("overlap of {ratio:.3} d between particles at step {step} exceeds the limit {limit:.3} d: the time step or the stiffness is wrong for this scene")]
     Overlap { ratio: f64, limit: f64, step: u64 },
+    #[error("kinetic energy grew from {from_j:.3e} J to {to_j:.3e} J over steps {first_step}..={step}, {growth:.3e} times the {budget_j:.3e} J that gravity, moving walls and the stored elastic energy could supply (limit {limit}): the run is blowing up; lower dt well below t_c or check the stiffness")]
+    EnergyBlowUp {
+        from_j: f64,
+        to_j: f64,
+        budget_j: f64,
+        growth: f64,
+        limit: f64,
+        first_step: u64,
+        step: u64,
+    },
     #[error("particle {id} has more than {slots} simultaneous contacts at step {step}: raise the history size")]
     HistoryFull { id: u32, slots: usize, step: u64 },
     #[error("GPU device: {0}")]
@@ -62,11 +76,19 @@ pub trait Backend: Send {
     /// Advances `steps` time steps.
     ///
     /// # Errors
-    /// A non-finite value, an overlap beyond the watchdog limit, a full contact table, or a
-    /// device failure; the state is then not to be checkpointed.
+    /// A non-finite value, an overlap or a kinetic-energy growth beyond the watchdog limits, a
+    /// full contact table, or a device failure; the state is then not to be checkpointed.
     fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError>;
-    /// Copies the state out, in f64.
+    /// Copies the state out, in f64. Panics if the device fails while reading back; runners
+    /// use [`Backend::try_download`], which reports it instead.
     fn download(&mut self) -> State<f64>;
+    /// Copies the state out, in f64, or says why the device could not.
+    ///
+    /// # Errors
+    /// A device lost or failing during the read-back.
+    fn try_download(&mut self) -> Result<State<f64>, EngineError> {
+        Ok(self.download())
+    }
     /// Replaces the state (a checkpoint being resumed, or particles inserted between chunks).
     fn upload(&mut self, state: &State<f64>);
     /// Every contact of the current state, each once, with its force (stress observers ask for

@@ -242,7 +242,7 @@ pub fn run_chute_job(
     let wall0 = prog.wall_time_s;
     let mut last_beat = Instant::now();
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
-        let s = engine.download();
+        let s = engine.try_download()?;
         let h = Header {
             job_hash: job.hash.clone(),
             step: s.step,
@@ -292,7 +292,10 @@ pub fn run_chute_job(
         prog.chunk += 1;
         prog.particle_steps += report.particle_steps;
         let t_now = prog.chunk as f64 * chunk_dt;
-        let s = engine.download();
+        let s = match engine.try_download() {
+            Ok(s) => s,
+            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+        };
         let flowing = Flowing::of(&s);
         let ke = s.kinetic_energy();
         match prog.phase {

@@ -160,7 +160,9 @@ fn fill_stage_run(
             .advance(chunk)
             .map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
         steps += r.particle_steps;
-        s = engine.download();
+        s = engine
+            .try_download()
+            .map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
         if scene.settled(&s) && s.time > 0.05 {
             break;
         }
@@ -270,7 +272,7 @@ pub fn run_silo_job(
     let mut last_beat = Instant::now();
     let seed = spec.seed();
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
-        let s = engine.download();
+        let s = engine.try_download()?;
         let h = Header {
             job_hash: job.hash.clone(),
             step: s.step,
@@ -325,7 +327,10 @@ pub fn run_silo_job(
                 .record_exit(ev.time_s - prog.t_open, ev.mass_kg);
         }
         if scene.p.reinsert && !report.removed.is_empty() {
-            let mut s = engine.download();
+            let mut s = match engine.try_download() {
+                Ok(s) => s,
+                Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+            };
             let step = s.step;
             reinsert(&scene, &mut s, &report.removed, seed ^ step);
             engine.upload(&s);

@@ -407,6 +407,10 @@ impl Backend for GpuEngine {
         }
     }
 
+    fn try_download(&mut self) -> Result<State<f64>, EngineError> {
+        self.read_state()
+    }
+
     fn upload(&mut self, state: &State<f64>) {
         if let Err(e) = self.load(state) {
             self.pending = Some(e);
