@@ -1,4 +1,4 @@
--- sweep's store. Version 2 (PRAGMA user_version = 2). Every statement is idempotent (IF NOT EXISTS):
+-- sweep's store. Version 3 (PRAGMA user_version = 3). Every statement is idempotent (IF NOT EXISTS):
 -- migrating from an older version runs the whole file again, which adds the new tables.
 -- Units are in column names (SI). Results tables are meant for plain SQL use.
 
@@ -187,4 +187,33 @@ CREATE TABLE IF NOT EXISTS chute_series (
     kinetic_energy_j    REAL NOT NULL,
     stress_ratio        REAL,                       -- bulk sigma_xz/sigma_zz; NULL when not sampled
     PRIMARY KEY (job_id, t_s)
+);
+
+-- Slurm executor: one row per job handed to Slurm (a job that `sweep resume` resubmits gets a new
+-- row). `state` is sweep's view; Slurm's own view is asked live (squeue, scontrol show job).
+-- A job is done when its task's result file verifies and is ingested, never on Slurm's word.
+CREATE TABLE IF NOT EXISTS slurm_tasks (
+    id              INTEGER PRIMARY KEY,
+    job_id          INTEGER NOT NULL REFERENCES jobs(id),
+    campaign_id     INTEGER REFERENCES campaigns(id),
+    array_job_id    TEXT NOT NULL,          -- what `sbatch --parsable` printed (before any ';cluster')
+    array_task_id   INTEGER NOT NULL,       -- SLURM_ARRAY_TASK_ID of the job's task
+    script_path     TEXT NOT NULL,          -- the sbatch script, kept for provenance
+    settings_json   TEXT NOT NULL,          -- executor settings of the submission (resume reuses them)
+    state           TEXT NOT NULL DEFAULT 'active'
+                    CHECK (state IN ('active', 'done', 'failed', 'ended', 'cancelled')),
+    note            TEXT,                   -- how it ended: Slurm state and exit code, or the error
+    submitted_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    UNIQUE (array_job_id, array_task_id)
+);
+CREATE INDEX IF NOT EXISTS slurm_tasks_job ON slurm_tasks (job_id);
+
+-- How hard a job was numerically, for the accuracy–cost map: one row per finished job.
+CREATE TABLE IF NOT EXISTS job_numerics (
+    job_id                   INTEGER PRIMARY KEY REFERENCES jobs(id),
+    dt_s                     REAL NOT NULL,
+    steps                    INTEGER NOT NULL,
+    max_overlap_ratio        REAL NOT NULL,   -- largest overlap over the run, as a fraction of d
+    mean_contacts            REAL NOT NULL,   -- contacts per particle, averaged over chunks
+    list_builds              INTEGER NOT NULL -- neighbour-list rebuilds
 );

@@ -1,12 +1,16 @@
 //! Command-line definitions (clap derive) and dispatch; one file per subcommand in `cli/`.
 
 mod bench;
+mod cancel;
+mod collect;
 mod info;
 mod launch;
 mod plan;
 mod report;
+mod run_job;
 mod schema;
 mod status;
+mod submit;
 
 use std::path::PathBuf;
 
@@ -32,23 +36,67 @@ pub struct DbArg {
 enum Command {
     /// Register a campaign file's jobs and run the pending ones.
     ///
+    /// With `--executor slurm` the pending jobs are handed to Slurm as job arrays instead (one
+    /// task per job, `sweep run-job`); the scripts are kept under the work directory, and
+    /// `sweep status`, `sweep collect` or `sweep resume` collect finished results.
+    ///
     /// EXAMPLES:
     ///   sweep launch campaigns/silo_QvsF_quick.json
     ///   sweep launch campaigns/silo_QvsF.json --parallel 2 --db paper.db
+    ///   sweep launch campaigns/silo_QvsF.json --executor slurm --partition gpu --gpus-per-job 1 --time 04:00:00 --array-max 8
+    ///   sweep launch campaigns/silo_QvsF.json --executor slurm --dry-run
     ///
     /// ERRORS: a bad campaign file exits with status 2 and names the file, the JSON path and
     /// what was expected; nothing is registered. A failed job does not stop the others; the exit
-    /// status is then 1.
+    /// status is then 1. With Slurm: no `sbatch` on PATH, bad settings, or `sbatch` refusing a
+    /// script (a bad partition, say) exit with status 2 and Slurm's message; the jobs stay pending.
     Launch(launch::Arguments),
     /// Continue paused jobs, jobs whose process died (stale heartbeat) and failed jobs with
     /// attempts left, from their last valid checkpoint.
     ///
+    /// Jobs that ran under Slurm are collected first, and those whose task ended without a result
+    /// (a time limit, a node failure, `sweep cancel`) are resubmitted to Slurm.
+    ///
     /// EXAMPLES:
     ///   sweep resume
     ///   sweep resume --db paper.db --parallel 2
+    ///   sweep resume --executor local   # run what was left on Slurm on this machine
     Resume(launch::ResumeArguments),
     /// Campaigns and jobs: status, progress, throughput, time remaining.
+    ///
+    /// For jobs handed to Slurm, Slurm's view beside sweep's (finished results are collected
+    /// first, as by `sweep collect`).
     Status(status::Arguments),
+    /// Ingest the verified results of finished Slurm tasks into the database.
+    ///
+    /// Each task leaves its result in its job's directory; a result that verifies (checksum, row
+    /// counts) is copied into the database and marks the job done. Jobs whose task ended without
+    /// a result are paused for `sweep resume`.
+    ///
+    /// EXAMPLES:
+    ///   sweep collect --db paper.db
+    ///
+    /// ERRORS: a result file that does not verify is reported and not ingested (exit status 1);
+    /// when Slurm cannot be asked, jobs still handed to it are left as they are.
+    Collect(collect::Arguments),
+    /// Cancel the Slurm arrays of a campaign (or of all).
+    ///
+    /// Their jobs are paused at their last checkpoint; `sweep resume` resubmits them.
+    ///
+    /// EXAMPLES:
+    ///   sweep cancel --campaign silo_QvsF --db paper.db
+    Cancel(cancel::Arguments),
+    /// Run one job as a Slurm array task (what the sbatch scripts call).
+    ///
+    /// Works in the job's directory under the work directory, without opening the database; the
+    /// result is collected later by `sweep collect`.
+    ///
+    /// EXAMPLES:
+    ///   sweep run-job --db-dir /scratch/me/sweep-work/paper --job 7 --backend gpu
+    ///
+    /// EXIT STATUS: 0 done (or requeued after SIGUSR1), 1 the job failed, 75 checkpointed on a
+    /// signal and stopped, 2 an error (no job file, I/O).
+    RunJob(run_job::Arguments),
     /// Each job's effects and estimated cost, without running anything.
     ///
     /// EXAMPLES:
@@ -78,6 +126,9 @@ pub fn run() -> anyhow::Result<i32> {
         Command::Launch(a) => launch::launch(a),
         Command::Resume(a) => launch::resume(a),
         Command::Status(a) => status::run(a),
+        Command::Collect(a) => collect::run(a),
+        Command::Cancel(a) => cancel::run(a),
+        Command::RunJob(a) => run_job::run(a),
         Command::Plan(a) => plan::run(a),
         Command::Report(a) => report::run(a),
         Command::Bench(a) => bench::run(a),

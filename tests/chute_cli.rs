@@ -113,10 +113,16 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
     let file = campaign(d);
     let db = d.join("sweep.db");
     let args = launch_args(&file, &db);
-    ok(&run(d, &args.iter().map(|s| s.as_str()).collect::<Vec<_>>()));
+    ok(&run(
+        d,
+        &args.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+    ));
     let reference = chute_rows(&db);
     assert_eq!(count(&reference, "chute_summary"), 1);
-    assert!(count(&reference, "chute_blocks") >= 3, "blocks: {reference:?}");
+    assert!(
+        count(&reference, "chute_blocks") >= 3,
+        "blocks: {reference:?}"
+    );
     assert!(count(&reference, "chute_msd") >= 10);
     assert!(count(&reference, "chute_fields") >= 20);
     assert!(count(&reference, "chute_vz_pdf") >= 10);
@@ -200,7 +206,10 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
         }
         std::thread::sleep(Duration::from_millis(2));
     }
-    assert!(seen, "the job ended before its first checkpoint: lengthen it");
+    assert!(
+        seen,
+        "the job ended before its first checkpoint: lengthen it"
+    );
     child.kill().unwrap();
     child.wait().unwrap();
     let o = run(
@@ -223,6 +232,9 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
     let got = chute_rows(&db2);
     assert_eq!(got.len(), reference.len());
     for (a, b) in reference.iter().zip(&got) {
-        assert_eq!(a, b, "a resumed chute job differs from an uninterrupted one");
+        assert_eq!(
+            a, b,
+            "a resumed chute job differs from an uninterrupted one"
+        );
     }
 }

@@ -109,8 +109,10 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         Ok(Value::Object(m)) => m,
         _ => Map::new(),
     };
+    // `precision` may also be swept (an accuracy study compares f64 with f32); it overrides
+    // `run.precision` for its jobs.
     let check_key = |section: &str, k: &str, problems: &mut Vec<FieldProblem>| {
-        if !known.contains_key(k) {
+        if !known.contains_key(k) && k != "precision" {
             let mut names: Vec<&String> = known.keys().collect();
             names.sort();
             problems.push(FieldProblem {
@@ -253,6 +255,19 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                     .find(|(k, _, _)| k == field)
                     .map_or_else(|| format!("base.{field}"), |(_, _, s)| s.clone())
             };
+            let precision = match obj.remove("precision") {
+                None => c.run.precision,
+                Some(v) => match serde_json::from_value::<Precision>(v.clone()) {
+                    Ok(p) => p,
+                    Err(_) => {
+                        problems.push(FieldProblem {
+                            path: source("precision"),
+                            message: format!("expected \"f64\" or \"f32\", got {v}"),
+                        });
+                        continue;
+                    }
+                },
+            };
             let problem = |e: serde_path_to_error::Error<serde_json::Error>| {
                 let field = e.path().to_string();
                 let field = field.split('.').next().unwrap_or("").to_string();
@@ -307,7 +322,7 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                 silo,
                 chute,
                 observers,
-                precision: c.run.precision,
+                precision,
                 label: label.join(","),
             });
         }

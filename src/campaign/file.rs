@@ -6,6 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::error::CampaignError;
+use super::executor::{ExecutorKind, SlurmSettings};
 use crate::observe::chute::ChuteObserverSettings;
 use crate::observe::discharge::DischargeSettings;
 
@@ -70,6 +71,10 @@ pub struct RunSettings {
     pub checkpoint_interval_s: f64,
     /// A failed job is retried by `sweep resume` up to this many attempts in all.
     pub max_attempts: u32,
+    /// Where jobs run: "local" (this machine) or "slurm" (job arrays); `--executor` overrides.
+    pub executor: ExecutorKind,
+    /// How jobs are handed to Slurm (with executor "slurm"); command-line flags override.
+    pub slurm: SlurmSettings,
 }
 
 impl Default for RunSettings {
@@ -78,6 +83,8 @@ impl Default for RunSettings {
             precision: Precision::F64,
             checkpoint_interval_s: 0.5,
             max_attempts: 3,
+            executor: ExecutorKind::Local,
+            slurm: SlurmSettings::default(),
         }
     }
 }

@@ -1,11 +1,13 @@
-//! Campaign files: the raw format (`file`), validation with precise errors (`error`), and
-//! expansion into jobs with parameter hashes and seeds (`expand`).
+//! Campaign files: the raw format (`file`, with where jobs run in `executor`), validation with
+//! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
 
 mod error;
+mod executor;
 mod expand;
 mod file;
 
 pub use error::{CampaignError, FieldProblem};
+pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, JobSpec};
 pub use file::{CampaignFile, Observers, Precision, RunSettings, SceneKind};
 

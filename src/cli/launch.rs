@@ -1,4 +1,4 @@
-//! `sweep launch` and `sweep resume`.
+//! `sweep launch` and `sweep resume`, on either executor: this machine (the pool) or Slurm.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -6,8 +6,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::Context;
+use sweep::campaign::ExecutorKind;
 use sweep::runner::backend::{auto_summary, BackendChoice};
+use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
+use sweep::store::slurm_tasks;
 
 use super::DbArg;
 
@@ -33,6 +36,8 @@ pub struct Arguments {
     pub file: PathBuf,
     #[command(flatten)]
     pub run: RunArgs,
+    #[command(flatten)]
+    pub exec: super::submit::ExecutorArgs,
 }
 
 #[derive(clap::Args)]
@@ -45,6 +50,10 @@ pub struct ResumeArguments {
     /// Failed jobs are retried until they have had this many attempts.
     #[arg(long, default_value_t = 3)]
     pub max_attempts: i64,
+    /// Where resumed jobs run: local or slurm (default: where each job last ran; Slurm jobs
+    /// are resubmitted with the settings of their last submission).
+    #[arg(long)]
+    pub executor: Option<ExecutorKind>,
 }
 
 /// The work directory (checkpoints, shared stages) of a database.
@@ -122,6 +131,18 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
             return Ok(2);
         }
     };
+    let executor = a.exec.executor.unwrap_or(file.run.executor);
+    if executor == ExecutorKind::Slurm {
+        return super::submit::launch_slurm(&a, &file, &jobs);
+    }
+    let flags = a.exec.slurm_flags();
+    if !flags.is_empty() {
+        eprintln!(
+            "sweep: error: {} apply to the Slurm executor: add --executor slurm (`sweep plan FILE` is the local dry run)",
+            flags.join(", ")
+        );
+        return Ok(2);
+    }
     let mut conn = sweep::store::open(&a.run.db.db)?;
     let (cid, added) =
         sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &file, &jobs)?;
@@ -155,14 +176,24 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.run.db.db)?;
-    let n = sweep::store::jobs::requeue(&mut conn, a.stale_after, a.max_attempts)?;
+    let db = &a.run.db.db;
+    let mut conn = sweep::store::open(db)?;
+    let slurm_used = slurm_tasks::any(&conn)?;
+    if slurm_used {
+        let r = slurm::collect(&mut conn, &work_dir(db))?;
+        super::collect::print_report(&r);
+    }
+    let n = slurm_tasks::release_stale_submissions(&conn, a.stale_after)?
+        + sweep::store::jobs::requeue(&mut conn, a.stale_after, a.max_attempts)?;
     let (total, done): (i64, i64) = conn.query_row(
         "SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs",
         [],
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
     println!("{n} job(s) to resume, {done} of {total} already done");
+    if let Some(code) = super::submit::resume_on_slurm(&mut conn, db, &a, slurm_used)? {
+        return Ok(code);
+    }
     // Each job's own campaign sets its checkpoint interval; this is the fallback.
     run_jobs(
         &a.run,

@@ -3,8 +3,8 @@
 
 use std::collections::BTreeSet;
 
-use sweep::engine::Effects;
 use sweep::campaign::SceneKind;
+use sweep::engine::Effects;
 use sweep::scene::chute::ChuteScene;
 use sweep::scene::silo::{SiloPhase, SiloScene};
 

@@ -1,6 +1,10 @@
-//! `sweep status`: campaigns and jobs with progress, throughput and time remaining.
+//! `sweep status`: campaigns and jobs with progress, throughput and time remaining; for jobs
+//! handed to Slurm, Slurm's view beside sweep's (after collecting finished results).
 
 use std::path::Path;
+
+use sweep::runner::slurm::{self, query::SlurmView};
+use sweep::store::slurm_tasks::{self, SlurmTask};
 
 use super::DbArg;
 
@@ -21,7 +25,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
-    let conn = sweep::store::open(&a.db.db)?;
+    let mut conn = sweep::store::open(&a.db.db)?;
+    let slurm = slurm_view(&mut conn, &a.db.db)?;
     let mut camps = conn.prepare(
         "SELECT id, name, file FROM campaigns WHERE ?1 IS NULL OR name = ?1 ORDER BY id",
     )?;
@@ -117,7 +122,51 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             if !r.8.is_empty() && r.1 != "done" {
                 println!("         last error: {}", r.8);
             }
+            if let Some((tasks, view)) = &slurm {
+                if let Some(t) = tasks.get(&r.0) {
+                    println!("         slurm: {}", describe(t, view.as_ref()));
+                }
+            }
         }
     }
     Ok(0)
+}
+
+/// Every job's latest Slurm task, and Slurm's view of them (None when Slurm cannot be asked).
+type SlurmRows = (
+    std::collections::BTreeMap<i64, SlurmTask>,
+    Option<SlurmView>,
+);
+
+/// Collects finished Slurm results, then Slurm's view of every job's latest task (None when no
+/// job was ever handed to Slurm).
+fn slurm_view(conn: &mut rusqlite::Connection, db: &Path) -> anyhow::Result<Option<SlurmRows>> {
+    if !slurm_tasks::any(conn)? {
+        return Ok(None);
+    }
+    let r = slurm::collect(conn, &super::launch::work_dir(db))?;
+    super::collect::print_report(&r);
+    let tasks = slurm_tasks::latest_by_job(conn, None)?;
+    let mut arrays: Vec<String> = tasks.values().map(|t| t.array_job_id.clone()).collect();
+    arrays.sort();
+    arrays.dedup();
+    let view = slurm::query::view(&arrays).ok();
+    Ok(Some((tasks, view)))
+}
+
+/// "task 12_3 RUNNING on node7, requeued 1×" (Slurm's view), with sweep's when they differ.
+fn describe(t: &SlurmTask, view: Option<&SlurmView>) -> String {
+    let slurm = match view {
+        None => "Slurm not reachable".to_string(),
+        Some(v) => v
+            .get(&t.array_job_id, t.array_task_id)
+            .map_or_else(|| "unknown to Slurm now".to_string(), |tv| tv.describe()),
+    };
+    // How it ended for sweep; the reason is the job's last error, printed above.
+    let sweep = match t.state.as_str() {
+        "active" => String::new(),
+        "done" => "; result collected".to_string(),
+        other => format!("; {other}"),
+    };
+    format!("task {} {slurm}{sweep}", t.slurm_id())
 }

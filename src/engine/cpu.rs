@@ -6,13 +6,15 @@ use rayon::prelude::*;
 
 use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
-use super::contact::{contact_force, ContactInput, ContactRecord, LawKernel};
+use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
 use super::grid::{self, NeighbourList, Periodic};
 use super::history::{wall_key, Rows, MAX_SLOTS};
 use super::oriented::{self, OrientedContext};
 use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
+pub use super::watchdog::Watchdog;
+use super::watchdog::{wall_speed, EnergyBudget};
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
@@ -23,22 +25,6 @@ const DEAD: u8 = 0;
 /// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
 pub const HISTORY_SLOTS: usize = 16;
 const _: () = assert!(HISTORY_SLOTS <= MAX_SLOTS);
-
-/// Watchdog limits checked every step.
-#[derive(Clone, Copy, Debug)]
-pub struct Watchdog {
-    /// Largest tolerated overlap as a fraction of the smaller diameter.
-    pub max_overlap_ratio: f64,
-}
-
-impl Default for Watchdog {
-    fn default() -> Self {
-        // 20 % of d is far past any physical deformation: only a diverging run gets there.
-        Self {
-            max_overlap_ratio: 0.2,
-        }
-    }
-}
 
 /// The CPU engine in precision `R`.
 pub struct CpuEngine<R: Real> {
@@ -462,6 +448,63 @@ impl<R: Real> CpuEngine<R> {
         out
     }
 
+    /// Elastic energy stored in the contacts of the current state (J): normal springs plus
+    /// tangential springs as stored (`contact::elastic_energy`). Runs only when asked.
+    pub fn elastic_energy(&mut self) -> f64 {
+        self.rebuild();
+        self.sum_elastic_energy()
+    }
+
+    /// `elastic_energy` from the current (fresh) lists. Summed in particle order, so the same
+    /// for any thread count.
+    fn sum_elastic_energy(&self) -> f64 {
+        let ctx = ForceContext {
+            s: &self.state,
+            list: &self.list,
+            alive: &self.alive,
+            law_pp: &self.law_pp,
+            law_pw: &self.law_pw,
+            walls: &self.walls,
+            periodic: &self.periodic,
+            dt: R::zero(),
+        };
+        let oriented = self.state.oriented;
+        let per: Vec<f64> = self.pool.install(|| {
+            (0..self.state.len())
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .map(|i| {
+                    if oriented {
+                        ctx.oriented(i).elastic_energy(i)
+                    } else {
+                        ctx.elastic_energy(i)
+                    }
+                })
+                .collect()
+        });
+        per.iter().sum()
+    }
+
+    /// The energy watchdog's budget for a chunk of `steps` starting now (`watchdog.rs`); needs
+    /// fresh lists. O(N) plus one contact pass, once per chunk.
+    fn energy_budget(&self, steps: u64) -> EnergyBudget {
+        let s = &self.state;
+        let mobile_mass_kg: f64 = (0..s.len())
+            .filter(|&i| s.inv_mass[i] != R::zero())
+            .map(|i| s.mass[i].to_f64())
+            .sum();
+        let g = self.config.gravity;
+        let g = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        EnergyBudget {
+            kinetic_j: s.kinetic_energy(),
+            elastic_j: self.sum_elastic_energy(),
+            mobile_mass_kg,
+            speed_gain_m_per_s: g * steps as f64 * self.config.dt_s
+                + wall_speed(&self.config.walls, s),
+            first_step: s.step + 1,
+        }
+    }
+
     fn check_finite(&self) -> Result<(), EngineError> {
         let s = &self.state;
         for i in 0..s.len() {
@@ -518,6 +561,44 @@ impl<'a, R: Real> ForceContext<'a, R> {
             periodic: self.periodic,
             dt: self.dt,
         }
+    }
+
+    /// Elastic energy of particle i's contacts (J): half of each pair's (both particles count
+    /// it), all of each wall's, with the springs as stored. The watchdog's, once per chunk.
+    fn elastic_energy(&self, i: usize) -> f64 {
+        let s = self.s;
+        if self.alive[i] != ALIVE {
+            return 0.0;
+        }
+        let (pi, ri) = (s.pos[i], s.radius[i]);
+        let fixed_i = s.inv_mass[i] == R::zero();
+        let cnt = self.list.count[i] as usize;
+        let row = &self.list.index[i * self.list.stride..i * self.list.stride + cnt];
+        let mut e = 0.0;
+        for &j in row {
+            let j = j as usize;
+            if self.alive[j] != ALIVE || (fixed_i && s.inv_mass[j] == R::zero()) {
+                continue;
+            }
+            let rj = s.radius[j];
+            let sum = ri + rj;
+            let dist2 = self.periodic.delta(s.pos[j], pi).norm2();
+            if dist2 >= sum * sum {
+                continue;
+            }
+            let spring = s.history.spring_of(i, s.id[j]);
+            let u = elastic_energy(self.law_pp, sum - dist2.sqrt(), ri * rj / sum, spring);
+            e += 0.5 * u.to_f64();
+        }
+        if !fixed_i {
+            for (w, wall) in self.walls.iter().enumerate() {
+                if let Some(wc) = wall.touch(pi, ri) {
+                    let spring = s.history.spring_of(i, wall_key(w));
+                    e += elastic_energy(self.law_pw, wc.overlap, ri, spring).to_f64();
+                }
+            }
+        }
+        e
     }
 
     /// Force, torque, largest overlap ratio, contact count and "history full" for particle i.
@@ -675,8 +756,13 @@ impl<R: Real> Backend for CpuEngine<R> {
         // checkpoint (taken between chunks) follows exactly the same operations as one that never
         // stopped.
         let pool = self.pool.clone();
+        let check_energy = steps > 0 && self.watchdog.max_kinetic_growth.is_finite();
+        let mut budget = None;
         pool.install(|| -> Result<(), EngineError> {
             self.rebuild();
+            if check_energy {
+                budget = Some(self.energy_budget(steps));
+            }
             let half = self.dt * R::from_f64(0.5);
             // Particle-steps count mobile particles only (fixed base particles are not integrated).
             let mut live = self
@@ -709,6 +795,13 @@ impl<R: Real> Backend for CpuEngine<R> {
         report.contacts_per_particle =
             self.contacts.iter().map(|&c| c as f64).sum::<f64>() / n as f64;
         report.list_builds = self.list.builds - builds0;
+        // NOTE: after the finiteness check (a NaN must be reported as such) and the compaction
+        // (particles removed by the sink no longer count).
+        if let Some(b) = budget {
+            let k1 = self.state.kinetic_energy();
+            let growth = b.check(k1, self.state.step, self.watchdog.max_kinetic_growth)?;
+            report.kinetic_growth = Some(growth);
+        }
         Ok(report)
     }
 

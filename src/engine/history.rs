@@ -53,6 +53,21 @@ impl<R: Real> History<R> {
         self.spring = spring;
     }
 
+    /// The spring particle `i` stores for partner `key`, or zero when it has none (read-only:
+    /// the energy watchdog reads springs without advancing them).
+    pub fn spring_of(&self, i: usize, key: u32) -> V3<R> {
+        let row = i * self.slots..(i + 1) * self.slots;
+        for (&p, &s) in self.partner[row.clone()].iter().zip(&self.spring[row]) {
+            if p == key {
+                return s;
+            }
+            if p == EMPTY {
+                break;
+            }
+        }
+        V3::zero()
+    }
+
     pub fn convert<S: Real>(&self) -> History<S> {
         History {
             slots: self.slots,

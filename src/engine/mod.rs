@@ -14,6 +14,7 @@ pub mod real;
 pub mod shape;
 pub mod state;
 pub mod walls;
+pub mod watchdog;
 
 pub use backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 pub use config::EngineConfig;

@@ -12,7 +12,7 @@
 //! symmetric top (`shape::rigid`); ω = R I⁻¹ Rᵀ L is refreshed after every change of q or L, and is
 //! what contacts read.
 
-use super::contact::{contact_force, ContactInput, ContactRecord};
+use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord};
 use super::history::{wall_key, Rows};
 use super::real::{Real, V3};
 use super::shape::{angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder};
@@ -89,6 +89,49 @@ impl<R: Real> OrientedContext<'_, R> {
             half_length: self.s.half_length[k],
             radius: self.s.radius[k],
         }
+    }
+
+    /// Elastic energy of oriented particle i's contacts (J): half of each pair's (both
+    /// particles evaluate the pair in canonical order), all of each wall's, with the springs as
+    /// stored. The watchdog's, once per chunk.
+    pub fn elastic_energy(&self, i: usize) -> f64 {
+        let s = self.s;
+        if self.alive[i] != self.alive_flag {
+            return 0.0;
+        }
+        let fixed_i = s.inv_mass[i] == R::zero();
+        let mut e = 0.0;
+        for &j in self.neighbours {
+            let j = j as usize;
+            if self.alive[j] != self.alive_flag || (fixed_i && s.inv_mass[j] == R::zero()) {
+                continue;
+            }
+            let (a, b) = if s.id[i] < s.id[j] { (i, j) } else { (j, i) };
+            let (sa, sb) = (self.shape(a), self.shape(b));
+            let Some(pc) = contact_spherocylinders(
+                self.periodic.delta(s.pos[b], s.pos[a]),
+                s.orientation[a].axis_z(),
+                &sa,
+                s.orientation[b].axis_z(),
+                &sb,
+            ) else {
+                continue;
+            };
+            let r_eff = sa.radius * sb.radius / (sa.radius + sb.radius);
+            let spring = s.history.spring_of(i, s.id[j]);
+            e += 0.5 * elastic_energy(self.law_pp, pc.overlap, r_eff, spring).to_f64();
+        }
+        if !fixed_i {
+            let shape = self.shape(i);
+            let axis = s.orientation[i].axis_z();
+            for (w, wall) in self.walls.iter().enumerate() {
+                if let Some((pc, _)) = wall.touch_oriented(s.pos[i], axis, &shape) {
+                    let spring = s.history.spring_of(i, wall_key(w));
+                    e += elastic_energy(self.law_pw, pc.overlap, shape.radius, spring).to_f64();
+                }
+            }
+        }
+        e
     }
 
     /// Force, torque, largest overlap ratio, contact count and "history full" of particle i.

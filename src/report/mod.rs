@@ -2,6 +2,7 @@
 //! a CSV of the plotted data, a text table), and which jobs a figure still lacks. The campaign's
 //! scene picks the paper: silo (PRE 2020) or chute (Soft Matter 2022).
 
+mod accuracy;
 mod campaign;
 mod chute;
 mod chute_data;

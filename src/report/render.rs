@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use rusqlite::Connection;
 
+use super::accuracy;
 use super::campaign::{find_campaign, CampaignRef};
 use super::chute;
 use super::drawn::Drawn;
@@ -13,7 +14,7 @@ use super::missing::campaign_completion;
 use super::silo;
 
 /// The silo paper's figures (PRE 2020), with what they show.
-const SILO_FIGURES: [(&str, &str); 4] = [
+const SILO_FIGURES: [(&str, &str); 5] = [
     ("fig2", "discharged mass M(t) per (D, f)"),
     ("fig3", "Q vs D per f with Janda fits, and D_min vs f"),
     ("fig4", "Q / Q(f = 1 Hz) vs f per D"),
@@ -21,10 +22,14 @@ const SILO_FIGURES: [(&str, &str); 4] = [
         "fig5",
         "Q / Q(f = 1 Hz) vs f, one panel per large D (D/d > 4.5)",
     ),
+    (
+        "accuracy",
+        "error of Q vs wall time per numerical setting (accuracy campaign)",
+    ),
 ];
 
 /// The chute paper's figures (Soft Matter 2022), with what they show.
-const CHUTE_FIGURES: [(&str, &str); 6] = [
+const CHUTE_FIGURES: [(&str, &str); 7] = [
     (
         "fig2",
         "MSD_z(tau) per block, log-log, for the xi~1.3 and xi~2.5 showcase jobs",
@@ -48,6 +53,10 @@ const CHUTE_FIGURES: [(&str, &str); 6] = [
     (
         "fig7",
         "C(r)/C(0) vs r/L per block, linear and log y with lines of slope -1/l",
+    ),
+    (
+        "accuracy",
+        "error of D(z) and shear rate(z) vs wall time per numerical setting (accuracy campaign)",
     ),
 ];
 
@@ -75,6 +84,7 @@ fn drawer(scene: &str, figure: &str) -> Option<DrawFn> {
         ("chute", "fig5") => chute::fig5,
         ("chute", "fig6") => chute::fig6,
         ("chute", "fig7") => chute::fig7,
+        ("silo" | "chute", "accuracy") => accuracy::accuracy,
         _ => return None,
     })
 }

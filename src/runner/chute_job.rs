@@ -55,6 +55,8 @@ struct Progress {
     measure_start_chunk: u64,
     particle_steps: u64,
     wall_time_s: f64,
+    #[serde(default)]
+    numerics: crate::store::JobNumerics,
 }
 
 /// The flowing particles of a downloaded state as the observer reads them.
@@ -205,6 +207,7 @@ pub fn run_chute_job(
                 measure_start_chunk: 0,
                 particle_steps: 0,
                 wall_time_s: 0.0,
+                numerics: Default::default(),
             };
             (s, prog)
         }
@@ -291,6 +294,7 @@ pub fn run_chute_job(
         };
         prog.chunk += 1;
         prog.particle_steps += report.particle_steps;
+        prog.numerics.add(&report);
         let t_now = prog.chunk as f64 * chunk_dt;
         let s = match engine.try_download() {
             Ok(s) => s,
@@ -395,6 +399,7 @@ pub fn run_chute_job(
     })?;
     if status != "done" {
         results.write(&tx, job.id, &prog.series)?;
+        prog.numerics.write(&tx, job.id, scene.dt)?;
         tx.execute(
             "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
                 finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",

@@ -1,11 +1,13 @@
 //! Job lifecycle: claim, run in chunks, heartbeat, checkpoint, resume, finish. `silo_job` runs one
-//! silo job, `chute_job` one chute job; `pool` runs a campaign's pending jobs K at a time on this machine (the local
-//! executor); `backend` picks and builds the simulation backend.
+//! silo job, `chute_job` one chute job; two executors decide where: `pool` runs a campaign's
+//! pending jobs K at a time on this machine, `slurm` hands them to Slurm as job arrays; `backend`
+//! picks and builds the simulation backend.
 
 pub mod backend;
 pub mod chute_job;
 pub mod pool;
 pub mod silo_job;
+pub mod slurm;
 
 pub use pool::{run_pending, PoolOptions};
 pub use silo_job::{run_silo_job, JobContext, Outcome};

@@ -8,8 +8,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use rusqlite::Connection;
 use serde::{Deserialize, Serialize};
 
@@ -61,6 +59,8 @@ struct Progress {
     particle_steps: u64,
     wall_time_s: f64,
     initial_count: usize,
+    #[serde(default)]
+    numerics: crate::store::JobNumerics,
 }
 
 /// A job's own directory (checkpoints) under the work directory.
@@ -246,6 +246,7 @@ pub fn run_silo_job(
                 particle_steps: fill_steps,
                 wall_time_s: 0.0,
                 initial_count: s.len(),
+                numerics: Default::default(),
             };
             (s, prog)
         }
@@ -320,6 +321,7 @@ pub fn run_silo_job(
         };
         prog.chunk += 1;
         prog.particle_steps += report.particle_steps;
+        prog.numerics.add(&report);
         let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
         let t_now = prog.chunk as f64 * chunk_dt;
         for ev in &report.removed {
@@ -332,7 +334,7 @@ pub fn run_silo_job(
                 Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
             };
             let step = s.step;
-            reinsert(&scene, &mut s, &report.removed, seed ^ step);
+            scene.reinsert(&mut s, &report.removed, seed ^ step);
             engine.upload(&s);
         }
         prog.discharge.sample(t_now);
@@ -372,46 +374,9 @@ pub fn run_silo_job(
         wall_time_s: wall0 + started.elapsed().as_secs_f64(),
         particle_steps: prog.particle_steps,
         sim_time_s: t_end,
+        dt_s: scene.dt,
+        numerics: prog.numerics.clone(),
     };
     results.commit(conn, job.id)?;
     Ok(Outcome::Done)
-}
-
-/// Puts removed particles back at random spots above the bed, without overlap.
-fn reinsert(
-    scene: &SiloScene,
-    s: &mut State<f64>,
-    removed: &[crate::engine::SinkEvent],
-    seed: u64,
-) {
-    let p = &scene.p;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let top = scene.bed_height(s) + p.particle_diameter_m;
-    let r_max = p.particle_diameter_m * 0.5 * (1.0 + p.diameter_polydispersity);
-    for (k, ev) in removed.iter().enumerate() {
-        let r = r_max; // conservative spacing; the re-inserted particle keeps its own mass below
-        let radius =
-            (ev.mass_kg / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI)).cbrt();
-        for attempt in 0..1000 {
-            let rr = (p.cylinder_radius_m - r * 1.05) * rng.random::<f64>().sqrt();
-            let th = rng.random::<f64>() * std::f64::consts::TAU;
-            let z = top + r + (k + attempt / 50) as f64 * 2.2 * r;
-            let x = [rr * th.cos(), rr * th.sin(), z];
-            let free = s.pos.iter().zip(&s.radius).all(|(q, &rq)| {
-                let d2 = (q.x - x[0]).powi(2) + (q.y - x[1]).powi(2) + (q.z - x[2]).powi(2);
-                d2 > (rq + radius) * (rq + radius) * 1.0001
-            });
-            if free && z < p.cylinder_height_m {
-                s.push_sphere(
-                    ev.id,
-                    x,
-                    [0.0, 0.0, 0.0],
-                    radius,
-                    p.particle_density_kg_per_m3,
-                    false,
-                );
-                break;
-            }
-        }
-    }
 }

@@ -181,7 +181,8 @@ pub fn release(
 }
 
 /// Makes resumable jobs pending again: paused ones, running ones whose heartbeat is older than
-/// `stale_after_s` (their process died), failed ones with attempts left. Returns how many.
+/// `stale_after_s` (their process died; not those handed to Slurm), failed ones with attempts
+/// left. Returns how many.
 ///
 /// # Errors
 /// Database errors.
@@ -195,7 +196,8 @@ pub fn requeue(
         "UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'paused'",
         [],
     )?;
-    n += tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'running' AND (heartbeat_at IS NULL OR heartbeat_at < ?1)", [now() - stale_after_s])?;
+    // A job handed to Slurm has no heartbeat here: `sweep collect` decides when its task ended.
+    n += tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'running' AND (heartbeat_at IS NULL OR heartbeat_at < ?1) AND COALESCE(lease_owner, '') NOT LIKE 'slurm:%'", [now() - stale_after_s])?;
     n += tx.execute("UPDATE jobs SET status = 'pending', lease_owner = NULL WHERE status = 'failed' AND attempts < ?1", [max_attempts])?;
     tx.commit()?;
     Ok(n)

@@ -1,13 +1,18 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
-//! (`results`; `chute_results` for the chute). Every write that marks progress is one transaction.
+//! (`results`; `chute_results` for the chute), jobs handed to Slurm (`slurm_tasks`) and their
+//! results ingested (`slurm_ingest`). Every write that marks progress is one transaction.
 
 mod chute_results;
 pub mod jobs;
+pub mod numerics;
 mod open;
 mod results;
+pub mod slurm_ingest;
+pub mod slurm_tasks;
 
 pub use jobs::{JobRow, Lease};
-pub use open::{open, SCHEMA_VERSION};
+pub use numerics::JobNumerics;
+pub use open::{open, open_in_memory, SCHEMA_VERSION};
 pub use results::SiloResults;
 
 /// Unix time in seconds.

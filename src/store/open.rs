@@ -1,5 +1,6 @@
 //! Opening the database: WAL mode, a busy timeout (several launchers share it), and the schema
-//! created or migrated according to `PRAGMA user_version`.
+//! created or migrated according to `PRAGMA user_version`; in-memory stores for dry runs and for
+//! Slurm tasks.
 
 use std::path::Path;
 
@@ -7,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 2;
+pub const SCHEMA_VERSION: i64 = 3;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -35,6 +36,37 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
     }
     conn.pragma_update(None, "foreign_keys", "ON")?;
     conn.pragma_update(None, "synchronous", "NORMAL")?;
+    migrate(&mut conn, &path.display().to_string())?;
+    Ok(conn)
+}
+
+/// An in-memory store with the current schema: empty, or a copy of the store at `copy_of`.
+/// A dry run registers its jobs there (the real store is left as it was); a Slurm task keeps
+/// its job-local store there, so SQLite is never written on shared storage.
+///
+/// # Errors
+/// `copy_of` cannot be read, or was written by a newer sweep.
+pub fn open_in_memory(copy_of: Option<&Path>) -> anyhow::Result<Connection> {
+    let mut conn = Connection::open_in_memory()?;
+    if let Some(path) = copy_of {
+        conn.restore(
+            rusqlite::MAIN_DB,
+            path,
+            None::<fn(rusqlite::backup::Progress)>,
+        )
+        .with_context(|| format!("{}: cannot copy the database", path.display()))?;
+    }
+    conn.pragma_update(None, "foreign_keys", "ON")?;
+    migrate(
+        &mut conn,
+        &copy_of.map_or_else(|| "(memory)".into(), |p| p.display().to_string()),
+    )?;
+    Ok(conn)
+}
+
+/// Creates or upgrades the schema according to `PRAGMA user_version`; `name` names the store in
+/// errors.
+fn migrate(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
     // NOTE: the version check and the migration run in one IMMEDIATE transaction, so two processes
     // opening a new database do not both create it (a deferred transaction would fail with "locked"
     // when upgrading its read lock).
@@ -42,18 +74,17 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
     let v: i64 = tx.query_row("PRAGMA user_version", [], |r| r.get(0))?;
     if v > SCHEMA_VERSION {
         anyhow::bail!(
-            "{}: schema version {v} is newer than this sweep's ({SCHEMA_VERSION}); upgrade sweep",
-            path.display()
+            "{name}: schema version {v} is newer than this sweep's ({SCHEMA_VERSION}); upgrade sweep"
         );
     }
     if v < SCHEMA_VERSION {
-        // 0 → 1 created the silo tables, 1 → 2 adds the chute tables: schema.sql is idempotent, so
-        // every step is running it again.
+        // 0 → 1 created the silo tables, 1 → 2 adds the chute tables, 2 → 3 the Slurm executor's
+        // `slurm_tasks`: schema.sql is idempotent, so every step is running it again.
         tx.execute_batch(include_str!("../../schema.sql"))?;
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }
     tx.commit()?;
-    Ok(conn)
+    Ok(())
 }
 
 fn is_busy(e: &rusqlite::Error) -> bool {

@@ -16,6 +16,9 @@ pub struct SiloResults {
     pub wall_time_s: f64,
     pub particle_steps: u64,
     pub sim_time_s: f64,
+    /// Time step and the running numerical record of the discharge.
+    pub dt_s: f64,
+    pub numerics: super::JobNumerics,
 }
 
 impl SiloResults {
@@ -67,6 +70,7 @@ impl SiloResults {
                 s.permanently_clogged as i64
             ],
         )?;
+        self.numerics.write(&tx, job_id, self.dt_s)?;
         tx.execute(
             "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
                 finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",

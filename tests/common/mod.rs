@@ -2,6 +2,9 @@
 #![allow(dead_code)]
 
 pub mod collision;
+pub mod fit;
+pub mod gpu;
+pub mod silo;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -76,3 +76,22 @@ pub fn contact_force<R: Real>(
     }
     f
 }
+
+/// Elastic energy stored in one contact (J): the normal spring's potential plus the tangential
+/// spring's ½ k_t |ξ|² (k_t at the current overlap). Hertz: U_n = ∫₀^δ 4/3 Y* √R* s^{3/2} ds
+/// = 8/15 Y* √R* δ^{5/2} = 2/5 k_n δ² with k_n = 4/3 Y* √(R*δ); linear: U_n = ½ k_n δ².
+/// Read only by the energy watchdog, at chunk boundaries (never in the step loop).
+#[inline]
+pub fn elastic_energy<R: Real>(law: &LawKernel<R>, overlap: R, r_eff: R, spring: V3<R>) -> R {
+    let sq = if law.hertz {
+        (r_eff * overlap).sqrt()
+    } else {
+        R::one()
+    };
+    let normal_share = R::from_f64(if law.hertz { 0.4 } else { 0.5 });
+    let mut u = normal_share * law.kn_coef * sq * overlap * overlap;
+    if law.tangential {
+        u += R::from_f64(0.5) * law.kt_coef * sq * spring.norm2();
+    }
+    u
+}

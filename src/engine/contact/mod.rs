@@ -7,6 +7,6 @@ mod law;
 mod record;
 
 pub use duration::{contact_time, ContactPair};
-pub use force::{contact_force, ContactInput};
+pub use force::{contact_force, elastic_energy, ContactInput};
 pub use law::{ContactLaw, Elasticity, LawKernel, NormalModel};
 pub use record::ContactRecord;

@@ -1,0 +1,70 @@
+//! `sweep cancel`: cancels a campaign's Slurm arrays; their jobs stay resumable.
+
+use rusqlite::OptionalExtension;
+use sweep::store::slurm_tasks;
+
+use super::launch::work_dir;
+use super::DbArg;
+
+#[derive(clap::Args)]
+pub struct Arguments {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Only this campaign's arrays (default: every campaign's).
+    #[arg(long)]
+    pub campaign: Option<String>,
+}
+
+pub fn run(a: Arguments) -> anyhow::Result<i32> {
+    if !a.db.db.exists() {
+        eprintln!(
+            "sweep: no database at {}: nothing to cancel",
+            a.db.db.display()
+        );
+        return Ok(2);
+    }
+    let mut conn = sweep::store::open(&a.db.db)?;
+    let cid = match &a.campaign {
+        Some(name) => {
+            let id: Option<i64> = conn
+                .query_row("SELECT id FROM campaigns WHERE name = ?1", [name], |r| {
+                    r.get(0)
+                })
+                .optional()?;
+            match id {
+                Some(id) => Some(id),
+                None => {
+                    eprintln!(
+                        "sweep: no campaign named {name} in {}; see `sweep status --db {}`",
+                        a.db.db.display(),
+                        a.db.db.display()
+                    );
+                    return Ok(2);
+                }
+            }
+        }
+        None => None,
+    };
+    if !slurm_tasks::any(&conn)? {
+        println!("nothing to cancel: no job was handed to Slurm");
+        return Ok(0);
+    }
+    // Results already there make their jobs done, not cancelled.
+    let r = sweep::runner::slurm::collect(&mut conn, &work_dir(&a.db.db))?;
+    super::collect::print_report(&r);
+    let c = sweep::runner::slurm::cancel(&mut conn, cid)?;
+    if c.arrays.is_empty() {
+        println!("nothing to cancel: no job is queued or running under Slurm");
+        return Ok(0);
+    }
+    println!(
+        "cancelled Slurm array(s) {}: {} job(s) paused at their last checkpoint",
+        c.arrays.join(", "),
+        c.paused.len()
+    );
+    println!(
+        "continue with: sweep resume --db {} (resubmits them to Slurm)",
+        a.db.db.display()
+    );
+    Ok(0)
+}

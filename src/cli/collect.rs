@@ -1,0 +1,67 @@
+//! `sweep collect`: finished Slurm results into the database (also run by `status` and `resume`).
+
+use sweep::runner::slurm::CollectReport;
+use sweep::store::slurm_tasks;
+
+use super::launch::work_dir;
+use super::DbArg;
+
+#[derive(clap::Args)]
+pub struct Arguments {
+    #[command(flatten)]
+    pub db: DbArg,
+}
+
+pub fn run(a: Arguments) -> anyhow::Result<i32> {
+    if !a.db.db.exists() {
+        eprintln!(
+            "sweep: no database at {}: nothing to collect; start with `sweep launch FILE --executor slurm`",
+            a.db.db.display()
+        );
+        return Ok(2);
+    }
+    let mut conn = sweep::store::open(&a.db.db)?;
+    if !slurm_tasks::any(&conn)? {
+        println!(
+            "no job of {} was handed to Slurm: nothing to collect",
+            a.db.db.display()
+        );
+        return Ok(0);
+    }
+    let r = sweep::runner::slurm::collect(&mut conn, &work_dir(&a.db.db))?;
+    print_report(&r);
+    println!(
+        "{} job(s) collected, {} still queued or running under Slurm, {} ended without a result, {} failed, {} not verified",
+        r.ingested.len(),
+        r.with_slurm.len(),
+        r.ended.len(),
+        r.failed.len(),
+        r.refused.len()
+    );
+    Ok(if r.failed.is_empty() && r.refused.is_empty() {
+        0
+    } else {
+        1
+    })
+}
+
+/// One line per job whose state changed, and a warning when Slurm could not be asked.
+pub fn print_report(r: &CollectReport) {
+    for id in &r.ingested {
+        println!("job {id} done: its result verifies and is collected");
+    }
+    for (id, why) in &r.failed {
+        println!("job {id} failed {why}");
+    }
+    for (id, why) in &r.ended {
+        println!("job {id} paused: {why}");
+    }
+    for (id, why) in &r.refused {
+        println!("job {id}: result not collected: {why}");
+    }
+    if let Some(e) = &r.slurm_error {
+        eprintln!(
+            "sweep: cannot ask Slurm ({e}): jobs handed to it without a result are left as they are"
+        );
+    }
+}

@@ -1,0 +1,289 @@
+//! The Slurm side of `sweep launch` and `sweep resume`: the executor flags, registering and
+//! submitting a campaign's pending jobs (or printing the scripts, in a dry run), and resubmitting
+//! resumed jobs with the settings of their last submission.
+
+use std::path::Path;
+
+use anyhow::Context;
+use sweep::campaign::{CampaignFile, ExecutorKind, JobSpec, SlurmSettings};
+use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
+
+use super::launch::{work_dir, Arguments, ResumeArguments};
+
+/// Where jobs run, and how Slurm is asked for them.
+#[derive(clap::Args)]
+pub struct ExecutorArgs {
+    /// local (this machine) or slurm (job arrays); default: the campaign's run.executor, else
+    /// local.
+    #[arg(long)]
+    pub executor: Option<ExecutorKind>,
+    /// Slurm partition (default: the campaign's run.slurm, else the cluster's default).
+    #[arg(long, value_name = "P")]
+    pub partition: Option<String>,
+    /// GPUs per job (--gres=gpu:N).
+    #[arg(long, value_name = "N")]
+    pub gpus_per_job: Option<u32>,
+    /// CPU cores per job (--cpus-per-task), also the engine threads unless --threads is given.
+    #[arg(long, value_name = "N")]
+    pub cpus_per_job: Option<u32>,
+    /// Time limit per task ([D-]HH:MM:SS); a job that needs longer is checkpointed and requeued.
+    #[arg(long, value_name = "HH:MM:SS")]
+    pub time: Option<String>,
+    /// At most K tasks of the array run at once (--array=…%K).
+    #[arg(long, value_name = "K")]
+    pub array_max: Option<u32>,
+    /// One more sbatch option, repeatable: --sbatch-arg=--account=proj42.
+    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true)]
+    pub sbatch_args: Vec<String>,
+    /// Print the sbatch scripts and submit nothing (the database is left as it was).
+    #[arg(long)]
+    pub dry_run: bool,
+}
+
+impl ExecutorArgs {
+    /// The campaign's Slurm settings with the command line's on top (sbatch args added).
+    fn slurm_settings(&self, file: &SlurmSettings) -> SlurmSettings {
+        let mut s = file.clone();
+        if let Some(p) = &self.partition {
+            s.partition = Some(p.clone());
+        }
+        if let Some(n) = self.gpus_per_job {
+            s.gpus_per_job = n;
+        }
+        if let Some(n) = self.cpus_per_job {
+            s.cpus_per_job = n;
+        }
+        if let Some(t) = &self.time {
+            s.time = Some(t.clone());
+        }
+        if let Some(k) = self.array_max {
+            s.array_max = Some(k);
+        }
+        s.sbatch_args.extend(self.sbatch_args.iter().cloned());
+        s
+    }
+
+    /// The Slurm-only flags given on the command line.
+    pub fn slurm_flags(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        for (set, name) in [
+            (self.partition.is_some(), "--partition"),
+            (self.gpus_per_job.is_some(), "--gpus-per-job"),
+            (self.cpus_per_job.is_some(), "--cpus-per-job"),
+            (self.time.is_some(), "--time"),
+            (self.array_max.is_some(), "--array-max"),
+            (!self.sbatch_args.is_empty(), "--sbatch-arg"),
+            (self.dry_run, "--dry-run"),
+        ] {
+            if set {
+                v.push(name);
+            }
+        }
+        v
+    }
+}
+
+/// `sweep launch --executor slurm`: registers the jobs, then hands the pending ones to Slurm.
+pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> anyhow::Result<i32> {
+    let settings = a.exec.slurm_settings(&file.run.slurm);
+    let problems = settings.problems();
+    if !problems.is_empty() {
+        eprintln!("sweep: error: {}", SlurmError::Settings { problems });
+        return Ok(2);
+    }
+    if !a.exec.dry_run && slurm::query::which("sbatch").is_none() {
+        eprintln!(
+            "sweep: error: {}; nothing registered",
+            SlurmError::NotInstalled { command: "sbatch" }
+        );
+        return Ok(2);
+    }
+    // The campaign is stored as launched (executor and Slurm settings from the command line
+    // included, which changes no job), so `sweep resume` sends its jobs to Slurm too.
+    let mut launched = file.clone();
+    launched.run.executor = ExecutorKind::Slurm;
+    launched.run.slurm = settings.clone();
+    let db = &a.run.db.db;
+    let mut conn = if a.exec.dry_run {
+        sweep::store::open_in_memory(db.exists().then_some(db.as_path()))?
+    } else {
+        sweep::store::open(db)?
+    };
+    let (cid, added) =
+        sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &launched, jobs)?;
+    let (done, pending) = campaign_counts(&conn, cid)?;
+    println!(
+        "campaign {}: {} job(s), {} new, {} already done (database {}{})",
+        file.name,
+        jobs.len(),
+        added,
+        done,
+        db.display(),
+        if a.exec.dry_run {
+            ", left as it was: dry run"
+        } else {
+            ""
+        }
+    );
+    if pending.is_empty() {
+        println!("nothing to submit: every job of the campaign is done, running or paused (see `sweep status --db {}`)", db.display());
+        return Ok(0);
+    }
+    let sub = SubmitSettings {
+        slurm: settings,
+        backend: a.run.backend,
+        threads: a.run.threads,
+        checkpoint_interval_s: file.run.checkpoint_interval_s,
+    };
+    let code = submit_and_report(
+        &mut conn,
+        db,
+        Some(cid),
+        &file.name,
+        &sub,
+        &pending,
+        a.exec.dry_run,
+    )?;
+    if code == 0 && !a.exec.dry_run {
+        println!(
+            "follow with: sweep status --db {db} (it collects finished results, as do `sweep collect` and `sweep resume`); stop with: sweep cancel --campaign {} --db {db}",
+            file.name,
+            db = db.display()
+        );
+    }
+    Ok(code)
+}
+
+/// Done jobs and pending job ids of a campaign.
+fn campaign_counts(conn: &rusqlite::Connection, cid: i64) -> anyhow::Result<(i64, Vec<i64>)> {
+    let done: i64 = conn.query_row(
+        "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 AND j.status = 'done'",
+        [cid],
+        |r| r.get(0),
+    )?;
+    let mut q = conn.prepare(
+        "SELECT j.id FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
+         WHERE cj.campaign_id = ?1 AND j.status = 'pending' ORDER BY j.id",
+    )?;
+    let pending = q
+        .query_map([cid], |r| r.get(0))?
+        .collect::<Result<Vec<i64>, _>>()?;
+    Ok((done, pending))
+}
+
+/// Submits `jobs` and prints the arrays (or, in a dry run, the scripts); returns the exit code.
+fn submit_and_report(
+    conn: &mut rusqlite::Connection,
+    db: &Path,
+    campaign_id: Option<i64>,
+    campaign_name: &str,
+    settings: &SubmitSettings,
+    jobs: &[i64],
+    dry_run: bool,
+) -> anyhow::Result<i32> {
+    let work = std::path::absolute(work_dir(db))?;
+    let bin = std::env::current_exe()
+        .and_then(|p| p.canonicalize())
+        .context("locating the sweep binary for the job scripts")?;
+    let opts = SubmitOptions {
+        work_dir: &work,
+        campaign_id,
+        campaign_name,
+        settings,
+        sweep_bin: &bin,
+        dry_run,
+    };
+    match slurm::submit(conn, jobs, &opts) {
+        Ok(list) => {
+            print_submitted(&list, settings);
+            Ok(0)
+        }
+        Err(e) => {
+            eprintln!("sweep: error: {e:#}");
+            Ok(2)
+        }
+    }
+}
+
+fn print_submitted(list: &[Submitted], settings: &SubmitSettings) {
+    for s in list {
+        match &s.array_job_id {
+            None => {
+                println!(
+                    "# {} ({} job(s); dry run: not written, not submitted)",
+                    s.script.display(),
+                    s.jobs.len()
+                );
+                print!("{}", s.text);
+            }
+            Some(id) => println!(
+                "submitted {} job(s) to Slurm as array {id}{}: script {}",
+                s.jobs.len(),
+                settings
+                    .slurm
+                    .array_max
+                    .map_or(String::new(), |k| format!(" (at most {k} at a time)")),
+                s.script.display()
+            ),
+        }
+    }
+}
+
+/// The Slurm part of `sweep resume`: resubmits the pending jobs that go to Slurm (those last
+/// submitted there, or all with `--executor slurm`). Returns the exit code when nothing is left
+/// to run here.
+///
+/// # Errors
+/// Database errors.
+pub fn resume_on_slurm(
+    conn: &mut rusqlite::Connection,
+    db: &Path,
+    a: &ResumeArguments,
+    slurm_used: bool,
+) -> anyhow::Result<Option<i32>> {
+    if a.executor == Some(ExecutorKind::Local) {
+        return Ok(None);
+    }
+    let fallback = SubmitSettings {
+        slurm: SlurmSettings::default(),
+        backend: a.run.backend,
+        threads: a.run.threads,
+        checkpoint_interval_s: sweep::campaign::RunSettings::default().checkpoint_interval_s,
+    };
+    let all = a.executor == Some(ExecutorKind::Slurm);
+    let groups = slurm::resume_groups(conn, all, &fallback)?;
+    if groups.is_empty() && !slurm_used && !all {
+        return Ok(None);
+    }
+    for g in &groups {
+        let code = submit_and_report(
+            conn,
+            db,
+            g.campaign_id,
+            &g.campaign_name,
+            &g.settings,
+            &g.jobs,
+            false,
+        )?;
+        if code != 0 {
+            // Those jobs are pending again: not a reason to run them here instead.
+            return Ok(Some(code));
+        }
+    }
+    let pending: i64 = conn.query_row(
+        "SELECT COUNT(*) FROM jobs WHERE status = 'pending'",
+        [],
+        |r| r.get(0),
+    )?;
+    if pending > 0 {
+        // Jobs that never went to Slurm run here.
+        return Ok(None);
+    }
+    if !groups.is_empty() {
+        println!(
+            "follow with: sweep status --db {} (it collects finished results)",
+            db.display()
+        );
+    }
+    Ok(Some(0))
+}
