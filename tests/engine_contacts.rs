@@ -20,6 +20,9 @@
 //! A failure means the tangential spring, its Coulomb truncation, the torque lever arm, the wall
 //! surface velocity or the integration of rotation is wrong.
 
+mod common;
+use common::fit::{fit_circle, slope, unwrap};
+
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
@@ -279,15 +282,6 @@ fn incline(theta: f64, mu: f64) -> (f64, f64) {
     (slope(&ts, &vs), slip_max)
 }
 
-/// Least-squares slope of y(x).
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    sxy / sxx
-}
-
 #[test]
 fn incline_rolls_below_and_slides_above_the_friction_threshold() {
     let mu = 0.3; // rolling needs tan θ < 7/2 μ = 1.05 (θ < 46.4°)
@@ -381,56 +375,4 @@ fn turntable_ball_rolls_with_the_plate_and_circles_at_two_sevenths_omega() {
         (w_orbit - expected).abs() / expected < 0.05,
         "orbit angular frequency {w_orbit}, expected 2Ω/7 = {expected} within 5 %"
     );
-}
-
-/// Removes the 2π jumps of a sequence of angles.
-fn unwrap(a: &[f64]) -> Vec<f64> {
-    let mut out: Vec<f64> = Vec::with_capacity(a.len());
-    for &x in a {
-        let mut x = x;
-        if let Some(&prev) = out.last() {
-            x += 2.0 * PI * ((prev - x) / (2.0 * PI)).round();
-        }
-        out.push(x);
-    }
-    out
-}
-
-/// Least-squares circle through the points: centre and radius.
-fn fit_circle(x: &[f64], y: &[f64]) -> (f64, f64, f64) {
-    // Normal equations of [x y 1] [2a 2b c]ᵀ = x² + y².
-    let mut m = [[0.0; 3]; 3];
-    let mut r = [0.0; 3];
-    for (&xi, &yi) in x.iter().zip(y) {
-        let row = [xi, yi, 1.0];
-        let rhs = xi * xi + yi * yi;
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] += row[i] * row[j];
-            }
-            r[i] += row[i] * rhs;
-        }
-    }
-    let s = solve3(m, r);
-    let (a, b) = (s[0] / 2.0, s[1] / 2.0);
-    (a, b, (s[2] + a * a + b * b).sqrt())
-}
-
-/// Solves a 3×3 system by Cramer's rule.
-fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> [f64; 3] {
-    let det = |a: [[f64; 3]; 3]| {
-        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-    };
-    let d = det(m);
-    let mut out = [0.0; 3];
-    for k in 0..3 {
-        let mut a = m;
-        for i in 0..3 {
-            a[i][k] = r[i];
-        }
-        out[k] = det(a) / d;
-    }
-    out
 }

@@ -29,15 +29,15 @@
 //! from the CPU engine's; of the trajectory tests, a missed contact or a wrong integration step.
 
 mod common;
+use common::gpu::device;
 use common::Noise;
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
-use std::sync::OnceLock;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
 use sweep::engine::cpu::HISTORY_SLOTS;
-use sweep::engine::gpu::{AdapterPolicy, GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::history::{wall_key, EMPTY};
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};
@@ -45,29 +45,6 @@ use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};
 const R: f64 = 0.0029;
 const D: f64 = 2.0 * R;
 const RHO: f64 = 2655.0;
-
-/// The shared device, or None (with a message) when there is no adapter outside CI.
-fn device() -> Option<GpuDevice> {
-    static DEV: OnceLock<Option<GpuDevice>> = OnceLock::new();
-    DEV.get_or_init(|| {
-        if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-            // Mesa complains without it; a private directory keeps it quiet.
-            let dir = tempfile::tempdir().expect("temp dir").keep();
-            std::env::set_var("XDG_RUNTIME_DIR", dir);
-        }
-        match GpuDevice::acquire(AdapterPolicy::Any) {
-            Ok(d) => Some(d),
-            Err(e) if std::env::var("CI").as_deref() == Ok("true") => {
-                panic!("CI=true and no usable GPU adapter: {e}")
-            }
-            Err(e) => {
-                eprintln!("skipping GPU tests: {e}");
-                None
-            }
-        }
-    })
-    .clone()
-}
 
 fn gpu(dev: &GpuDevice, config: &EngineConfig, s: &State<f64>) -> GpuEngine {
     GpuEngine::new(dev, config.clone(), s, GpuOptions::default()).expect("GPU engine")

@@ -5,7 +5,6 @@
 //! Checkpoints at chunk boundaries carry the detector and the observer, so a resumed run repeats
 //! exactly the same operations; the results and the job's completion go in one transaction.
 
-use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
@@ -14,9 +13,9 @@ use rusqlite::{params, Connection, TransactionBehavior};
 use serde::{Deserialize, Serialize};
 
 use super::backend::{self, BackendChoice};
-use super::silo_job::{job_dir, JobContext, Outcome};
+use super::silo_job::{job_dir, save_checkpoint, JobContext, Outcome};
 use crate::campaign::JobSpec;
-use crate::checkpoint::{self, Header};
+use crate::checkpoint;
 use crate::engine::{Backend, State};
 use crate::observe::chute::{ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot};
 use crate::observe::steady::{SteadyDetector, SteadySettings};
@@ -244,21 +243,8 @@ pub fn run_chute_job(
     let bed = expected_bed_height(&scene);
     let wall0 = prog.wall_time_s;
     let mut last_beat = Instant::now();
-    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
-        let s = engine.try_download()?;
-        let h = Header {
-            job_hash: job.hash.clone(),
-            step: s.step,
-            time_s: s.time,
-            backend: info.kind.clone(),
-            precision: info.precision.clone(),
-        };
-        Ok(checkpoint::save(
-            &dir,
-            &h,
-            &s,
-            &serde_json::to_string(prog)?,
-        )?)
+    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| {
+        save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
     };
     let measure_chunks = (p.measure_time_s / chunk_dt).round().max(1.0) as u64;
     loop {

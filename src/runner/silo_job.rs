@@ -68,6 +68,31 @@ pub(super) fn job_dir(work: &Path, hash: &str) -> PathBuf {
     work.join("jobs").join(&hash[..16])
 }
 
+/// Downloads the engine's state and writes it with the job's progress record `prog` as the
+/// job's next checkpoint (only ever between chunks, so a resumed run repeats the same steps).
+pub(super) fn save_checkpoint<P: Serialize>(
+    dir: &Path,
+    job_hash: &str,
+    engine: &mut dyn Backend,
+    info: &crate::engine::BackendInfo,
+    prog: &P,
+) -> anyhow::Result<PathBuf> {
+    let s = engine.try_download()?;
+    let h = Header {
+        job_hash: job_hash.to_string(),
+        step: s.step,
+        time_s: s.time,
+        backend: info.kind.clone(),
+        precision: info.precision.clone(),
+    };
+    Ok(checkpoint::save(
+        dir,
+        &h,
+        &s,
+        &serde_json::to_string(prog)?,
+    )?)
+}
+
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
 /// same fill parameters. Returns the settled state and the particle-steps it cost (0 if reused).
 fn fill_stage(
@@ -272,21 +297,8 @@ pub fn run_silo_job(
     let wall0 = prog.wall_time_s;
     let mut last_beat = Instant::now();
     let seed = spec.seed();
-    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| -> anyhow::Result<PathBuf> {
-        let s = engine.try_download()?;
-        let h = Header {
-            job_hash: job.hash.clone(),
-            step: s.step,
-            time_s: s.time,
-            backend: info.kind.clone(),
-            precision: info.precision.clone(),
-        };
-        Ok(checkpoint::save(
-            &dir,
-            &h,
-            &s,
-            &serde_json::to_string(prog)?,
-        )?)
+    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| {
+        save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
     };
     loop {
         let t_rel = prog.chunk as f64 * chunk_dt;
