@@ -415,14 +415,10 @@ impl<R: Real> CpuEngine<R> {
         Ok(max_ov)
     }
 
-    /// Every contact of the current state, each once, with the force of the last step (the
-    /// stored springs, not advanced: dt = 0), for stress observers. Runs only when asked.
-    pub fn contact_records(&mut self) -> Vec<ContactRecord> {
-        self.rebuild();
-        let n = self.state.len();
-        let slots = self.state.history.slots;
-        let mut hist = self.state.history.clone();
-        let ctx = ForceContext {
+    /// A gather over the current lists that reads forces without advancing any spring (dt = 0):
+    /// what contact records and the elastic energy need.
+    fn reading_context(&self) -> ForceContext<'_, R> {
+        ForceContext {
             s: &self.state,
             list: &self.list,
             alive: &self.alive,
@@ -431,7 +427,17 @@ impl<R: Real> CpuEngine<R> {
             walls: &self.walls,
             periodic: &self.periodic,
             dt: R::zero(),
-        };
+        }
+    }
+
+    /// Every contact of the current state, each once, with the force of the last step (the
+    /// stored springs, not advanced: dt = 0), for stress observers. Runs only when asked.
+    pub fn contact_records(&mut self) -> Vec<ContactRecord> {
+        self.rebuild();
+        let n = self.state.len();
+        let slots = self.state.history.slots;
+        let mut hist = self.state.history.clone();
+        let ctx = self.reading_context();
         let mut out = Vec::new();
         for i in 0..n {
             let mut rows = (slots > 0).then(|| {
@@ -459,16 +465,7 @@ impl<R: Real> CpuEngine<R> {
     /// `elastic_energy` from the current (fresh) lists. Summed in particle order, so the same
     /// for any thread count.
     fn sum_elastic_energy(&self) -> f64 {
-        let ctx = ForceContext {
-            s: &self.state,
-            list: &self.list,
-            alive: &self.alive,
-            law_pp: &self.law_pp,
-            law_pw: &self.law_pw,
-            walls: &self.walls,
-            periodic: &self.periodic,
-            dt: R::zero(),
-        };
+        let ctx = self.reading_context();
         let oriented = self.state.oriented;
         let per: Vec<f64> = self.pool.install(|| {
             (0..self.state.len())
