@@ -1,4 +1,4 @@
--- sweep's store. Version 3 (PRAGMA user_version = 3). Every statement is idempotent (IF NOT EXISTS):
+-- sweep's store. Version 4 (PRAGMA user_version = 4). Every statement is idempotent (IF NOT EXISTS):
 -- migrating from an older version runs the whole file again, which adds the new tables.
 -- Units are in column names (SI). Results tables are meant for plain SQL use.
 
@@ -216,4 +216,54 @@ CREATE TABLE IF NOT EXISTS job_numerics (
     max_overlap_ratio        REAL NOT NULL,   -- largest overlap over the run, as a fraction of d
     mean_contacts            REAL NOT NULL,   -- contacts per particle, averaged over chunks
     list_builds              INTEGER NOT NULL -- neighbour-list rebuilds
+);
+
+-- A job's kinetic energy over its measurement window (silo: after skip_initial_s; chute: the
+-- measurement phase), sampled at every chunk: its mean and its least-squares trend. A steady flow
+-- has no trend; a numerical setting that heats or cools the flow shows one (the accuracy map).
+CREATE TABLE IF NOT EXISTS job_energy (
+    job_id                   INTEGER PRIMARY KEY REFERENCES jobs(id),
+    t_start_s                REAL NOT NULL,
+    t_end_s                  REAL NOT NULL,
+    samples                  INTEGER NOT NULL,
+    mean_kinetic_j           REAL,
+    drift_per_s              REAL             -- (dE/dt) / mean E
+);
+
+-- Coarse-grained fields (silo observer; truncated Gaussian kernel of width w, cutoff c w). One set
+-- is one grid and one time window (a snapshot average around a map time, the whole-run mean, the
+-- profile across the orifice); its arrays are the fields on that grid. In 'rz' sets (fields averaged
+-- over θ) vectors and tensors are in the cylindrical basis (r, θ, z), in 'xyz' sets in (x, y, z).
+-- Stresses are compressive positive; kinetic_pressure = tr(kinetic_stress) (the paper's p^k).
+CREATE TABLE IF NOT EXISTS field_sets (
+    id              INTEGER PRIMARY KEY,
+    job_id          INTEGER NOT NULL REFERENCES jobs(id),
+    name            TEXT NOT NULL,     -- e.g. 'map_t3.000', 'mean', 'orifice_profile'
+    grid_kind       TEXT NOT NULL CHECK (grid_kind IN ('z', 'rz', 'xyz')),
+    grid_json       TEXT NOT NULL,     -- {"origin_m":[..3],"spacing_m":[..3],"shape":[..3]}; rz: axis 0 = r, axis 1 = z, axis 2 has n = 1; z: axes 0,1 have n = 1
+    kernel_width_m  REAL NOT NULL,
+    cutoff_widths   REAL NOT NULL,
+    t_start_s       REAL NOT NULL,
+    t_end_s         REAL NOT NULL,
+    samples         INTEGER NOT NULL,
+    UNIQUE (job_id, name)
+);
+CREATE TABLE IF NOT EXISTS field_arrays (
+    set_id      INTEGER NOT NULL REFERENCES field_sets(id),
+    field       TEXT NOT NULL,     -- 'phi', 'density', 'momentum', 'velocity', 'kinetic_stress', 'kinetic_pressure', 'contact_stress', ...
+    units       TEXT NOT NULL,     -- SI, e.g. 'kg/m^3', 'm/s', 'Pa', '1'
+    components  INTEGER NOT NULL,  -- 1 scalar, 3 vector, 9 tensor (row-major)
+    data        BLOB NOT NULL,     -- f64 little-endian; point index = (k*ny + j)*nx + i (axis 0 fastest, as VTK), then components
+    PRIMARY KEY (set_id, field)
+);
+
+-- Scalar time series of a field observer, one value per sample (e.g. the kinetic pressure
+-- averaged over the cylinder of radius and height D/2 above the orifice: fig11's <p^k>).
+CREATE TABLE IF NOT EXISTS silo_field_series (
+    job_id      INTEGER NOT NULL REFERENCES jobs(id),
+    name        TEXT NOT NULL,     -- e.g. 'orifice_kinetic_pressure'
+    t_s         REAL NOT NULL,     -- time since the orifice opened
+    value       REAL NOT NULL,
+    units       TEXT NOT NULL,
+    PRIMARY KEY (job_id, name, t_s)
 );

@@ -6,6 +6,9 @@
 //! - `chute-bed`: linear spring–dashpot spheres (ξ = 1, L = d = 2/16 m, k_n = 2·10⁵ m g / L,
 //!   k_t = 2/7 k_n, e_n = 0.88, μ = 0.5, dt = t_c/50) flowing down a 24° incline, periodic in x
 //!   and y, on a rough base of fixed spheres of radius L/2.
+//! - `chute-rods`: the chute scene's spherocylinders (ξ = 1.5, its law, dt and walls), about 20
+//!   layers of rods aligned with the flow, compressed by 0.05 % of L and d (contacts from the
+//!   first step, as `chute-bed`), on its rough base at 28°.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -29,7 +32,10 @@ pub fn scene(name: &str, n: usize, seed: u64) -> anyhow::Result<BenchScene> {
     match name {
         "silo-bed" => Ok(silo_bed(n, seed)),
         "chute-bed" => Ok(chute_bed(n, seed)),
-        _ => anyhow::bail!("unknown bench scene {name:?}; expected silo-bed or chute-bed"),
+        "chute-rods" => Ok(chute_rods(n, seed)),
+        _ => anyhow::bail!(
+            "unknown bench scene {name:?}; expected silo-bed, chute-bed or chute-rods"
+        ),
     }
 }
 
@@ -208,6 +214,78 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
         skin_m: 0.2 * d,
     };
     BenchScene { config, state: s }
+}
+
+fn chute_rods(n: usize, seed: u64) -> BenchScene {
+    use crate::scene::chute::{ChuteParams, ChuteScene};
+    let p0 = ChuteParams {
+        aspect_ratio: 1.5,
+        inclination_deg: 28.0,
+        ..ChuteParams::default()
+    };
+    let (l, d) = (p0.particle_length_m, p0.shape().diameter());
+    // Rods along x at 0.9995 L, side by side and stacked at 0.9995 d, about 20 layers: a square
+    // box of side √(n L d / 20), whole numbers of rods across it.
+    let a = 0.9995;
+    let side = (n as f64 * a * l * a * d / 20.0).sqrt();
+    let (kx, ky) = (
+        ((side / (a * l)).round() as usize).max(4),
+        ((side / (a * d)).round() as usize).max(4),
+    );
+    let scene = ChuteScene::new(ChuteParams {
+        box_x_lengths: kx as f64 * a,
+        box_y_lengths: ky as f64 * a * d / l,
+        particle_count: Some(n),
+        ..p0
+    })
+    .expect("valid chute parameters");
+    let (lx, ly) = scene.p.box_size();
+    let rb = scene.base_radius();
+    let mut s = State::new_oriented(crate::engine::cpu::HISTORY_SLOTS);
+    let base = crate::scene::fill_rods::base_monolayer(lx, ly, rb, 0.0, 0.5, seed);
+    for (id, c) in base.iter().enumerate() {
+        s.push_sphere(
+            id as u32,
+            *c,
+            [0.0; 3],
+            rb,
+            scene.p.particle_density_kg_per_m3,
+            true,
+        );
+    }
+    let q = crate::engine::shape::Quat::<f64>::from_axis_z(crate::engine::V3::new(1.0, 0.0, 0.0));
+    let mut id = base.len() as u32;
+    // The bottom layer rests on the tops of the base spheres.
+    let mut z = rb + 0.4998 * d;
+    'fill: loop {
+        for ix in 0..kx {
+            for iy in 0..ky {
+                let c = [
+                    (ix as f64 + 0.5) * lx / kx as f64,
+                    (iy as f64 + 0.5) * ly / ky as f64,
+                    z,
+                ];
+                s.push_spherocylinder(
+                    id,
+                    c,
+                    [0.0; 3],
+                    q.to_f64(),
+                    scene.p.shape(),
+                    scene.p.particle_density_kg_per_m3,
+                    false,
+                );
+                id += 1;
+                if s.len() - base.len() >= n {
+                    break 'fill;
+                }
+            }
+        }
+        z += a * d;
+    }
+    BenchScene {
+        config: scene.engine_config(),
+        state: s,
+    }
 }
 
 /// SHA-256 (first 16 hex digits) of positions and velocities: equal runs give equal checksums.

@@ -9,6 +9,7 @@ pub mod bench;
 pub mod campaign;
 pub mod checkpoint;
 pub mod engine;
+pub mod export;
 pub mod observe;
 pub mod report;
 pub mod runner;

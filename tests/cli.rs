@@ -866,3 +866,61 @@ fn schema_is_json_and_lists_the_silo_parameters() {
     assert!(v.pointer("/properties/sweep").is_some() && v.pointer("/properties/name").is_some());
     assert!(stdout(&o).contains("orifice_diameter_m"));
 }
+
+/// `sweep plan` estimates each job from the bench of its own engine and precision: a campaign
+/// that fixes `"backend": "gpu"` for one job gets no CPU estimate for it.
+#[test]
+fn plan_estimates_each_job_from_its_engines_bench() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("plan.db");
+    let conn = sweep::store::open(&db).unwrap();
+    conn.execute(
+        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
+         VALUES ('silo-bed', 'cpu', 'f32', 1, 1000, 10, 1e-6, 1.0e6, 5.0, 'x', 'test')",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let mut c = campaign("plan", &[0.02], &[1.0], 0.1);
+    c["zip"] = json!({ "backend": [null, "gpu"], "precision": ["f32", "f32"] });
+    let file = write_campaign(d, "plan.json", &c);
+    let o = sweep_cmd(d)
+        .args([
+            "plan",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--threads",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "{text}\n{}", stderr(&o));
+    let job_line = |k: &str| -> Vec<String> {
+        text.lines()
+            .find(|l| l.split_whitespace().next() == Some(k))
+            .unwrap_or_else(|| panic!("no line for job {k}:\n{text}"))
+            .split_whitespace()
+            .map(String::from)
+            .collect()
+    };
+    // Columns: job, dt_s, N, steps, particle-steps, wall_s, parameters.
+    let cpu = job_line("1");
+    let ps: f64 = cpu[4].parse().unwrap();
+    let wall: f64 = cpu[5].parse().unwrap();
+    assert!(
+        (wall - ps / 1.0e6).abs() <= 0.5,
+        "CPU job: {wall} s for {ps} particle-steps at 1e6/s\n{text}"
+    );
+    assert_eq!(
+        job_line("2")[5],
+        "?",
+        "the GPU job has no GPU bench\n{text}"
+    );
+    assert!(
+        text.contains("--backend gpu --precision f32"),
+        "says which bench is missing\n{text}"
+    );
+}

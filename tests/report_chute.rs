@@ -345,23 +345,28 @@ fn the_campaign_scene_picks_the_figure_set() {
     );
     let msg = format!(
         "{:#}",
-        render_figure(&conn, "fig9", None, dir.path()).expect_err("unknown")
+        render_figure(&conn, "fig12", None, dir.path()).expect_err("unknown")
     );
     assert!(
-        msg.contains("fig9") && msg.contains("silo: fig2") && msg.contains("chute: fig2"),
+        msg.contains("fig12") && msg.contains("silo: fig2") && msg.contains("chute: fig2"),
         "{msg}"
     );
-    // A newer silo campaign becomes the default: fig6 is then not one of its figures, but
-    // "chute:fig6" still finds the most recent chute campaign.
+    // A newer silo campaign becomes the default: fig6 is then its fig6 (field maps, which it
+    // lacks the data for), but "chute:fig6" still finds the most recent chute campaign.
     add_campaign(&conn, "silo_new", "silo", "2026-01-01T00:00:00.000Z");
     let msg = format!(
         "{:#}",
         render_figure(&conn, "fig6", None, dir.path()).expect_err("fig6 of silo")
     );
     assert!(
-        msg.contains("'silo_new' (scene 'silo')") && msg.contains("the silo figures are fig2"),
+        msg.contains("campaign 'silo_new' has no done job with coarse-grained fields"),
         "{msg}"
     );
+    let msg = format!(
+        "{:#}",
+        render_figure(&conn, "fig12", None, dir.path()).expect_err("fig12 of silo")
+    );
+    assert!(msg.contains("unknown figure 'fig12'"), "{msg}");
     let report = render_figure(&conn, "chute:fig6", None, dir.path()).expect("chute:fig6");
     assert!(report.table.contains("campaign 'chute_test'"));
     let msg = format!(

@@ -1,13 +1,15 @@
 //! Expansion of a campaign into jobs: base ⊕ one point of the sweep, validated; the job's
 //! identity is the SHA-256 of its resolved parameters (canonical JSON), and its seed derives from
-//! that hash, so the same parameters always give the same job and the same random packing.
+//! the same parameters without the observers, so the same parameters always give the same job
+//! and the same random packing, and jobs that differ only in how they are observed (a
+//! coarse-graining width, a sampling interval) follow the same trajectory.
 
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use sha2::{Digest, Sha256};
 
 use super::error::{CampaignError, FieldProblem};
-use super::file::{CampaignFile, Observers, Precision, SceneKind};
+use super::file::{CampaignFile, JobBackend, Observers, Precision, SceneKind};
 use crate::scene::{ChuteParams, SiloParams};
 
 /// A fully resolved job.
@@ -23,6 +25,11 @@ pub struct JobSpec {
     pub chute: Option<ChuteParams>,
     pub observers: Observers,
     pub precision: Precision,
+    /// The engine the job must run on, when the campaign fixes it (absent: wherever `sweep
+    /// launch --backend` puts it; absent from the identity of such jobs, so older job hashes
+    /// are unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub backend: Option<JobBackend>,
     /// Human-readable point of the sweep, e.g. "orifice_diameter_m=0.015,rotation_frequency_hz=0.5,replica=0".
     #[serde(skip)]
     pub label: String,
@@ -41,9 +48,14 @@ impl JobSpec {
         hex(&Sha256::digest(self.resolved_json().as_bytes()))
     }
 
-    /// Seed of the job's random choices (packing), from its parameters.
+    /// Seed of the job's random choices (packing, re-insertion), from its parameters without
+    /// the observers: observing differently must not change what is observed.
     pub fn seed(&self) -> u64 {
-        let h = Sha256::digest(self.resolved_json().as_bytes());
+        let mut v = serde_json::to_value(self).expect("serializable");
+        if let Value::Object(m) = &mut v {
+            m.remove("observers");
+        }
+        let h = Sha256::digest(serde_json::to_string(&v).expect("serializable").as_bytes());
         u64::from_le_bytes(h[..8].try_into().expect("8 bytes"))
     }
 
@@ -110,9 +122,14 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         _ => Map::new(),
     };
     // `precision` may also be swept (an accuracy study compares f64 with f32); it overrides
-    // `run.precision` for its jobs.
+    // `run.precision` for its jobs. So may `backend` ("cpu" or "gpu"), and observer settings
+    // named by their path ("observers.chute.cg_width_over_length").
     let check_key = |section: &str, k: &str, problems: &mut Vec<FieldProblem>| {
-        if !known.contains_key(k) && k != "precision" {
+        if !known.contains_key(k)
+            && k != "precision"
+            && k != "backend"
+            && !k.starts_with(OBSERVER_PREFIX)
+        {
             let mut names: Vec<&String> = known.keys().collect();
             names.sort();
             problems.push(FieldProblem {
@@ -197,6 +214,31 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             });
         }
     }
+    if let Some(sn) = &c.observers.snapshots {
+        for (field, message) in sn.problems() {
+            problems.push(FieldProblem {
+                path: format!("observers.snapshots.{field}"),
+                message,
+            });
+        }
+    }
+    if let Some(f) = &c.observers.fields {
+        if c.scene != SceneKind::Silo {
+            problems.push(FieldProblem {
+                path: "observers.fields".into(),
+                message: format!(
+                    "the fields observer is for silo campaigns, this one is {:?}",
+                    c.scene.name()
+                ),
+            });
+        }
+        for (field, message) in f.problems() {
+            problems.push(FieldProblem {
+                path: format!("observers.fields.{field}"),
+                message,
+            });
+        }
+    }
     if let Some(ch) = &c.observers.chute {
         for p in ch.problems() {
             problems.push(FieldProblem {
@@ -268,6 +310,37 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                     }
                 },
             };
+            // null: wherever `sweep launch --backend` puts it (lets a zip fix it for some jobs).
+            let backend = match obj.remove("backend") {
+                None | Some(Value::Null) => None,
+                Some(v) => match serde_json::from_value::<JobBackend>(v.clone()) {
+                    Ok(b) => Some(b),
+                    Err(_) => {
+                        problems.push(FieldProblem {
+                            path: source("backend"),
+                            message: format!("expected \"cpu\" or \"gpu\", got {v}"),
+                        });
+                        continue;
+                    }
+                },
+            };
+            if backend == Some(JobBackend::Gpu) && precision == Precision::F64 {
+                problems.push(FieldProblem {
+                    path: source("backend"),
+                    message: "the GPU engine runs f32: expected \"precision\": \"f32\" with \"backend\": \"gpu\"".into(),
+                });
+                continue;
+            }
+            let observer_keys: Vec<String> = obj
+                .keys()
+                .filter(|k| k.starts_with(OBSERVER_PREFIX))
+                .cloned()
+                .collect();
+            let mut observer_values = Vec::new();
+            for k in observer_keys {
+                let v = obj.remove(&k).expect("listed");
+                observer_values.push((k, v));
+            }
             let problem = |e: serde_path_to_error::Error<serde_json::Error>| {
                 let field = e.path().to_string();
                 let field = field.split('.').next().unwrap_or("").to_string();
@@ -317,12 +390,39 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
             if c.scene == SceneKind::Chute && observers.chute.is_none() {
                 observers.chute = Some(Default::default());
             }
+            if !observer_values.is_empty() {
+                match with_observer_values(&observers, &observer_values) {
+                    Ok(o) => observers = o,
+                    Err(p) => {
+                        let p = FieldProblem {
+                            path: source(&p.path),
+                            message: p.message,
+                        };
+                        if !problems.contains(&p) {
+                            problems.push(p);
+                        }
+                        continue;
+                    }
+                }
+            }
+            if let (Some(f), Some(p)) = (&observers.fields, &silo) {
+                for (field, message) in f.problems_with(p, &observers.discharge) {
+                    let p = FieldProblem {
+                        path: format!("observers.fields.{field}"),
+                        message,
+                    };
+                    if !problems.contains(&p) {
+                        problems.push(p);
+                    }
+                }
+            }
             jobs.push(JobSpec {
                 scene: c.scene,
                 silo,
                 chute,
                 observers,
                 precision,
+                backend,
                 label: label.join(","),
             });
         }
@@ -334,6 +434,67 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         });
     }
     Ok(jobs)
+}
+
+/// Campaign keys that set an observer setting by its path.
+const OBSERVER_PREFIX: &str = "observers.";
+
+/// `observers` with each (path, value) set, e.g. ("observers.chute.sample_interval_s", 0.1),
+/// re-validated. The problem's `path` is the key that caused it (for `source`).
+fn with_observer_values(
+    observers: &Observers,
+    values: &[(String, Value)],
+) -> Result<Observers, FieldProblem> {
+    let mut tree = serde_json::to_value(observers).expect("serializable");
+    for (key, v) in values {
+        let segments: Vec<&str> = key[OBSERVER_PREFIX.len()..].split('.').collect();
+        let (last, parents) = segments.split_last().expect("split yields one");
+        let mut node = &mut tree;
+        for seg in parents {
+            node = match node.get_mut(*seg) {
+                Some(n) if n.is_object() => n,
+                _ => {
+                    return Err(FieldProblem {
+                        path: key.clone(),
+                        message: format!(
+                            "no observer section {seg:?} here: expected a path like observers.chute.sample_interval_s to an observer this campaign has"
+                        ),
+                    })
+                }
+            };
+        }
+        node.as_object_mut()
+            .expect("checked object")
+            .insert((*last).to_string(), v.clone());
+    }
+    let parsed: Observers = serde_path_to_error::deserialize(tree).map_err(|e| {
+        let field = e.path().to_string();
+        FieldProblem {
+            path: values
+                .iter()
+                .map(|(k, _)| k.clone())
+                .find(|k| k.ends_with(&field))
+                .unwrap_or_else(|| values[0].0.clone()),
+            message: format!("{}: {}", field, e.into_inner()),
+        }
+    })?;
+    if let Some(sn) = &parsed.snapshots {
+        if let Some((field, message)) = sn.problems().into_iter().next() {
+            return Err(FieldProblem {
+                path: format!("observers.snapshots.{field}"),
+                message,
+            });
+        }
+    }
+    if let Some(ch) = &parsed.chute {
+        if let Some(p) = ch.problems().into_iter().next() {
+            return Err(FieldProblem {
+                path: format!("observers.chute.{}", p.field),
+                message: p.message,
+            });
+        }
+    }
+    Ok(parsed)
 }
 
 #[cfg(test)]
@@ -402,6 +563,65 @@ mod tests {
             .to_string();
         assert!(
             e.contains("base.orifice_diam") && e.contains("unknown"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn observer_settings_sweep_keeps_the_seed() {
+        let jobs = parse(
+            r#"{"name":"a","scene":"chute","zip":{"observers.chute.cg_width_over_length":[0.25,0.5],
+                "observers.chute.sample_interval_s":[0.05,0.1]}}"#,
+        )
+        .unwrap();
+        assert_eq!(jobs.len(), 2);
+        assert_ne!(
+            jobs[0].hash(),
+            jobs[1].hash(),
+            "observers are part of the identity"
+        );
+        assert_eq!(jobs[0].seed(), jobs[1].seed(), "but not of the trajectory");
+        let ch = jobs[1].observers.chute.as_ref().unwrap();
+        assert_eq!((ch.cg_width_over_length, ch.sample_interval_s), (0.5, 0.1));
+        assert!(jobs[1]
+            .label
+            .contains("observers.chute.cg_width_over_length=0.5"));
+
+        let e = parse(
+            r#"{"name":"a","scene":"chute","sweep":{"observers.chute.sample_interval_s":[0.05,-1]}}"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("sweep.observers.chute.sample_interval_s[1]"),
+            "{e}"
+        );
+        let e = parse(
+            r#"{"name":"a","scene":"silo","sweep":{"observers.chute.sample_interval_s":[0.05]}}"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("no observer section \"chute\""), "{e}");
+    }
+
+    #[test]
+    fn backend_is_a_job_parameter() {
+        let jobs = parse(
+            r#"{"name":"a","scene":"silo","zip":{"backend":["cpu","gpu"],"precision":["f32","f32"]}}"#,
+        )
+        .unwrap();
+        assert_eq!(jobs[0].backend, Some(JobBackend::Cpu));
+        assert_eq!(jobs[1].backend, Some(JobBackend::Gpu));
+        let plain = parse(r#"{"name":"a","scene":"silo"}"#).unwrap();
+        assert!(
+            !plain[0].resolved_json().contains("backend"),
+            "old identities unchanged"
+        );
+        let e = parse(r#"{"name":"a","scene":"silo","sweep":{"backend":["gpu"]}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("sweep.backend[0]") && e.contains("runs f32"),
             "{e}"
         );
     }

@@ -9,6 +9,8 @@ use super::error::CampaignError;
 use super::executor::{ExecutorKind, SlurmSettings};
 use crate::observe::chute::ChuteObserverSettings;
 use crate::observe::discharge::DischargeSettings;
+use crate::observe::silo_fields::SiloFieldSettings;
+use crate::observe::snapshots::SnapshotSettings;
 
 /// Scene kinds a campaign can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -49,6 +51,26 @@ impl Precision {
     }
 }
 
+/// Which engine a job must run on, when the campaign says so (an accuracy study comparing CPU
+/// and GPU f32); jobs without it run where `sweep launch --backend` puts them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JobBackend {
+    /// The CPU engine (rayon).
+    Cpu,
+    /// The GPU engine (wgpu; any adapter, a software one included; f32 only).
+    Gpu,
+}
+
+impl JobBackend {
+    pub fn name(self) -> &'static str {
+        match self {
+            JobBackend::Cpu => "cpu",
+            JobBackend::Gpu => "gpu",
+        }
+    }
+}
+
 /// Observers and their settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -59,6 +81,14 @@ pub struct Observers {
     /// job's recorded parameters (so silo job identities do not depend on it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chute: Option<ChuteObserverSettings>,
+    /// Particle snapshots every `interval_s` (for `sweep export --vtk`); absent: none. Absent
+    /// from the recorded parameters of jobs without it (so their identities are unchanged).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapshots: Option<SnapshotSettings>,
+    /// Coarse-grained fields of the silo (φ, P, V, σᵏ, σᶜ on request; fig6–fig11); absent:
+    /// none. Absent from the recorded parameters of jobs without it (identities unchanged).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fields: Option<SiloFieldSettings>,
 }
 
 /// How jobs run (none of these change results except `precision`).

@@ -9,7 +9,7 @@ mod file;
 pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, JobSpec};
-pub use file::{CampaignFile, Observers, Precision, RunSettings, SceneKind};
+pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
 
 /// Reads, parses, validates and expands a campaign file.
 ///

@@ -10,7 +10,7 @@ use super::DbArg;
 
 #[derive(clap::Args)]
 pub struct Arguments {
-    /// silo-bed or chute-bed.
+    /// silo-bed, chute-bed or chute-rods.
     #[arg(long, default_value = "silo-bed")]
     pub scene: String,
     #[arg(long, default_value_t = 30_000)]

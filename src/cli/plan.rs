@@ -34,40 +34,45 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     };
-    // The bench scene that resembles the campaign's (chute-bed is spheres: rods cost more per
-    // particle-step, so chute estimates are lower bounds).
+    // The bench scene that resembles the campaign's: a settled Hertz bed for the silo, flowing
+    // spherocylinders over a rough base for the chute.
     let bench_scene = match file.scene {
         SceneKind::Silo => "silo-bed",
-        SceneKind::Chute => "chute-bed",
+        SceneKind::Chute => "chute-rods",
     };
-    let rate: Option<f64> = if a.db.db.exists() {
-        let conn = sweep::store::open(&a.db.db)?;
-        conn.query_row(
-            "SELECT particle_steps_per_s FROM bench_runs WHERE scene = ?3 AND backend = 'cpu' AND precision = ?1 AND threads = ?2 ORDER BY id DESC LIMIT 1",
-            rusqlite::params![file.run.precision.name(), threads as i64, bench_scene],
-            |r| r.get(0),
-        )
-        .ok()
+    let conn = if a.db.db.exists() {
+        Some(sweep::store::open(&a.db.db)?)
     } else {
         None
     };
+    // Each job's throughput from the newest bench of its scene, engine and precision (a job
+    // without a fixed backend is estimated on the CPU, where `auto` puts it without a hardware
+    // GPU); the GPU's rate does not depend on CPU threads.
+    let mut rates: std::collections::BTreeMap<(String, String), Option<f64>> = Default::default();
+    let mut rate_of = |j: &sweep::campaign::JobSpec| -> Option<f64> {
+        let backend = j.backend.map_or("cpu", |b| b.name()).to_string();
+        let precision = j.precision.name().to_string();
+        *rates
+            .entry((backend.clone(), precision.clone()))
+            .or_insert_with(|| {
+                conn.as_ref()?
+                    .query_row(
+                        "SELECT particle_steps_per_s FROM bench_runs WHERE scene = ?1 AND backend = ?2 AND precision = ?3
+                         AND (backend = 'gpu' OR threads = ?4) ORDER BY id DESC LIMIT 1",
+                        rusqlite::params![bench_scene, backend, precision, threads as i64],
+                        |r| r.get(0),
+                    )
+                    .ok()
+            })
+    };
     println!(
-        "campaign {}: {} job(s), precision {}, {} thread(s) per job",
+        "campaign {}: {} job(s), {} thread(s) per CPU job; throughput from `sweep bench --scene {bench_scene}` results in {}",
         file.name,
         jobs.len(),
-        file.run.precision.name(),
-        threads
+        threads,
+        a.db.db.display()
     );
-    match rate {
-        Some(r) => println!("throughput from `sweep bench` ({bench_scene}, cpu, {}): {r:.3e} particle-steps/s", file.run.precision.name()),
-        None => println!(
-            "no `sweep bench` result for {bench_scene}/cpu/{}/{} threads in {}: run `sweep bench --scene {bench_scene} --precision {} --threads {threads}` to get wall-time estimates",
-            file.run.precision.name(),
-            threads,
-            a.db.db.display(),
-            file.run.precision.name()
-        ),
-    }
+    let mut total_wall = Some(0.0);
     let mut fills = BTreeSet::new();
     let mut total_ps = 0.0;
     println!(
@@ -82,6 +87,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             let n = j.chute().count() as f64;
             let ps = n * steps;
             total_ps += ps;
+            let rate = rate_of(j);
+            total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
             let wall = rate.map_or("?".to_string(), |r| format!("≤{:.0}", ps / r));
             println!(
                 "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
@@ -117,6 +124,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         };
         let ps = n * fill + n_mean * steps_discharge;
         total_ps += ps;
+        let rate = rate_of(j);
+        total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
         let wall = rate.map_or("?".to_string(), |r| format!("{:.0}", ps / r));
         println!(
             "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
@@ -136,11 +145,20 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     println!(
         "total: {:.3e} particle-steps{}",
         total_ps,
-        rate.map_or(String::new(), |r| format!(
+        total_wall.map_or(String::new(), |w| format!(
             ", about {:.1} h on this machine with one job at a time ({:.0} s)",
-            total_ps / r / 3600.0,
-            total_ps / r
+            w / 3600.0,
+            w
         ))
     );
+    for ((backend, precision), r) in &rates {
+        if r.is_none() {
+            println!(
+                "no `sweep bench` result for {bench_scene}/{backend}/{precision}{}: run `sweep bench --scene {bench_scene} --backend {backend} --precision {precision}{}` for wall-time estimates (\"?\" above)",
+                if backend == "cpu" { format!("/{threads} threads") } else { String::new() },
+                if backend == "cpu" { format!(" --threads {threads}") } else { String::new() },
+            );
+        }
+    }
     Ok(0)
 }

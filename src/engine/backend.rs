@@ -89,6 +89,13 @@ pub trait Backend: Send {
     fn try_download(&mut self) -> Result<State<f64>, EngineError> {
         Ok(self.download())
     }
+    /// Kinetic energy, translational and rotational, of the free particles (J).
+    ///
+    /// # Errors
+    /// A device failure while reading back.
+    fn kinetic_energy(&mut self) -> Result<f64, EngineError> {
+        Ok(self.try_download()?.kinetic_energy())
+    }
     /// Replaces the state (a checkpoint being resumed, or particles inserted between chunks).
     fn upload(&mut self, state: &State<f64>);
     /// Every contact of the current state, each once, with its force (stress observers ask for

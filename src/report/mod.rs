@@ -10,11 +10,13 @@ mod chute_profiles;
 mod chute_scaling;
 mod chute_velocity;
 mod drawn;
+mod field_map;
 mod missing;
 mod plot;
 mod render;
 mod silo;
 mod silo_data;
+mod silo_fields;
 mod silo_normalise;
 mod table;
 

@@ -12,15 +12,40 @@ use super::chute;
 use super::drawn::Drawn;
 use super::missing::campaign_completion;
 use super::silo;
+use super::silo_fields;
 
 /// The silo paper's figures (PRE 2020), with what they show.
-const SILO_FIGURES: [(&str, &str); 5] = [
+const SILO_FIGURES: [(&str, &str); 11] = [
     ("fig2", "discharged mass M(t) per (D, f)"),
     ("fig3", "Q vs D per f with Janda fits, and D_min vs f"),
     ("fig4", "Q / Q(f = 1 Hz) vs f per D"),
     (
         "fig5",
         "Q / Q(f = 1 Hz) vs f, one panel per large D (D/d > 4.5)",
+    ),
+    (
+        "fig6",
+        "solid fraction maps phi(r, z) at the map times, per f (largest D)",
+    ),
+    (
+        "fig7",
+        "speed maps |V|(r, z) with (V_r, V_z) arrows at the map times, per f",
+    ),
+    (
+        "fig8",
+        "azimuthal velocity maps V_theta(r, z) at the map times, per f",
+    ),
+    (
+        "fig9",
+        "<phi>, -<P_z>, -<V_z> across the orifice (z = 0) vs r/R, per f",
+    ),
+    (
+        "fig10",
+        "kinetic pressure maps p^k(r, z), rows D, columns f",
+    ),
+    (
+        "fig11",
+        "<p^k> in the orifice cylinder vs f per D, and normalised, 95 % CI",
     ),
     (
         "accuracy",
@@ -78,6 +103,12 @@ fn drawer(scene: &str, figure: &str) -> Option<DrawFn> {
         ("silo", "fig3") => silo::fig3,
         ("silo", "fig4") => silo::fig4,
         ("silo", "fig5") => silo::fig5,
+        ("silo", "fig6") => silo_fields::fig6,
+        ("silo", "fig7") => silo_fields::fig7,
+        ("silo", "fig8") => silo_fields::fig8,
+        ("silo", "fig9") => silo_fields::fig9,
+        ("silo", "fig10") => silo_fields::fig10,
+        ("silo", "fig11") => silo_fields::fig11,
         ("chute", "fig2") => chute::fig2,
         ("chute", "fig3") => chute::fig3,
         ("chute", "fig4") => chute::fig4,
@@ -241,7 +272,7 @@ mod tests {
             }
         }
         assert_eq!(parse_figure("fig6").expect("fig6"), (None, "fig6"));
-        let msg = format!("{:#}", parse_figure("silo:fig6").expect_err("silo fig6"));
+        let msg = format!("{:#}", parse_figure("silo:fig12").expect_err("silo fig12"));
         assert!(msg.contains("the silo figures are fig2"), "{msg}");
         let msg = format!("{:#}", parse_figure("hopper:fig2").expect_err("scene"));
         assert!(msg.contains("silo, chute"), "{msg}");

@@ -781,10 +781,10 @@ mod tests {
     fn bad_figure_or_campaign_names_are_explained() {
         let conn = synthetic_db(&[0.0, 1.0]);
         let dir = tempfile::tempdir().expect("tempdir");
-        let err = render_figure(&conn, "fig9", None, dir.path()).expect_err("unknown figure");
+        let err = render_figure(&conn, "fig12", None, dir.path()).expect_err("unknown figure");
         let msg = format!("{err:#}");
         assert!(
-            msg.contains("fig9") && msg.contains("fig2") && msg.contains("fig5"),
+            msg.contains("fig12") && msg.contains("fig2") && msg.contains("fig11"),
             "{msg}"
         );
         let msg = format!(
@@ -800,10 +800,10 @@ mod tests {
         assert!(msg.contains("'chute' campaign"), "{msg}");
         let msg = format!(
             "{:#}",
-            render_figure(&conn, "fig6", None, dir.path()).expect_err("chute only")
+            render_figure(&conn, "fig6", None, dir.path()).expect_err("no fields")
         );
         assert!(
-            msg.contains("scene 'silo'") && msg.contains("chute figure"),
+            msg.contains("no done job with coarse-grained fields") && msg.contains("\"fields\""),
             "{msg}"
         );
         let old = render_figure(&conn, "fig3", Some("old_silo"), dir.path()).expect("old campaign");

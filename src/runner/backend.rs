@@ -1,7 +1,7 @@
 //! Choosing the backend for a job: `--backend auto|gpu|cpu` and the job's precision. `gpu` takes
 //! any adapter that can run the kernels (a software one such as lavapipe too, said on stderr);
 //! `auto` takes the GPU only when a discrete or integrated one exists and the job runs in f32,
-//! otherwise the CPU.
+//! otherwise the CPU. Both scenes alike: the GPU kernels hold spheres and spherocylinders.
 
 use crate::campaign::Precision;
 use crate::engine::gpu::{list_adapters, AdapterPolicy, GpuDevice, GpuEngine, GpuOptions};
@@ -24,6 +24,16 @@ impl std::str::FromStr for BackendChoice {
             "cpu" => Ok(Self::Cpu),
             _ => Err(format!("expected auto, gpu or cpu, got {s:?}")),
         }
+    }
+}
+
+/// The backend a job runs on: the one its campaign fixes (`"backend": "cpu" | "gpu"`, part of
+/// its identity), else the one `sweep launch --backend` asked for.
+pub fn for_job(spec: &crate::campaign::JobSpec, asked: BackendChoice) -> BackendChoice {
+    match spec.backend {
+        Some(crate::campaign::JobBackend::Cpu) => BackendChoice::Cpu,
+        Some(crate::campaign::JobBackend::Gpu) => BackendChoice::Gpu,
+        None => asked,
     }
 }
 

@@ -1,7 +1,8 @@
-//! Running one chute job: the poured gas flows from rest in chunks of one sampling interval; the
+//! Running one chute job: the poured gas flows from rest in chunks of `CHUNK_S` (0.05 s); the
 //! steady-state detector watches the kinetic energy (every chunk) and the bulk stress ratio
 //! (every `STRESS_EVERY` chunks, from the contact list the engine builds only then); once steady
-//! (or at `steady_max_time_s`) the chute observer samples every chunk for `measure_time_s`.
+//! (or at `steady_max_time_s`) the chute observer samples every `sample_interval_s` (a whole
+//! number of chunks) for `measure_time_s`.
 //! Checkpoints at chunk boundaries carry the detector and the observer, so a resumed run repeats
 //! exactly the same operations; the results and the job's completion go in one transaction.
 
@@ -12,12 +13,15 @@ use anyhow::Context;
 use rusqlite::{params, Connection, TransactionBehavior};
 use serde::{Deserialize, Serialize};
 
-use super::backend::{self, BackendChoice};
+use super::backend;
 use super::silo_job::{job_dir, save_checkpoint, JobContext, Outcome};
 use crate::campaign::JobSpec;
 use crate::checkpoint;
 use crate::engine::{Backend, State};
-use crate::observe::chute::{ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot};
+use crate::observe::chute::{
+    ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, CHUNK_S,
+};
+use crate::observe::snapshots::SnapshotWriter;
 use crate::observe::steady::{SteadyDetector, SteadySettings};
 use crate::scene::chute::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
@@ -211,11 +215,8 @@ pub fn run_chute_job(
             (s, prog)
         }
     };
-    // Spherocylinders are not in the GPU kernels yet: `auto` runs them on the CPU.
-    let choice = match ctx.backend {
-        BackendChoice::Auto => BackendChoice::Cpu,
-        c => c,
-    };
+    // `auto` takes a hardware GPU for f32 rods as for spheres (backend::build).
+    let choice = backend::for_job(&spec, ctx.backend);
     let mut engine: Box<dyn Backend> = match backend::build(
         choice,
         spec.precision,
@@ -236,8 +237,12 @@ pub fn run_chute_job(
         state.len(),
     )?;
 
-    let chunk_steps = (settings.sample_interval_s / scene.dt).round().max(1.0) as u64;
+    // A fixed chunk (see CHUNK_S), shortened only for an observer that samples faster.
+    let chunk_steps = (CHUNK_S.min(settings.sample_interval_s) / scene.dt)
+        .round()
+        .max(1.0) as u64;
     let chunk_dt = chunk_steps as f64 * scene.dt;
+    let sample_every = ((settings.sample_interval_s / chunk_dt).round() as u64).max(1);
     let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
     let target = p.max_time_s();
     let bed = expected_bed_height(&scene);
@@ -247,8 +252,12 @@ pub fn run_chute_job(
         save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
     };
     let measure_chunks = (p.measure_time_s / chunk_dt).round().max(1.0) as u64;
+    let snapshots =
+        SnapshotWriter::new(spec.observers.snapshots.as_ref(), &dir, &job.hash, chunk_dt);
     loop {
         let t = prog.chunk as f64 * chunk_dt;
+        // Frames at chunk boundaries only, so a resumed run rewrites the same ones.
+        snapshots.at_chunk(prog.chunk, t, || engine.try_download())?;
         if prog.phase == Phase::Measuring && prog.chunk >= prog.measure_start_chunk + measure_chunks
         {
             break;
@@ -330,18 +339,27 @@ pub fn run_chute_job(
                 }
             }
             Phase::Measuring => {
-                let contacts = engine
-                    .contacts()
-                    .map_err(|e| anyhow::anyhow!("contact list: {e}"))?;
+                let sample = (prog.chunk - prog.measure_start_chunk) % sample_every == 0;
+                let stress = prog.chunk % STRESS_EVERY == 0;
+                let contacts = if sample || stress {
+                    engine
+                        .contacts()
+                        .map_err(|e| anyhow::anyhow!("contact list: {e}"))?
+                } else {
+                    Vec::new()
+                };
                 let snap = flowing.snapshot(t_now, &contacts);
-                let ratio = (prog.chunk % STRESS_EVERY == 0)
+                let ratio = stress
                     .then(|| probe.stress_ratio(&snap, BULK.0 * bed, BULK.1 * bed))
                     .flatten();
                 prog.series.push((t_now, ke, ratio));
-                prog.observer
-                    .as_mut()
-                    .expect("observer exists while measuring")
-                    .sample(&snap);
+                prog.numerics.energy.add(t_now, ke);
+                if sample {
+                    prog.observer
+                        .as_mut()
+                        .expect("observer exists while measuring")
+                        .sample(&snap);
+                }
             }
         }
         let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);

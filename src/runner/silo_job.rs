@@ -16,6 +16,8 @@ use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
 use crate::engine::{Backend, State};
 use crate::observe::discharge::Discharge;
+use crate::observe::silo_fields::SiloFieldObserver;
+use crate::observe::snapshots::SnapshotWriter;
 use crate::scene::silo::{SiloPhase, SiloScene};
 use crate::store::jobs::{self, JobRow, Lease};
 use crate::store::SiloResults;
@@ -61,10 +63,16 @@ struct Progress {
     initial_count: usize,
     #[serde(default)]
     numerics: crate::store::JobNumerics,
+    /// The coarse-grained field observer (absent unless the campaign asks for it).
+    #[serde(default)]
+    fields: Option<SiloFieldObserver>,
+    /// Wall time spent sampling fields (s), for the observer's cost.
+    #[serde(default)]
+    fields_wall_s: f64,
 }
 
 /// A job's own directory (checkpoints) under the work directory.
-pub(super) fn job_dir(work: &Path, hash: &str) -> PathBuf {
+pub fn job_dir(work: &Path, hash: &str) -> PathBuf {
     work.join("jobs").join(&hash[..16])
 }
 
@@ -272,13 +280,23 @@ pub fn run_silo_job(
                 wall_time_s: 0.0,
                 initial_count: s.len(),
                 numerics: Default::default(),
+                fields: None,
+                fields_wall_s: 0.0,
             };
             (s, prog)
         }
     };
     let config = scene.engine_config(SiloPhase::Discharge);
-    let mut engine: Box<dyn Backend> =
-        backend::build(ctx.backend, spec.precision, config, &state, ctx.threads)?;
+    let mut engine: Box<dyn Backend> = match backend::build(
+        backend::for_job(&spec, ctx.backend),
+        spec.precision,
+        config,
+        &state,
+        ctx.threads,
+    ) {
+        Ok(e) => e,
+        Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
+    };
     let info = engine.describe();
     jobs::set_backend(
         conn,
@@ -293,6 +311,13 @@ pub fn run_silo_job(
     let chunk_steps = (st.sample_interval_s / scene.dt).round().max(1.0) as u64;
     let chunk_dt = chunk_steps as f64 * scene.dt;
     let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
+    if prog.fields.is_none() {
+        prog.fields = spec
+            .observers
+            .fields
+            .as_ref()
+            .map(|f| SiloFieldObserver::new(f, &scene.p, chunk_dt));
+    }
     let target = scene.p.discharge_time_s;
     let wall0 = prog.wall_time_s;
     let mut last_beat = Instant::now();
@@ -300,8 +325,12 @@ pub fn run_silo_job(
     let save = |engine: &mut Box<dyn Backend>, prog: &Progress| {
         save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
     };
+    let snapshots =
+        SnapshotWriter::new(spec.observers.snapshots.as_ref(), &dir, &job.hash, chunk_dt);
     loop {
         let t_rel = prog.chunk as f64 * chunk_dt;
+        // Frames at chunk boundaries only, so a resumed run rewrites the same ones.
+        snapshots.at_chunk(prog.chunk, t_rel, || engine.try_download())?;
         // Without re-insertion the particles left are the initial ones minus those counted out.
         let remaining = prog.initial_count - prog.discharge.count as usize;
         let done = t_rel >= target - 1e-12
@@ -350,6 +379,37 @@ pub fn run_silo_job(
             engine.upload(&s);
         }
         prog.discharge.sample(t_now);
+        if let Some(obs) = prog.fields.as_mut() {
+            if obs.samples_at(prog.chunk) && obs.wanted_at(t_now) {
+                let t_f = Instant::now();
+                let s = match engine.try_download() {
+                    Ok(s) => s,
+                    Err(e) => {
+                        return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)")))
+                    }
+                };
+                let contacts = if obs.needs_contacts() {
+                    match engine.contacts() {
+                        Ok(c) => Some(c),
+                        Err(e) => {
+                            return Ok(Outcome::Failed(format!(
+                                "contact stress: {e} (last good checkpoint kept)"
+                            )))
+                        }
+                    }
+                } else {
+                    None
+                };
+                obs.sample(t_now, &s, contacts.as_deref());
+                prog.fields_wall_s += t_f.elapsed().as_secs_f64();
+            }
+        }
+        if t_now >= st.skip_initial_s - 1e-12 {
+            match engine.kinetic_energy() {
+                Ok(e) => prog.numerics.energy.add(t_now, e),
+                Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+            }
+        }
         prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
         let saved = if prog.chunk % ckpt_every == 0 {
             Some(save(&mut engine, &prog)?)
@@ -388,7 +448,14 @@ pub fn run_silo_job(
         sim_time_s: t_end,
         dt_s: scene.dt,
         numerics: prog.numerics.clone(),
+        fields: prog.fields.clone(),
     };
+    if prog.fields.is_some() {
+        (ctx.log)(format!(
+            "job {}: field observer took {:.2} s of {:.2} s wall time",
+            job.id, prog.fields_wall_s, results.wall_time_s
+        ));
+    }
     results.commit(conn, job.id)?;
     Ok(Outcome::Done)
 }

@@ -1,8 +1,9 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
-//! (`results`; `chute_results` for the chute), jobs handed to Slurm (`slurm_tasks`) and their
-//! results ingested (`slurm_ingest`). Every write that marks progress is one transaction.
+//! (`results`; `chute_results` for the chute; `fields` for coarse-grained fields), jobs handed
+//! to Slurm (`slurm_tasks`) and their results ingested (`slurm_ingest`). Every write that marks progress is one transaction.
 
 mod chute_results;
+pub mod fields;
 pub mod jobs;
 pub mod numerics;
 mod open;

@@ -6,6 +6,7 @@ use rusqlite::{params, Connection};
 use serde::{Deserialize, Serialize};
 
 use crate::engine::ChunkReport;
+use crate::observe::energy::EnergyTrend;
 
 /// Running totals over a job's chunks (kept in its checkpoints).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -15,6 +16,9 @@ pub struct JobNumerics {
     pub contacts_sum: f64,
     pub chunks: u64,
     pub list_builds: u64,
+    /// Kinetic energy over the measurement window (absent from checkpoints of older versions).
+    #[serde(default)]
+    pub energy: EnergyTrend,
 }
 
 impl JobNumerics {
@@ -44,6 +48,20 @@ impl JobNumerics {
                 self.list_builds as i64
             ],
         )?;
+        if self.energy.samples > 0 {
+            conn.execute(
+                "INSERT OR REPLACE INTO job_energy (job_id, t_start_s, t_end_s, samples, mean_kinetic_j, drift_per_s)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+                params![
+                    job_id,
+                    self.energy.t_first_s,
+                    self.energy.t_last_s,
+                    self.energy.samples as i64,
+                    self.energy.mean_j(),
+                    self.energy.relative_drift_per_s()
+                ],
+            )?;
+        }
         Ok(())
     }
 }

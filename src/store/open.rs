@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 3;
+pub const SCHEMA_VERSION: i64 = 4;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -79,7 +79,8 @@ fn migrate(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
     }
     if v < SCHEMA_VERSION {
         // 0 → 1 created the silo tables, 1 → 2 adds the chute tables, 2 → 3 the Slurm executor's
-        // `slurm_tasks`: schema.sql is idempotent, so every step is running it again.
+        // `slurm_tasks`, 3 → 4 the coarse-grained fields (`field_sets`, `field_arrays`,
+        // `silo_field_series`): schema.sql is idempotent, so every step is running it again.
         tx.execute_batch(include_str!("../../schema.sql"))?;
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }

@@ -19,6 +19,8 @@ pub struct SiloResults {
     /// Time step and the running numerical record of the discharge.
     pub dt_s: f64,
     pub numerics: super::JobNumerics,
+    /// Coarse-grained fields (when the campaign asked for them).
+    pub fields: Option<crate::observe::silo_fields::SiloFieldObserver>,
 }
 
 impl SiloResults {
@@ -71,6 +73,10 @@ impl SiloResults {
             ],
         )?;
         self.numerics.write(&tx, job_id, self.dt_s)?;
+        super::fields::delete_job_fields(&tx, job_id)?;
+        if let Some(f) = &self.fields {
+            f.write(&tx, job_id)?;
+        }
         tx.execute(
             "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
                 finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",

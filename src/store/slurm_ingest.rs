@@ -167,6 +167,21 @@ fn ingest_attached(
     );
     let theirs = result_tables(&tx, "job_result")?;
     for t in result_tables(&tx, "main")? {
+        if t == "field_sets" {
+            // Sets carry their arrays by id, which the job-local store numbered on its own.
+            let n = if theirs.contains(&t) {
+                super::fields::copy_job_fields(&tx, "job_result", job_id)? as i64
+            } else {
+                super::fields::delete_job_fields(&tx, job_id)?;
+                0
+            };
+            let expected = rows.get(&t).copied().unwrap_or(0);
+            anyhow::ensure!(
+                n == expected,
+                "table {t}: copied {n} row(s), the task counted {expected}"
+            );
+            continue;
+        }
         tx.execute(
             &format!("DELETE FROM main.\"{t}\" WHERE job_id = ?1"),
             [job_id],

@@ -1,16 +1,23 @@
 //! Device buffers of one run and their host images. Particles are packed for the kernels
 //! (position with radius, velocity with 1/m, ω, constants with the alive flag, force and torque,
-//! history slots); `pack` and `unpack` convert from and to `State<f64>`, the exchange format, so
-//! a checkpoint moves between backends. Scratch (lists, cells, scan runs) lives here, not in State.
+//! history slots, and for oriented runs only the rotational state `RodGpu`); `pack` and `unpack`
+//! convert from and to `State<f64>`, the exchange format, so a checkpoint moves between backends.
+//! Scratch (lists, cells, scan runs, the axes derived from the orientations) lives here, not in
+//! State.
+//!
+//! Oriented runs double two buffers instead of binding two more (the contact kernel already binds
+//! WebGPU's default 8 storage buffers): `pos_r` holds n positions then n shape records (unit axis,
+//! l/2), and `ref_pos` n reference positions then n reference axes for the skin criterion.
 
 use wgpu::util::DeviceExt;
 
 use super::device::GpuDevice;
 use super::grid::GridSpec;
-use super::layout::{binding, Info, Load, Params, Slot, WallGpu, MAX_WALLS, STATUS_WORDS};
+use super::layout::{binding, Info, Load, Params, RodGpu, Slot, WallGpu, MAX_WALLS, STATUS_WORDS};
 use crate::engine::backend::EngineError;
 use crate::engine::history::History;
 use crate::engine::real::V3;
+use crate::engine::shape::Quat;
 use crate::engine::state::State;
 
 /// The particles of a State, in the kernels' f32 records.
@@ -23,6 +30,28 @@ pub struct Packed {
     pub load: Vec<Load>,
     /// Slot-major: slot s of particle i at s n + i.
     pub hist: Vec<Slot>,
+    /// Orientation, angular momentum, inverse body inertia and l/2; empty unless oriented.
+    pub rod: Vec<RodGpu>,
+}
+
+impl Packed {
+    /// Whether the particles carry orientations (the state was oriented).
+    pub fn oriented(&self) -> bool {
+        !self.rod.is_empty()
+    }
+
+    /// The shape records the contact kernel reads (unit axis, l/2), derived from the
+    /// orientations with the CPU engine's f32 `Quat::axis_z`, as `kick_rotate` derives them.
+    fn shapes(&self) -> Vec<[f32; 4]> {
+        self.rod
+            .iter()
+            .map(|r| {
+                let [x, y, z, w] = r.q;
+                let u = Quat::<f32> { x, y, z, w }.axis_z();
+                [u.x, u.y, u.z, r.inv_inertia_h[3]]
+            })
+            .collect()
+    }
 }
 
 fn f4(v: &V3<f64>, w: f64) -> [f32; 4] {
@@ -70,12 +99,32 @@ pub fn pack(s: &State<f64>) -> Packed {
             })
             .collect(),
         hist: slot_major(s),
+        rod: if s.oriented {
+            (0..n)
+                .map(|i| {
+                    let [x, y, z, w] = s.orientation[i].to_f64();
+                    RodGpu {
+                        q: [x as f32, y as f32, z as f32, w as f32],
+                        ang_mom: f4(&s.ang_mom[i], 0.0),
+                        inv_inertia_h: f4(&s.inv_inertia_body[i], s.half_length[i]),
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        },
     }
 }
 
-/// The live particles of `p` as a State (removed ones dropped, order kept).
+/// The live particles of `p` as a State (removed ones dropped, order kept); oriented when `p`
+/// carries orientations (then `rotation` is implied).
 pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) -> State<f64> {
-    let mut s = State::new(rotation, slots);
+    let oriented = p.oriented();
+    let mut s = if oriented {
+        State::new_oriented(slots)
+    } else {
+        State::new(rotation, slots)
+    };
     s.time = time;
     s.step = step;
     let v = |a: &[f32; 4]| V3::new(a[0] as f64, a[1] as f64, a[2] as f64);
@@ -92,7 +141,16 @@ pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) ->
         s.inv_mass.push(p.vel_im[i][3] as f64);
         s.mass.push(info.mass as f64);
         s.force.push(v(&p.load[i].force));
-        if rotation {
+        if oriented {
+            let r = &p.rod[i];
+            s.omega.push(v(&p.omega[i]));
+            s.torque.push(v(&p.load[i].torque));
+            let q = r.q.map(|c| c as f64);
+            s.orientation.push(Quat::from_f64(q));
+            s.ang_mom.push(v(&r.ang_mom));
+            s.inv_inertia_body.push(v(&r.inv_inertia_h));
+            s.half_length.push(r.inv_inertia_h[3] as f64);
+        } else if rotation {
             s.omega.push(v(&p.omega[i]));
             s.torque.push(v(&p.load[i].torque));
             s.inv_inertia.push(info.inv_inertia as f64);
@@ -132,6 +190,9 @@ pub struct GpuBuffers {
     pub chunk_sums: wgpu::Buffer,
     pub sorted: wgpu::Buffer,
     pub indirect: wgpu::Buffer,
+    /// `RodGpu` per particle; one zeroed record when the run is not oriented.
+    pub rod: wgpu::Buffer,
+    pub oriented: bool,
 }
 
 const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
@@ -152,6 +213,9 @@ impl GpuBuffers {
     ) -> Result<Self, EngineError> {
         let n = p.pos_r.len();
         let slots = params.slots as usize;
+        let oriented = p.oriented();
+        // Oriented runs: a second block of n records in pos_r and ref_pos (module doc).
+        let blocks: u64 = if oriented { 2 } else { 1 };
         let max = dev.limits.max_storage_buffer_binding_size;
         let check = |what: &str, bytes: u64| -> Result<(), EngineError> {
             if bytes > max {
@@ -168,12 +232,15 @@ impl GpuBuffers {
         check("history", (n * slots * 16) as u64)?;
         check("neighbour list", nbr_words * 4)?;
         check("load", n as u64 * 32)?;
+        check("position", blocks * n as u64 * 16)?;
+        check("rod", p.rod.len() as u64 * 48)?;
         let d = &dev.device;
         let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
-            // Zero-length bindings are invalid: every buffer holds at least one 32-byte record.
+            // Zero-length bindings are invalid: every buffer holds at least one record (48 bytes
+            // covers the largest, `RodGpu`).
             let mut data = bytes.to_vec();
-            if data.len() < 32 {
-                data.resize(32, 0);
+            if data.len() < 48 {
+                data.resize(48, 0);
             }
             d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -195,14 +262,22 @@ impl GpuBuffers {
             slots,
             params: init("params", bytemuck::bytes_of(params), uniform),
             walls: init("walls", bytemuck::cast_slice(walls.as_slice()), uniform),
-            pos_r: init("pos_r", bytemuck::cast_slice(&p.pos_r), STORAGE),
+            pos_r: {
+                let mut data = p.pos_r.clone();
+                data.extend(p.shapes());
+                init("pos_r", bytemuck::cast_slice(&data), STORAGE)
+            },
             vel_im: init("vel_im", bytemuck::cast_slice(&p.vel_im), STORAGE),
             omega: init("omega", bytemuck::cast_slice(&p.omega), STORAGE),
             info: init("info", bytemuck::cast_slice(&p.info), STORAGE),
             load: init("load", bytemuck::cast_slice(&p.load), STORAGE),
             hist: init("history", bytemuck::cast_slice(&p.hist), STORAGE),
             nbr: zeroed("neighbour lists", nbr_words * 4, STORAGE),
-            ref_pos: zeroed("list reference positions", n as u64 * 16, STORAGE),
+            ref_pos: zeroed(
+                "list reference positions (and axes)",
+                blocks * n as u64 * 16,
+                STORAGE,
+            ),
             status: zeroed("status", STATUS_WORDS as u64 * 4, STORAGE),
             events: zeroed("sink events", n as u64 * 8, STORAGE),
             cell_rank: zeroed("cell and rank", n as u64 * 8, STORAGE),
@@ -215,6 +290,8 @@ impl GpuBuffers {
                 super::layout::REBUILD_PASSES.len() as u64 * 12,
                 STORAGE | wgpu::BufferUsages::INDIRECT,
             ),
+            rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
+            oriented,
         })
     }
 
@@ -239,6 +316,7 @@ impl GpuBuffers {
             binding::CHUNK_SUMS => &self.chunk_sums,
             binding::SORTED => &self.sorted,
             binding::INDIRECT => &self.indirect,
+            binding::ROD => &self.rod,
             _ => unreachable!("no buffer at binding {b}"),
         }
     }
@@ -258,6 +336,7 @@ impl GpuBuffers {
                 (&self.info, n * 16),
                 (&self.load, n * 32),
                 (&self.hist, n * self.slots as u64 * 16),
+                (&self.rod, if self.oriented { n * 48 } else { 0 }),
             ],
         )?;
         Ok(Packed {
@@ -267,6 +346,7 @@ impl GpuBuffers {
             info: bytemuck::pod_collect_to_vec(&parts[3]),
             load: bytemuck::pod_collect_to_vec(&parts[4]),
             hist: bytemuck::pod_collect_to_vec(&parts[5]),
+            rod: bytemuck::pod_collect_to_vec(&parts[6]),
         })
     }
 }

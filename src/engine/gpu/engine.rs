@@ -6,6 +6,11 @@
 //! Particles removed by the sink stay in place (flagged dead, skipped by every kernel) until the
 //! host compacts them with a download and upload once they exceed 1/8 of the slots; a download
 //! never shows them, as on the CPU.
+//!
+//! Oriented runs (spherocylinders, `Specialization::oriented`) add `kick_rotate` after
+//! `kick_drift`: the rotational kick and the exact free rotor of `shape::rigid`, ω refreshed, the
+//! axis re-derived, and the skin criterion |Δc| + (l/2)|Δu| > skin/2 of the CPU engine; the
+//! contact kernel then evaluates every rod pair in the CPU's canonical order (lower id first).
 
 use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
@@ -70,6 +75,8 @@ pub struct GpuEngine {
     run: Option<Run>,
     slots: usize,
     rotation: bool,
+    /// Whether the uploaded particles are oriented (spherocylinders).
+    oriented: bool,
     time: f64,
     step: u64,
     /// An upload that failed, reported by the next `advance`.
@@ -89,11 +96,6 @@ impl GpuEngine {
         state: &State<f64>,
         options: GpuOptions,
     ) -> Result<Self, EngineError> {
-        if state.oriented {
-            return Err(EngineError::Device(
-                "spherocylinders (oriented particles) are not in the GPU kernels yet: run this scene with --backend cpu".into(),
-            ));
-        }
         if config.walls.len() > MAX_WALLS {
             return Err(EngineError::Device(format!(
                 "{} walls; the GPU backend holds at most {MAX_WALLS}",
@@ -106,7 +108,7 @@ impl GpuEngine {
         }
         let pipes = Pipelines::new(
             dev,
-            Specialization::of(&config, state.rotation, state.history.slots),
+            Specialization::of(&config, state.rotation, state.oriented, state.history.slots),
         );
         if let Some(e) = dev.take_error() {
             return Err(EngineError::Device(format!("building the kernels: {e}")));
@@ -119,6 +121,7 @@ impl GpuEngine {
             run: None,
             slots: 0,
             rotation: false,
+            oriented: false,
             time: 0.0,
             step: 0,
             pending: None,
@@ -182,7 +185,7 @@ impl GpuEngine {
             half_dt: dt * 0.5,
             half_skin2: skin * skin * 0.25,
             overlap_limit: f(self.options.watchdog.max_overlap_ratio),
-            pad: 0.0,
+            half_skin: skin * 0.5,
             law_pp: LawGpu::from(c.particle_law.kernel::<f32>()),
             law_pw: LawGpu::from(c.wall_law.kernel::<f32>()),
         }
@@ -195,20 +198,27 @@ impl GpuEngine {
         self.step = state.step;
         self.slots = state.history.slots;
         self.rotation = state.rotation;
+        self.oriented = state.oriented;
         if self.slots > MAX_SLOTS {
             return Err(EngineError::Device(format!(
                 "{} history slots per particle; the GPU backend holds at most {MAX_SLOTS}",
                 self.slots
             )));
         }
-        if state.oriented {
-            return Err(EngineError::Device(
-                "spherocylinders (oriented particles) are not in the GPU kernels yet: run this scene with --backend cpu".into(),
-            ));
+        if let Some(k) = asymmetric_top(state) {
+            return Err(EngineError::Device(format!(
+                "particle {} is not a symmetric top about its axis (I1 ≠ I2); the GPU kernels rotate symmetric tops only (every spherocylinder is one): run it with --backend cpu",
+                state.id[k]
+            )));
         }
         // The kernels are compiled for the effects of the state they run: recompile when an
         // upload changes them (never within one job).
-        let spec = Specialization::of(&self.config, state.rotation, state.history.slots);
+        let spec = Specialization::of(
+            &self.config,
+            state.rotation,
+            state.oriented,
+            state.history.slots,
+        );
         if spec != self.pipes.spec {
             self.pipes = Pipelines::new(&self.dev, spec);
             if let Some(e) = self.dev.take_error() {
@@ -246,7 +256,11 @@ impl GpuEngine {
     fn read_state(&self) -> Result<State<f64>, EngineError> {
         match &self.run {
             None => {
-                let mut s = State::new(self.rotation, self.slots);
+                let mut s = if self.oriented {
+                    State::new_oriented(self.slots)
+                } else {
+                    State::new(self.rotation, self.slots)
+                };
                 s.time = self.time;
                 s.step = self.step;
                 Ok(s)
@@ -312,6 +326,10 @@ impl GpuEngine {
                 for _ in 0..batch {
                     // Kick (dt/2 at the chunk's first step, dt after), drift, sink, staleness.
                     dispatch(&mut pass, kernel::KICK_DRIFT, gp);
+                    if self.oriented {
+                        // Rotational kick, free rotation, axes, and the rods' skin criterion.
+                        dispatch(&mut pass, kernel::KICK_ROTATE, gp);
+                    }
                     // Count the step; size the rebuild passes (0 when the lists still hold).
                     dispatch(&mut pass, kernel::PLAN_STEP, 1);
                     // Histogram, scan, scatter, lists.
@@ -329,6 +347,19 @@ impl GpuEngine {
             done += batch;
         }
     }
+}
+
+/// The first oriented particle whose inertia is not that of a symmetric top about its axis
+/// (I1 ≠ I2 in f32): the GPU's free rotor is the symmetric top's exact one only (fixed particles
+/// have all three inverse moments zero).
+fn asymmetric_top(state: &State<f64>) -> Option<usize> {
+    if !state.oriented {
+        return None;
+    }
+    state
+        .inv_inertia_body
+        .iter()
+        .position(|ii| ii.x as f32 != ii.y as f32)
 }
 
 impl Backend for GpuEngine {

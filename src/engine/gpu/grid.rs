@@ -24,14 +24,34 @@ pub struct GridSpec {
 /// ⌈√ncell⌉, which balances the parallel runs against the one sequential pass over their totals).
 pub fn plan_grid(state: &State<f64>, config: &EngineConfig, scan_chunk: Option<u32>) -> GridSpec {
     let n = state.len();
-    let r_max = state.radius.iter().fold(0.0f64, |a, &b| a.max(b));
-    let r_min = state.radius.iter().fold(f64::MAX, |a, &b| a.min(b));
-    let r_min = if n == 0 {
-        r_max
-    } else {
-        r_min.max(1e-3 * r_max)
-    };
+    // The reach of a particle from its centre: its radius, plus l/2 for a spherocylinder (as
+    // the CPU's grid.rs). Cells are sized from the longest particle.
+    let reach = |k: usize| state.radius[k] + state.half_length.get(k).copied().unwrap_or(0.0);
+    let r_max = (0..n).map(reach).fold(0.0f64, f64::max);
     let skin = config.skin_m;
+    let stride = if state.oriented {
+        // A rod packs like a sphere of its own volume, r³ + 3/2 r² l/2 (π r² l + 4/3 π r³).
+        let r_eq = (0..n)
+            .map(|k| {
+                let (r, h) = (state.radius[k], state.half_length[k]);
+                (r * r * r + 1.5 * r * r * h).cbrt()
+            })
+            .fold(f64::MAX, f64::min);
+        let r_eq = if n == 0 {
+            r_max
+        } else {
+            r_eq.max(1e-3 * r_max)
+        };
+        rod_list_capacity(r_eq, r_max, skin)
+    } else {
+        let r_min = state.radius.iter().fold(f64::MAX, |a, &b| a.min(b));
+        let r_min = if n == 0 {
+            r_max
+        } else {
+            r_min.max(1e-3 * r_max)
+        };
+        list_capacity(r_min, r_max, skin)
+    };
     // The cell is a hair wider than the largest cutoff so that f32 rounding of (x − lo)/w never
     // puts two particles within the cutoff two cells apart.
     let mut cell = ((2.0 * r_max + skin) * (1.0 + 1e-5)).max(f64::MIN_POSITIVE);
@@ -90,7 +110,7 @@ pub fn plan_grid(state: &State<f64>, config: &EngineConfig, scan_chunk: Option<u
         width,
         dims,
         ncell,
-        stride: list_capacity(r_min, r_max, skin),
+        stride,
         scan_chunk,
         n_chunks: ncell.div_ceil(scan_chunk),
     }
@@ -101,8 +121,21 @@ pub fn plan_grid(state: &State<f64>, config: &EngineConfig, scan_chunk: Option<u
 /// shrunk by 10 % for overlaps), rounded up to a multiple of 4, between 32 and 256. A run that
 /// still overflows it fails with a clear error rather than dropping a contact.
 pub fn list_capacity(r_min: f64, r_max: f64, skin: f64) -> u32 {
-    let cut = r_max + r_min + skin;
-    let bound = 0.75 * ((cut + r_min) / (0.9 * r_min)).powi(3);
+    packing_bound(r_max + r_min + skin + r_min, r_min)
+}
+
+/// Neighbours a list row holds in an oriented run: the centres within the cutoff 2 r_max + skin
+/// (r_max the longest reach r + l/2), each particle inside the ball of radius cutoff + r_max and
+/// at least as large as a sphere of radius `r_eq` (the smallest particle's volume), packed as in
+/// `list_capacity`.
+pub fn rod_list_capacity(r_eq: f64, r_max: f64, skin: f64) -> u32 {
+    packing_bound(3.0 * r_max + skin, r_eq)
+}
+
+/// 0.75 of the ball of radius `ball` filled with spheres of radius 0.9 `r_min`, rounded up to a
+/// multiple of 4, between 32 and 256.
+fn packing_bound(ball: f64, r_min: f64) -> u32 {
+    let bound = 0.75 * (ball / (0.9 * r_min)).powi(3);
     let k = if bound.is_finite() {
         bound.ceil() as u32
     } else {

@@ -38,7 +38,8 @@ pub const ST_LIST_OVERFLOW: usize = 7;
 pub const ST_STEP: usize = 8;
 /// Sum of the contact counts at the chunk's end.
 pub const ST_CONTACTS: usize = 9;
-/// Smallest 4 i + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity).
+/// Smallest 4 i + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity,
+/// 3 orientation).
 pub const ST_NONFINITE: usize = 10;
 
 /// Status words at the start of a chunk: a list build is due (the CPU rebuilds at every chunk
@@ -73,6 +74,8 @@ pub mod binding {
     pub const CHUNK_SUMS: u32 = 15;
     pub const SORTED: u32 = 16;
     pub const INDIRECT: u32 = 17;
+    /// Orientation, angular momentum and body inertia of oriented particles (`RodGpu`).
+    pub const ROD: u32 = 18;
 }
 
 /// Indirect dispatch slots (3 words each) of the list-rebuild passes, in execution order.
@@ -93,6 +96,18 @@ pub fn prelude() -> String {
          const WALL_KEY: u32 = {}u;\n",
         crate::engine::history::wall_key(0)
     );
+    // The segment geometry's thresholds (shape/segment.rs), as the exact f32 the CPU engine's
+    // f32 kernels use (`R::from_f64`), written as hexadecimal literals so that no decimal
+    // rounding can differ from Rust's.
+    let sin = crate::engine::shape::PARALLEL_SIN;
+    for (name, v) in [
+        ("PARALLEL_SIN", sin as f32),
+        ("PARALLEL_SIN2", (sin * sin) as f32),
+        ("POINT_LEN2", crate::engine::shape::POINT_LEN2 as f32),
+        ("TOUCH_TINY", 1e-24f32),
+    ] {
+        s += &format!("const {name}: f32 = {};\n", hex_f32(v));
+    }
     for (name, v) in [
         ("ST_REBUILD", ST_REBUILD),
         ("ST_BUILDS", ST_BUILDS),
@@ -109,6 +124,14 @@ pub fn prelude() -> String {
         s += &format!("const {name}: u32 = {v}u;\n");
     }
     s
+}
+
+/// A positive normal f32 as an exact WGSL hexadecimal literal, 0x1.mmmmmmpEf.
+fn hex_f32(v: f32) -> String {
+    let bits = v.to_bits();
+    debug_assert!(v.is_normal() && v > 0.0);
+    let exp = ((bits >> 23) & 0xff) as i32 - 127;
+    format!("0x1.{:06x}p{exp}f", (bits & 0x7f_ffff) << 1)
 }
 
 /// A contact law as the shaders read it (`LawKernel<f32>`).
@@ -183,7 +206,8 @@ pub struct Params {
     /// (skin/2)²: the displacement that triggers a list rebuild, squared.
     pub half_skin2: f32,
     pub overlap_limit: f32,
-    pub pad: f32,
+    /// skin/2: how far a rod's ends may move (|Δc| + (l/2)|Δu|) before the lists are rebuilt.
+    pub half_skin: f32,
     pub law_pp: LawGpu,
     pub law_pw: LawGpu,
 }
@@ -266,6 +290,21 @@ pub struct Info {
     pub inv_inertia: f32,
 }
 
+/// The rotational state of an oriented particle (State's orientation, ang_mom,
+/// inv_inertia_body and half_length), allocated only for oriented runs. The unit axis the
+/// contacts read is derived from `q` and kept in the second block of the position buffer
+/// (`shaders/common.wgsl`, `shape_at`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RodGpu {
+    /// Orientation quaternion (x, y, z, w), body → lab.
+    pub q: [f32; 4],
+    /// Lab-frame angular momentum L (kg m²/s); w unused.
+    pub ang_mom: [f32; 4],
+    /// Inverse principal moments (body frame, 1/(kg m²)), zero when fixed; w = l/2 (m).
+    pub inv_inertia_h: [f32; 4],
+}
+
 /// Force and torque of the last evaluation; force.w holds the contact count, torque.w the
 /// particle's largest overlap ratio.
 #[repr(C)]
@@ -295,3 +334,14 @@ impl Default for Slot {
 const _: () = assert!(std::mem::size_of::<Params>() == 208);
 const _: () = assert!(std::mem::size_of::<WallGpu>() == 64);
 const _: () = assert!(std::mem::size_of::<Slot>() == 16);
+const _: () = assert!(std::mem::size_of::<RodGpu>() == 48);
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn hexadecimal_literals_are_exact() {
+        assert_eq!(super::hex_f32(1.0), "0x1.000000p0f");
+        assert_eq!(super::hex_f32(0.75), "0x1.800000p-1f");
+        assert_eq!(super::hex_f32(f32::MIN_POSITIVE), "0x1.000000p-126f");
+    }
+}

@@ -7,12 +7,13 @@ use std::num::NonZeroU64;
 
 use super::buffers::GpuBuffers;
 use super::device::GpuDevice;
-use super::layout::{binding as b, prelude, Params, WallGpu, MAX_WALLS, STATUS_WORDS};
+use super::layout::{binding as b, prelude, Params, RodGpu, WallGpu, MAX_WALLS, STATUS_WORDS};
 use crate::engine::config::EngineConfig;
 
 const INTEGRATE: &str = concat!(
     include_str!("shaders/common.wgsl"),
-    include_str!("shaders/integrate.wgsl")
+    include_str!("shaders/integrate.wgsl"),
+    include_str!("shaders/rotate.wgsl")
 );
 const GRID: &str = concat!(
     include_str!("shaders/common.wgsl"),
@@ -21,7 +22,8 @@ const GRID: &str = concat!(
 const CONTACTS: &str = concat!(
     include_str!("shaders/common.wgsl"),
     include_str!("shaders/walls.wgsl"),
-    include_str!("shaders/contacts.wgsl")
+    include_str!("shaders/contacts.wgsl"),
+    include_str!("shaders/rods.wgsl")
 );
 
 /// The three shader modules.
@@ -80,10 +82,12 @@ pub mod kernel {
     /// The six rebuild passes, in `layout::REBUILD_PASSES` order.
     pub const REBUILD: [usize; 6] = [5, 6, 7, 8, 9, 10];
     pub const COMPUTE_FORCES: usize = 11;
+    /// Oriented runs only: the rotational kick and free rotation, after `KICK_DRIFT`.
+    pub const KICK_ROTATE: usize = 12;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 12] = [
+pub const KERNELS: [KernelSpec; 13] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -102,7 +106,7 @@ pub const KERNELS: [KernelSpec; 12] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "close_kick",
-        bindings: &[b::PARAMS, b::VEL_IM, b::OMEGA, b::INFO, b::LOAD],
+        bindings: &[b::PARAMS, b::VEL_IM, b::OMEGA, b::INFO, b::LOAD, b::ROD],
     },
     KernelSpec {
         module: Module::Integrate,
@@ -115,6 +119,7 @@ pub const KERNELS: [KernelSpec; 12] = [
             b::INFO,
             b::LOAD,
             b::STATUS,
+            b::ROD,
         ],
     },
     KernelSpec {
@@ -183,6 +188,21 @@ pub const KERNELS: [KernelSpec; 12] = [
             b::STATUS,
         ],
     },
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "kick_rotate",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::REF_POS,
+            b::STATUS,
+            b::ROD,
+        ],
+    },
 ];
 
 /// Smallest valid binding size of each buffer: one record.
@@ -195,6 +215,7 @@ fn min_size(binding: u32) -> u64 {
         b::EVENTS | b::CELL_RANK => 8,
         b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED => 4,
         b::INDIRECT => 12,
+        b::ROD => std::mem::size_of::<RodGpu>() as u64,
         _ => 16,
     }
 }
@@ -206,6 +227,9 @@ fn min_size(binding: u32) -> u64 {
 pub struct Specialization {
     /// Angular velocities are integrated and enter contacts.
     pub rotation: bool,
+    /// Particles are spherocylinders with orientations (segment contacts, the free rotor, the
+    /// rotational skin criterion); a sphere run compiles none of it.
+    pub oriented: bool,
     /// Tangential springs are kept per contact.
     pub history: bool,
     /// Some contact law is Hertz–Mindlin; some is linear.
@@ -218,8 +242,9 @@ pub struct Specialization {
 }
 
 impl Specialization {
-    /// The effects of `config` with particles carrying `rotation` and `history_slots`.
-    pub fn of(config: &EngineConfig, rotation: bool, history_slots: usize) -> Self {
+    /// The effects of `config` with particles carrying `rotation`, orientations (`oriented`) and
+    /// `history_slots`.
+    pub fn of(config: &EngineConfig, rotation: bool, oriented: bool, history_slots: usize) -> Self {
         let laws = if config.walls.is_empty() {
             vec![config.particle_law]
         } else {
@@ -229,7 +254,8 @@ impl Specialization {
             matches!(l.normal, crate::engine::contact::NormalModel::Hertz(_))
         };
         Self {
-            rotation,
+            rotation: rotation || oriented,
+            oriented,
             history: history_slots > 0,
             any_hertz: laws.iter().any(hertz),
             any_linear: laws.iter().any(|l| !hertz(l)),
@@ -240,10 +266,11 @@ impl Specialization {
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 8] {
+    fn constants(&self) -> [(&'static str, f64); 9] {
         let b = |x: bool| if x { 1.0 } else { 0.0 };
         [
             ("ROTATION", b(self.rotation)),
+            ("ORIENTED", b(self.oriented)),
             ("HISTORY", b(self.history)),
             ("ANY_HERTZ", b(self.any_hertz)),
             ("ANY_LINEAR", b(self.any_linear)),

@@ -92,7 +92,8 @@ pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> Chun
             what: match nonfinite % 4 {
                 0 => "position",
                 1 => "velocity",
-                _ => "angular velocity",
+                2 => "angular velocity",
+                _ => "orientation",
             },
             id: id_at(nonfinite / 4),
             step: c.step0 + c.steps,

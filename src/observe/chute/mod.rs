@@ -13,4 +13,4 @@ pub use results::{
     ChuteBlockRow, ChuteCorrelationRow, ChuteFieldRow, ChuteMsdRow, ChuteResults, ChuteSummaryRow,
     ChuteVzPdfRow,
 };
-pub use settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem};
+pub use settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem, CHUNK_S};

@@ -4,6 +4,13 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+/// The chute job's chunk (s): the engine advances this much between two looks at the state.
+/// Every chunk starts from a fresh sort and neighbour list (so a resumed run repeats the same
+/// operations), which makes the chunk part of the trajectory's bits; it is therefore fixed, not
+/// the sampling interval, and jobs that differ only in their observers follow the same
+/// trajectory. Sampling intervals are multiples of it; a faster one shortens the chunk.
+pub const CHUNK_S: f64 = 0.05;
+
 /// Settings of the chute observer (recorded with each job). Lengths are in units of the particle
 /// length L, so one campaign file serves every aspect ratio.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -127,6 +134,18 @@ impl ChuteObserverSettings {
                 field: "correlation_every",
                 message: "expected at least 1 snapshot, got 0".into(),
             });
+        }
+        if self.sample_interval_s > CHUNK_S {
+            let r = self.sample_interval_s / CHUNK_S;
+            if (r - r.round()).abs() > 1e-6 {
+                p.push(SettingProblem {
+                    field: "sample_interval_s",
+                    message: format!(
+                        "expected a multiple of the chute's {CHUNK_S} s chunk (or less than it), got {}",
+                        self.sample_interval_s
+                    ),
+                });
+            }
         }
         if self.max_lag_s < self.sample_interval_s {
             p.push(SettingProblem {

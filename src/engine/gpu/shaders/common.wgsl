@@ -6,6 +6,8 @@
 // The run's effects, fixed when the pipelines are built (pipelines.rs, `Specialization`): the
 // shader compiler drops every branch a run does not need, as the CPU engine skips those kernels.
 override ROTATION: bool = true;
+// Spherocylinders: orientations, segment contacts, the free rotor (rods.wgsl, rotate.wgsl).
+override ORIENTED: bool = true;
 override HISTORY: bool = true;
 override ANY_HERTZ: bool = true;
 override ANY_LINEAR: bool = true;
@@ -61,7 +63,7 @@ struct Params {
     half_dt: f32,
     half_skin2: f32,
     overlap_limit: f32,
-    pad: f32,
+    half_skin: f32,
     law_pp: Law,
     law_pw: Law,
 }
@@ -95,6 +97,16 @@ struct Load {
 struct Slot {
     spring: vec3<f32>,
     key: u32,
+}
+
+// The rotational state of an oriented particle (layout.rs RodGpu).
+struct Rod {
+    // Orientation quaternion (x, y, z, w), body → lab.
+    q: vec4<f32>,
+    // Lab-frame angular momentum; w unused.
+    ang_mom: vec4<f32>,
+    // Inverse principal moments (body frame), zero when fixed; w = l/2.
+    inv_inertia_h: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -146,6 +158,24 @@ fn nbr_at(i: u32, k: u32) -> u32 {
 
 fn slot_at(i: u32, s: u32) -> u32 {
     return s * params.n + i;
+}
+
+// Oriented runs keep a second block of n records after the positions in pos_r (the unit axis
+// and l/2 of particle i, derived from its orientation) and after the reference positions in
+// ref_pos (the axis at the last list build): the contact kernel binds no more buffers than the
+// sphere kernel.
+fn shape_at(i: u32) -> u32 {
+    return params.n + i;
+}
+
+// Real::max and Real::min of the CPU engine (real.rs): the comparison decides, so a NaN argument
+// gives the other one, whatever the GPU's max/min do with NaN.
+fn rmax(a: f32, b: f32) -> f32 {
+    return select(b, a, a > b);
+}
+
+fn rmin(a: f32, b: f32) -> f32 {
+    return select(b, a, a < b);
 }
 
 fn gravity() -> vec3<f32> {

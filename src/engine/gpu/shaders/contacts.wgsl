@@ -2,6 +2,7 @@
 // full list: no float atomics), with the contact law of contact/force.rs and the history rows of
 // history.rs: the old rows are read into private memory, looked up by partner key, and rewritten
 // packed with only the contacts that exist this step (particles in list order, then walls).
+// Oriented runs gather with segment geometry (rods.wgsl).
 
 @group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> vel_im: array<vec4<f32>>;
@@ -101,26 +102,21 @@ fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: 
     return f;
 }
 
-@compute @workgroup_size(WG)
-fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= params.n) { return; }
-    let use_rows = HISTORY;
-    if (use_rows) {
-        rows_open(i);
-    }
+// What one particle's gather returns: force, torque, largest overlap ratio, contact count.
+struct Gathered {
+    f: vec3<f32>,
+    t: vec3<f32>,
+    max_ov: f32,
+    nc: u32,
+}
+
+// The sphere path: each pair from i's side (gather.rs).
+fn gather_spheres(i: u32, me: Info) -> Gathered {
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
     var max_ov = 0.0;
     var nc = 0u;
-    let me = info[i];
-    if (me.alive == 0u) {
-        if (use_rows) {
-            rows_close(i);
-        }
-        load[i] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
-        return;
-    }
+    let use_rows = HISTORY;
     let p4 = pos_r[i];
     let pi = p4.xyz;
     let ri = p4.w;
@@ -202,14 +198,42 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
             nc++;
         }
     }
-    if (fixed_i) {
+    return Gathered(f, t, max_ov, nc);
+}
+
+@compute @workgroup_size(WG)
+fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.n) { return; }
+    let use_rows = HISTORY;
+    if (use_rows) {
+        rows_open(i);
+    }
+    let me = info[i];
+    if (me.alive == 0u) {
+        if (use_rows) {
+            rows_close(i);
+        }
+        load[i] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
+        return;
+    }
+    var g: Gathered;
+    if (ORIENTED) {
+        g = gather_oriented(i, me);
+    } else {
+        g = gather_spheres(i, me);
+    }
+    var f = g.f;
+    var t = g.t;
+    let max_ov = g.max_ov;
+    if (vel_im[i].w == 0.0) {
         f = vec3<f32>(0.0);
         t = vec3<f32>(0.0);
     }
     if (use_rows) {
         rows_close(i);
     }
-    load[i] = Load(vec4<f32>(f, f32(nc)), vec4<f32>(t, max_ov));
+    load[i] = Load(vec4<f32>(f, f32(g.nc)), vec4<f32>(t, max_ov));
     let k = atomicLoad(&status[ST_STEP]);
     if (full) {
         atomicMin(&status[ST_FULL_STEP], k);

@@ -1,8 +1,9 @@
 // Neighbour search: a uniform cell grid filled by a counting sort (atomic histogram, chunked
 // prefix sum, scatter of particle indices), then a full Verlet list per particle with cutoff
-// r_i + r_j + skin, sorted by particle index so that force sums do not depend on the order the
-// atomics happened to run in. `plan_*` decide on the device whether the rebuild passes run: they
-// write the indirect dispatch sizes (zero workgroups when the lists are still valid).
+// r_i + r_j + skin (r the reach: the radius, plus l/2 for a spherocylinder), sorted by particle
+// index so that force sums do not depend on the order the atomics happened to run in. `plan_*`
+// decide on the device whether the rebuild passes run: they write the indirect dispatch sizes
+// (zero workgroups when the lists are still valid).
 
 @group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> info: array<Info>;
@@ -144,6 +145,14 @@ fn around(c: u32, o: u32, n: u32, periodic: bool) -> i32 {
     return x;
 }
 
+// How far particle j (radius r) reaches from its centre: r, plus l/2 when oriented.
+fn reach(j: u32, r: f32) -> f32 {
+    if (ORIENTED) {
+        return r + pos_r[shape_at(j)].w;
+    }
+    return r;
+}
+
 // Appends the particles of sorted[a..b) within the cutoff of i to i's row; returns the count.
 fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
     var k = k0;
@@ -152,7 +161,7 @@ fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
         if (j == i) { continue; }
         let pj = pos_r[j];
         let d = min_image(p, pj.xyz);
-        let cut = ri + pj.w + params.skin;
+        let cut = ri + reach(j, pj.w) + params.skin;
         if (dot3(d, d) < cut * cut) {
             if (k < params.stride) {
                 nbr[nbr_at(i, 1u + k)] = j;
@@ -169,11 +178,16 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= params.n) { return; }
     let p4 = pos_r[i];
     ref_pos[i] = p4;
+    if (ORIENTED) {
+        // The axis the rotational skin criterion measures turns from.
+        ref_pos[shape_at(i)] = pos_r[shape_at(i)];
+    }
     if (info[i].alive == 0u) {
         nbr[nbr_at(i, 0u)] = 0u;
         return;
     }
     let p = p4.xyz;
+    let ri = reach(i, p4.w);
     let c = cell_of(p);
     let px = PERIODIC_X;
     // Three x-adjacent cells are one contiguous run of `sorted` unless the run wraps.
@@ -189,13 +203,13 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (y < 0) { continue; }
             let base = (u32(z) * params.ny + u32(y)) * params.nx;
             if (contiguous) {
-                k = scan_range(i, p, p4.w, cell_start[base + x_lo], cell_start[base + x_hi + 1u], k);
+                k = scan_range(i, p, ri, cell_start[base + x_lo], cell_start[base + x_hi + 1u], k);
             } else {
                 for (var ox = 0u; ox < 3u; ox++) {
                     let x = around(c.x, ox, params.nx, px);
                     if (x < 0) { continue; }
                     let cc = base + u32(x);
-                    k = scan_range(i, p, p4.w, cell_start[cc], cell_start[cc + 1u], k);
+                    k = scan_range(i, p, ri, cell_start[cc], cell_start[cc + 1u], k);
                 }
             }
         }

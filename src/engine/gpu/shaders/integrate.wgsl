@@ -1,7 +1,8 @@
 // Velocity Verlet with the fused kick of cpu.rs: `kick_drift` kicks by dt/2 at a chunk's first
 // step and by dt after (the previous step's closing half kick and this step's opening one),
 // drifts, wraps, flags sink deaths and list staleness; `close_kick` is the chunk's closing half
-// kick; `finish` checks finiteness and counts contacts.
+// kick; `finish` checks finiteness and counts contacts. Oriented runs rotate in `kick_rotate`
+// (rotate.wgsl) and kick L, not ω, in `close_kick`.
 
 @group(0) @binding(2) var<storage, read_write> pos_r: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> vel_im: array<vec4<f32>>;
@@ -11,6 +12,7 @@
 @group(0) @binding(9) var<storage, read> ref_pos: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(11) var<storage, read_write> events: array<vec2<u32>>;
+@group(0) @binding(18) var<storage, read_write> rod: array<Rod>;
 
 @compute @workgroup_size(WG)
 fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -18,7 +20,7 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= params.n) { return; }
     let k = atomicLoad(&status[ST_STEP]);
     let kick = select(params.dt, params.half_dt, k == 0u);
-    if (ROTATION) {
+    if (ROTATION && !ORIENTED) {
         // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
         let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * kick);
         omega[i] = vec4<f32>(w, 0.0);
@@ -35,6 +37,8 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
         let e = atomicAdd(&status[ST_DEATHS], 1u);
         events[e] = vec2<u32>(i, k);
     }
+    // Oriented particles test their ends after turning, in kick_rotate.
+    if (ORIENTED) { return; }
     let d = min_image(ref_pos[i].xyz, x);
     if (dot3(d, d) > params.half_skin2 && atomicLoad(&status[ST_REBUILD]) == 0u) {
         atomicStore(&status[ST_REBUILD], 1u);
@@ -52,9 +56,20 @@ fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
         let v = vi.xyz + (load[i].force.xyz * im + gravity()) * half;
         vel_im[i] = vec4<f32>(v, im);
     }
-    if (ROTATION) {
+    if (ROTATION && !ORIENTED) {
         let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * half);
         omega[i] = vec4<f32>(w, 0.0);
+    }
+    if (ORIENTED) {
+        // oriented::close_kick: L gets the half kick, ω is refreshed from it (every particle,
+        // as on the CPU; fixed ones have zero inverse inertia and stay put).
+        let r = rod[i];
+        let inv = r.inv_inertia_h.xyz;
+        if (inv.x != 0.0) {
+            let l = r.ang_mom.xyz + load[i].torque.xyz * half;
+            rod[i].ang_mom = vec4<f32>(l, 0.0);
+            omega[i] = vec4<f32>(angular_velocity(r.q, inv, l), 0.0);
+        }
     }
 }
 
@@ -69,15 +84,17 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= params.n) { return; }
     if (info[i].alive == 0u) { return; }
     atomicAdd(&status[ST_CONTACTS], u32(load[i].force.w));
-    var kind = 3u;
+    var kind = 4u;
     if (!is_finite3(pos_r[i].xyz)) {
         kind = 0u;
     } else if (!is_finite3(vel_im[i].xyz)) {
         kind = 1u;
     } else if (ROTATION && !is_finite3(omega[i].xyz)) {
         kind = 2u;
+    } else if (ORIENTED && !is_finite3(vec3<f32>(quat_norm2(rod[i].q)))) {
+        kind = 3u;
     }
-    if (kind < 3u) {
+    if (kind < 4u) {
         atomicMin(&status[ST_NONFINITE], i * 4u + kind);
     }
 }

@@ -1,0 +1,9 @@
+//! Coarse-grained fields of a silo job (the silo paper's Sec. III.B): settings, the observer
+//! that samples them during the discharge, and its results as store rows.
+
+mod observer;
+mod results;
+mod settings;
+
+pub use observer::{MapAverage, SiloFieldObserver, ORIFICE_KINETIC_PRESSURE, ORIFICE_MASS_FLUX};
+pub use settings::SiloFieldSettings;

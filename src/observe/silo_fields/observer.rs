@@ -1,0 +1,186 @@
+//! The silo's field observer: at every `sample_interval_s` (a chunk boundary) it deposits the
+//! downloaded particles (and contacts, when asked) on the (r, z) grid, adds the snapshot to the
+//! averages whose window contains the time, and records ⟨p^k⟩ in the orifice cylinder and the
+//! mass flux through z = 0. Its whole state serialises into the job's checkpoint, so a resumed
+//! run gives identical fields.
+
+use serde::{Deserialize, Serialize};
+
+use super::settings::SiloFieldSettings;
+use crate::engine::contact::ContactRecord;
+use crate::engine::State;
+use crate::observe::coarse_grain::{FieldGrid, GridAverage, GridFields, Kernel};
+use crate::scene::silo::SiloParams;
+
+/// Name of the per-sample ⟨p^k⟩ series (Pa): tr σᵏ averaged over r ≤ R, |z| ≤ R/2, R = D/2
+/// (the paper's cylinder of radius and height R centred on the orifice, fig11).
+pub const ORIFICE_KINETIC_PRESSURE: &str = "orifice_kinetic_pressure";
+/// Name of the per-sample mass flux through the orifice plane, −∫ P_z 2πr dr at z = 0
+/// (kg/s; the paper's Q = ∫ P·dA, a check on Q from the counted particles).
+pub const ORIFICE_MASS_FLUX: &str = "orifice_mass_flux";
+
+/// One map: a time-window average around `time_s`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MapAverage {
+    pub time_s: f64,
+    pub average: GridAverage,
+}
+
+/// The observer (checkpointed inside the silo job's progress record).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SiloFieldObserver {
+    pub settings: SiloFieldSettings,
+    pub kernel: Kernel,
+    /// Discharge chunks per sample.
+    pub every_chunks: u64,
+    /// Half a chunk (s): sample times are whole chunks of a whole number of steps, so 0.1 s may
+    /// come out as 0.09999; window bounds are widened by this much.
+    pub slack_s: f64,
+    pub particle_density_kg_per_m3: f64,
+    pub orifice_radius_m: f64,
+    pub maps: Vec<MapAverage>,
+    pub mean: GridAverage,
+    pub mean_xyz: Option<GridAverage>,
+    /// (t (s), value) per sample from `mean_start_s`.
+    pub orifice_kinetic_pressure: Vec<(f64, f64)>,
+    pub orifice_mass_flux: Vec<(f64, f64)>,
+}
+
+impl SiloFieldObserver {
+    /// The observer for `silo` with discharge chunks of `chunk_dt` (s).
+    pub fn new(settings: &SiloFieldSettings, silo: &SiloParams, chunk_dt: f64) -> Self {
+        let w = settings.width_m(silo);
+        let h = settings.spacing_for(silo);
+        let z_lo = settings.z_min_m.unwrap_or(-silo.orifice_diameter_m);
+        let z_lo = (z_lo / h).floor() * h;
+        let z_hi = settings.z_max_m.unwrap_or(silo.cylinder_height_m);
+        let grid = FieldGrid::rz(silo.cylinder_radius_m, z_lo, z_hi, h, h);
+        let mean_xyz = settings.cartesian_spacing_m.map(|hc| {
+            let rc = silo.cylinder_radius_m;
+            GridAverage::new(FieldGrid::xyz([-rc, -rc, z_lo], [rc, rc, z_hi], hc))
+        });
+        Self {
+            settings: settings.clone(),
+            kernel: Kernel::new(w, settings.cutoff_widths),
+            every_chunks: (settings.sample_interval_s / chunk_dt).round().max(1.0) as u64,
+            slack_s: 0.5 * chunk_dt,
+            particle_density_kg_per_m3: silo.particle_density_kg_per_m3,
+            orifice_radius_m: 0.5 * silo.orifice_diameter_m,
+            maps: settings
+                .map_times_s
+                .iter()
+                .map(|&t| MapAverage {
+                    time_s: t,
+                    average: GridAverage::new(grid),
+                })
+                .collect(),
+            mean: GridAverage::new(grid),
+            mean_xyz,
+            orifice_kinetic_pressure: Vec::new(),
+            orifice_mass_flux: Vec::new(),
+        }
+    }
+
+    /// Whether chunk `chunk` (counted from the opening) ends with a sample.
+    pub fn samples_at(&self, chunk: u64) -> bool {
+        chunk.is_multiple_of(self.every_chunks)
+    }
+
+    /// Whether a sample needs the engine's contact list.
+    pub fn needs_contacts(&self) -> bool {
+        self.settings.contact_stress
+    }
+
+    /// Whether a sample at `t_s` would be used by any average or series.
+    pub fn wanted_at(&self, t_s: f64) -> bool {
+        self.in_mean(t_s) || self.maps.iter().any(|m| self.in_window(m, t_s))
+    }
+
+    fn in_window(&self, m: &MapAverage, t_s: f64) -> bool {
+        (t_s - m.time_s).abs() <= 0.5 * self.settings.map_window_s + self.slack_s
+    }
+
+    fn in_mean(&self, t_s: f64) -> bool {
+        t_s >= self.settings.mean_start_s - self.slack_s
+    }
+
+    /// Deposits the snapshot `s` taken `t_s` after opening (with `contacts` when the observer
+    /// asks for them) and adds it where its time belongs.
+    pub fn sample(&mut self, t_s: f64, s: &State<f64>, contacts: Option<&[ContactRecord]>) {
+        if !self.wanted_at(t_s) {
+            return;
+        }
+        let (mut pos, mut vel, mut mass) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..s.len() {
+            if s.inv_mass[i] == 0.0 {
+                continue;
+            }
+            pos.push([s.pos[i].x, s.pos[i].y, s.pos[i].z]);
+            vel.push([s.vel[i].x, s.vel[i].y, s.vel[i].z]);
+            mass.push(s.mass[i]);
+        }
+        let mut f = GridFields::new(self.mean.grid);
+        f.deposit_particles(&self.kernel, &pos, &vel, &mass);
+        if let Some(c) = contacts {
+            f.deposit_contacts(&self.kernel, c);
+        }
+        if self.in_mean(t_s) {
+            self.mean.add(&f, t_s);
+            let pk = self.cylinder_kinetic_pressure(&f);
+            self.orifice_kinetic_pressure.push((t_s, pk));
+            self.orifice_mass_flux.push((t_s, orifice_flux(&f)));
+            if let Some(avg) = &mut self.mean_xyz {
+                let mut fx = GridFields::new(avg.grid);
+                fx.deposit_particles(&self.kernel, &pos, &vel, &mass);
+                if let Some(c) = contacts {
+                    fx.deposit_contacts(&self.kernel, c);
+                }
+                avg.add(&fx, t_s);
+            }
+        }
+        let window = 0.5 * self.settings.map_window_s + self.slack_s;
+        for m in &mut self.maps {
+            if (t_s - m.time_s).abs() <= window {
+                m.average.add(&f, t_s);
+            }
+        }
+    }
+
+    /// tr σᵏ averaged (by volume) over the grid points with r ≤ R and |z| ≤ R/2 (Pa); 0 when
+    /// none falls inside (an orifice narrower than the grid spacing).
+    fn cylinder_kinetic_pressure(&self, f: &GridFields) -> f64 {
+        let g = &f.grid;
+        let r = self.orifice_radius_m;
+        let (mut sum, mut vol) = (0.0, 0.0);
+        for j in g.range(1, -0.5 * r, 0.5 * r) {
+            for i in g.range(0, 0.0, r) {
+                let p = g.index(i, j, 0);
+                let s = f.kinetic_stress(p);
+                let v = g.volume(p);
+                sum += (s[0] + s[4] + s[8]) * v;
+                vol += v;
+            }
+        }
+        if vol > 0.0 {
+            sum / vol
+        } else {
+            0.0
+        }
+    }
+}
+
+/// −∫ P_z 2πr dr on the row z = 0 (kg/s), positive for outflow; 0 without such a row.
+fn orifice_flux(f: &GridFields) -> f64 {
+    let g = &f.grid;
+    let row = g.range(1, -1e-9 * g.spacing_m[1], 1e-9 * g.spacing_m[1]);
+    let Some(j) = row.clone().next() else {
+        return 0.0;
+    };
+    (0..g.shape[0])
+        .map(|i| {
+            let p = g.index(i, j, 0);
+            let r = g.coord(0, i);
+            -f.momentum[3 * p + 2] * std::f64::consts::TAU * r * g.spacing_m[0]
+        })
+        .sum()
+}

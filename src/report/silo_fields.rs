@@ -1,0 +1,646 @@
+//! The silo paper's coarse-grained field figures, fig6–fig11, from the field sets and series the
+//! field observer stored (`field_sets`, `field_arrays`, `silo_field_series`) and nothing else:
+//! φ maps over time (fig6), |V| with a quiver of (V_r, V_z) (fig7), V_θ (fig8), profiles across
+//! the orifice (fig9), mean kinetic-pressure maps (fig10) and ⟨p^k⟩ in the orifice cylinder vs f
+//! (fig11). Lengths are in units of the silo radius R_c, as in the paper.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+use rusqlite::Connection;
+
+use super::campaign::CampaignRef;
+use super::drawn::{write_all, Drawn};
+use super::field_map::{MapFigure, MapPanel, MapRow};
+use super::plot::{Axis, Figure, Legend, Panel, Series};
+use super::silo_data::{distinct, done_discharge_rows, same_value};
+use super::table::{csv_num, mm, short, Table};
+use crate::observe::fits::mean_ci95;
+use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
+use crate::store::fields::{
+    list_field_sets, load_field_arrays, load_field_series, FieldArray, FieldSet,
+};
+
+/// Cells with a solid fraction below this hold (almost) no particles: left white in the maps.
+const EMPTY_PHI: f64 = 0.02;
+
+/// One done job with field sets.
+struct FieldJob {
+    job_id: i64,
+    d_m: f64,
+    f_hz: f64,
+    particle_d_m: f64,
+    silo_radius_m: f64,
+    sets: Vec<FieldSet>,
+}
+
+impl FieldJob {
+    fn set(&self, name: &str) -> Option<&FieldSet> {
+        self.sets.iter().find(|s| s.name == name)
+    }
+
+    /// The map sets (`map_t…`), by time.
+    fn maps(&self) -> Vec<&FieldSet> {
+        let mut m: Vec<&FieldSet> = self
+            .sets
+            .iter()
+            .filter(|s| s.name.starts_with("map_t"))
+            .collect();
+        m.sort_by(|a, b| a.name.cmp(&b.name));
+        m
+    }
+}
+
+/// The campaign's done jobs that have field sets, by D, f, job id.
+fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<FieldJob>> {
+    let mut out = Vec::new();
+    for r in done_discharge_rows(conn, c.id)? {
+        let sets = list_field_sets(conn, r.job_id)?;
+        if sets.is_empty() {
+            continue;
+        }
+        let p: serde_json::Value = serde_json::from_str(&r.params_json)?;
+        let silo_radius_m = p["silo"]["cylinder_radius_m"].as_f64().unwrap_or(f64::NAN);
+        out.push(FieldJob {
+            job_id: r.job_id,
+            d_m: r.orifice_diameter_m,
+            f_hz: r.rotation_frequency_hz,
+            particle_d_m: r.particle_diameter_m,
+            silo_radius_m,
+            sets,
+        });
+    }
+    if out.is_empty() {
+        bail!(
+            "campaign '{}' has no done job with coarse-grained fields: add \"fields\" to its observers (see campaigns/silo_QvsF_quick.json) and run it",
+            c.name
+        );
+    }
+    Ok(out)
+}
+
+/// The arrays of a set, by field name.
+fn arrays(conn: &Connection, set: &FieldSet) -> Result<Vec<FieldArray>> {
+    load_field_arrays(conn, set.id)
+}
+
+fn field<'a>(a: &'a [FieldArray], name: &str) -> Result<&'a FieldArray> {
+    a.iter()
+        .find(|x| x.field == name)
+        .ok_or_else(|| anyhow::anyhow!("field set lacks '{name}'"))
+}
+
+/// Up to `n` of `values` (sorted), spread over their range: first, last and evenly between.
+fn spread(values: &[f64], n: usize) -> Vec<f64> {
+    if values.len() <= n {
+        return values.to_vec();
+    }
+    (0..n)
+        .map(|k| values[k * (values.len() - 1) / (n - 1)])
+        .collect()
+}
+
+/// The jobs of orifice `d` at the chosen frequencies (first job of each (D, f)).
+fn rows_of<'a>(jobs: &'a [FieldJob], d: f64, fs: &[f64]) -> Vec<&'a FieldJob> {
+    fs.iter()
+        .filter_map(|f| {
+            jobs.iter()
+                .find(|j| same_value(j.d_m, d) && same_value(j.f_hz, *f))
+        })
+        .collect()
+}
+
+/// The largest orifice (the paper's fig6–9 show its large D = 36 mm) and up to 3 frequencies.
+fn showcase(jobs: &[FieldJob]) -> (f64, Vec<&FieldJob>) {
+    let ds = distinct(jobs.iter().map(|j| j.d_m));
+    let d = *ds.last().expect("jobs is not empty");
+    let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
+    (d, rows_of(jobs, d, &spread(&fs, 3)))
+}
+
+/// A map panel of `values` (one per point of `set`), NaN where φ < EMPTY_PHI.
+fn panel(title: String, set: &FieldSet, values: Vec<f64>, phi: &[f64]) -> MapPanel {
+    MapPanel {
+        title,
+        r0_m: set.origin_m[0],
+        dr_m: set.spacing_m[0],
+        z0_m: set.origin_m[1],
+        dz_m: set.spacing_m[1],
+        nr: set.shape[0],
+        nz: set.shape[1],
+        values: values
+            .into_iter()
+            .zip(phi)
+            .map(|(v, p)| if *p >= EMPTY_PHI { v } else { f64::NAN })
+            .collect(),
+        arrows: Vec::new(),
+        boxes: Vec::new(),
+    }
+}
+
+/// The z range (m) showing every panel's material: from the grid bottom to just above the
+/// highest point with φ ≥ EMPTY_PHI.
+fn material_z_range(panels: &[MapPanel]) -> (f64, f64) {
+    let lo = panels.iter().map(|p| p.z0_m).fold(f64::INFINITY, f64::min);
+    let mut hi = f64::NEG_INFINITY;
+    for p in panels {
+        for j in 0..p.nz {
+            if (0..p.nr).any(|i| p.values[j * p.nr + i].is_finite()) {
+                hi = hi.max(p.z0_m + (j as f64 + 1.0) * p.dz_m);
+            }
+        }
+    }
+    if hi > lo {
+        (lo, hi)
+    } else {
+        (lo, lo + 1.0)
+    }
+}
+
+fn finite_range(rows: &[MapPanel]) -> (f64, f64) {
+    let (lo, hi) = rows
+        .iter()
+        .flat_map(|p| p.values.iter())
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 1.0)
+    }
+}
+
+/// Component `c` of a vector array per point.
+fn component(a: &FieldArray, c: usize) -> Vec<f64> {
+    a.data
+        .iter()
+        .skip(c)
+        .step_by(a.components)
+        .copied()
+        .collect()
+}
+
+/// Which map quantity a time-series figure shows.
+#[derive(Clone, Copy)]
+enum MapQuantity {
+    Phi,
+    Speed,
+    Azimuthal,
+}
+
+/// fig6–fig8: rows = frequencies of the largest D, columns = the map times.
+fn time_maps(
+    conn: &Connection,
+    c: &CampaignRef,
+    out: &Path,
+    fig: &str,
+    q: MapQuantity,
+) -> Result<Drawn> {
+    let jobs = field_jobs(conn, c)?;
+    let (d, chosen) = showcase(&jobs);
+    let mut rows = Vec::new();
+    let mut csv = Table::new(&[
+        "job_id",
+        "f_hz",
+        "set",
+        "t_start_s",
+        "t_end_s",
+        "samples",
+        "min",
+        "max",
+    ]);
+    let rc = chosen[0].silo_radius_m;
+    let mut max_speed: f64 = 0.0;
+    for j in &chosen {
+        let mut panels = Vec::new();
+        for set in j.maps() {
+            let a = arrays(conn, set)?;
+            let phi = &field(&a, "phi")?.data;
+            let v = field(&a, "velocity")?;
+            let values = match q {
+                MapQuantity::Phi => phi.clone(),
+                MapQuantity::Speed => v
+                    .data
+                    .chunks_exact(3)
+                    .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+                    .collect(),
+                MapQuantity::Azimuthal => component(v, 1),
+            };
+            let mid = 0.5 * (set.t_start_s + set.t_end_s);
+            let mut p = panel(format!("t = {} s", short(mid)), set, values, phi);
+            if matches!(q, MapQuantity::Speed) {
+                // A quiver on every third point of every third row, where there is material.
+                for jz in (1..set.shape[1]).step_by(3) {
+                    for ir in (1..set.shape[0]).step_by(3) {
+                        let k = jz * set.shape[0] + ir;
+                        if phi[k] >= EMPTY_PHI {
+                            let (ur, uz) = (v.data[3 * k], v.data[3 * k + 2]);
+                            max_speed = max_speed.max(ur.hypot(uz));
+                            p.arrows
+                                .push((set.coordinate(0, ir), set.coordinate(1, jz), ur, uz));
+                        }
+                    }
+                }
+            }
+            let (lo, hi) = finite_range(std::slice::from_ref(&p));
+            csv.push(vec![
+                j.job_id.to_string(),
+                short(j.f_hz),
+                set.name.clone(),
+                csv_num(Some(set.t_start_s)),
+                csv_num(Some(set.t_end_s)),
+                set.samples.to_string(),
+                csv_num(Some(lo)),
+                csv_num(Some(hi)),
+            ]);
+            panels.push(p);
+        }
+        rows.push(MapRow {
+            label: format!("f = {} Hz", short(j.f_hz)),
+            panels,
+            range: (0.0, 0.0),
+            bar_label: match q {
+                MapQuantity::Phi => "φ".into(),
+                MapQuantity::Speed => "|V| (m/s)".into(),
+                MapQuantity::Azimuthal => "V_θ (m/s)".into(),
+            },
+        });
+    }
+    let all: Vec<MapPanel> = rows.iter().flat_map(|r| r.panels.clone()).collect();
+    let range = match q {
+        MapQuantity::Phi => (0.0, finite_range(&all).1),
+        _ => finite_range(&all),
+    };
+    for r in &mut rows {
+        r.range = range;
+    }
+    let z_range = material_z_range(&all);
+    let what = match q {
+        MapQuantity::Phi => "solid fraction φ(r, z, t)",
+        MapQuantity::Speed => "speed |V|(r, z, t), arrows (V_r, V_z)",
+        MapQuantity::Azimuthal => "azimuthal velocity V_θ(r, z, t)",
+    };
+    let figure = MapFigure {
+        title: format!(
+            "{fig}: {what}, D = {} mm ({:.2} d), w = {} mm",
+            mm(d),
+            d / chosen[0].particle_d_m,
+            mm(chosen[0].sets[0].kernel_width_m)
+        ),
+        rows,
+        length_m: rc,
+        length_name: "R_c".into(),
+        z_range_m: z_range,
+        // The fastest arrow spans two grid cells.
+        arrow_scale: if max_speed > 0.0 {
+            2.0 * chosen[0].sets[0].spacing_m[0] / rc / max_speed
+        } else {
+            0.0
+        },
+    };
+    let mut files = figure.write(out, fig)?;
+    let csv_path = out.join(format!("{fig}.csv"));
+    csv.write_csv(&csv_path)?;
+    files.push(csv_path);
+    Ok(Drawn {
+        text: csv.to_text(),
+        files,
+    })
+}
+
+/// Fig. 6: φ maps at the map times, one row per f, largest D.
+pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    time_maps(conn, c, out, "fig6", MapQuantity::Phi)
+}
+
+/// Fig. 7: |V| maps with a quiver of (V_r, V_z).
+pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    time_maps(conn, c, out, "fig7", MapQuantity::Speed)
+}
+
+/// Fig. 8: V_θ maps.
+pub(crate) fn fig8(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    time_maps(conn, c, out, "fig8", MapQuantity::Azimuthal)
+}
+
+/// Fig. 9: ⟨φ⟩, −⟨P_z⟩ and −⟨V_z⟩ on the row z = 0 of the whole-run mean vs r/R (R = D/2), one
+/// line per f, largest D.
+pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    let jobs = field_jobs(conn, c)?;
+    let (d, _) = showcase(&jobs);
+    let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
+    let chosen = rows_of(&jobs, d, &fs);
+    let r_orifice = 0.5 * d;
+    let mut panels = [
+        Panel::new(Axis::linear("r / R"), Axis::linear("⟨φ⟩ at z = 0")),
+        Panel::new(
+            Axis::linear("r / R"),
+            Axis::linear("−⟨P_z⟩ at z = 0 (kg m⁻² s⁻¹)"),
+        ),
+        Panel::new(Axis::linear("r / R"), Axis::linear("−⟨V_z⟩ at z = 0 (m/s)")),
+    ];
+    let mut csv = Table::new(&[
+        "job_id",
+        "f_hz",
+        "r_m",
+        "phi",
+        "momentum_z_kg_per_m2_s",
+        "velocity_z_m_per_s",
+    ]);
+    for (k, j) in chosen.iter().enumerate() {
+        let Some(set) = j.set("mean") else { continue };
+        let a = arrays(conn, set)?;
+        let (phi, p, v) = (
+            field(&a, "phi")?,
+            field(&a, "momentum")?,
+            field(&a, "velocity")?,
+        );
+        let Some(row) =
+            (0..set.shape[1]).find(|&jz| set.coordinate(1, jz).abs() < 0.25 * set.spacing_m[1])
+        else {
+            continue;
+        };
+        let (mut x, mut y0, mut y1, mut y2) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for ir in 0..set.shape[0] {
+            let r = set.coordinate(0, ir);
+            if r > 1.5 * r_orifice {
+                break;
+            }
+            let q = row * set.shape[0] + ir;
+            x.push(r / r_orifice);
+            y0.push(phi.data[q]);
+            y1.push(-p.data[3 * q + 2]);
+            y2.push(if phi.data[q] >= EMPTY_PHI {
+                -v.data[3 * q + 2]
+            } else {
+                f64::NAN
+            });
+            csv.push(vec![
+                j.job_id.to_string(),
+                short(j.f_hz),
+                csv_num(Some(r)),
+                csv_num(Some(phi.data[q])),
+                csv_num(Some(p.data[3 * q + 2])),
+                csv_num(Some(v.data[3 * q + 2])),
+            ]);
+        }
+        let label = Some(format!("f = {} Hz", short(j.f_hz)));
+        panels[0]
+            .series
+            .push(Series::line(label.clone(), k, x.clone(), y0));
+        panels[1]
+            .series
+            .push(Series::line(label.clone(), k, x.clone(), y1));
+        panels[2].series.push(Series::line(label, k, x, y2));
+    }
+    for p in &mut panels {
+        p.legend = Legend::UpperRight;
+    }
+    let fig = Figure {
+        title: Some(format!(
+            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), whole-run mean",
+            mm(d),
+            d / chosen[0].particle_d_m
+        )),
+        panels: panels.to_vec(),
+        columns: 3,
+        panel_size: (420, 360),
+    };
+    let files = write_all(&fig, &csv, out, "fig9")?;
+    Ok(Drawn {
+        text: format!("{} rows (see fig9.csv)\n", csv.to_csv().lines().count() - 1),
+        files,
+    })
+}
+
+/// Fig. 10: p^k = tr⟨σᵏ⟩ maps of the whole-run mean, rows = D, columns = f; the dashed
+/// rectangle is fig11's orifice cylinder (r ≤ R, |z| ≤ R/2).
+pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    let jobs = field_jobs(conn, c)?;
+    let ds = distinct(jobs.iter().map(|j| j.d_m));
+    let fs = distinct(jobs.iter().map(|j| j.f_hz));
+    let mut rows = Vec::new();
+    let mut csv = Table::new(&[
+        "job_id",
+        "d_m",
+        "f_hz",
+        "t_start_s",
+        "t_end_s",
+        "samples",
+        "max_pk_pa",
+    ]);
+    for &d in &ds {
+        let mut panels = Vec::new();
+        for j in rows_of(&jobs, d, &fs) {
+            let Some(set) = j.set("mean") else { continue };
+            let a = arrays(conn, set)?;
+            let phi = &field(&a, "phi")?.data;
+            let pk = field(&a, "kinetic_pressure")?.data.clone();
+            let mut p = panel(format!("f = {} Hz", short(j.f_hz)), set, pk, phi);
+            p.boxes.push((0.5 * d, -0.25 * d, 0.25 * d));
+            let (_, hi) = finite_range(std::slice::from_ref(&p));
+            csv.push(vec![
+                j.job_id.to_string(),
+                csv_num(Some(d)),
+                short(j.f_hz),
+                csv_num(Some(set.t_start_s)),
+                csv_num(Some(set.t_end_s)),
+                set.samples.to_string(),
+                csv_num(Some(hi)),
+            ]);
+            panels.push(p);
+        }
+        if panels.is_empty() {
+            continue;
+        }
+        let range = (0.0, finite_range(&panels).1);
+        rows.push(MapRow {
+            label: format!("D = {} mm", mm(d)),
+            panels,
+            range,
+            bar_label: "p^k (Pa)".into(),
+        });
+    }
+    let all: Vec<MapPanel> = rows.iter().flat_map(|r| r.panels.clone()).collect();
+    let rc = jobs[0].silo_radius_m;
+    let w = jobs[0].sets[0].kernel_width_m;
+    let figure = MapFigure {
+        title: format!("fig10: kinetic pressure p^k = tr⟨σᵏ⟩_t (whole-run mean), w = {} mm; dashed: r ≤ R, |z| ≤ R/2", mm(w)),
+        rows,
+        length_m: rc,
+        length_name: "R_c".into(),
+        z_range_m: material_z_range(&all),
+        arrow_scale: 0.0,
+    };
+    let mut files = figure.write(out, "fig10")?;
+    let csv_path = out.join("fig10.csv");
+    csv.write_csv(&csv_path)?;
+    files.push(csv_path);
+    Ok(Drawn {
+        text: csv.to_text(),
+        files,
+    })
+}
+
+/// One job's ⟨p^k⟩ in the orifice cylinder over its flowing samples, with the 95 % CI of the
+/// mean from batch means (10 contiguous batches: samples 0.05 s apart are correlated).
+/// Samples inside a clog (the `clogs` table) are left out: the paper averages flowing states.
+fn orifice_pk(conn: &Connection, job_id: i64) -> Result<Option<(f64, Option<f64>, usize)>> {
+    let Some((series, _)) = load_field_series(conn, job_id, ORIFICE_KINETIC_PRESSURE)? else {
+        return Ok(None);
+    };
+    let mut q = conn.prepare("SELECT start_s, duration_s FROM clogs WHERE job_id = ?1")?;
+    let clogs = q
+        .query_map([job_id], |r| Ok((r.get::<_, f64>(0)?, r.get::<_, f64>(1)?)))?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    let flowing: Vec<f64> = series
+        .iter()
+        .filter(|(t, _)| !clogs.iter().any(|(s, d)| *t >= *s && *t <= s + d))
+        .map(|(_, v)| *v)
+        .collect();
+    if flowing.is_empty() {
+        return Ok(None);
+    }
+    let n = flowing.len();
+    let batches = 10.min(n);
+    let means: Vec<f64> = (0..batches)
+        .map(|b| {
+            let part = &flowing[b * n / batches..(b + 1) * n / batches];
+            part.iter().sum::<f64>() / part.len() as f64
+        })
+        .collect();
+    let mean = flowing.iter().sum::<f64>() / n as f64;
+    Ok(Some((mean, mean_ci95(&means).map(|m| m.1), n)))
+}
+
+/// Fig. 11: ⟨p^k⟩ in the orifice cylinder vs f per D, (a) in Pa, (b) normalised by its value at
+/// f = 1 Hz (or at the lowest f present when 1 Hz is absent, as the caption then says); error
+/// bars are 95 % CIs (replicas combined: their mean, CI from the replica spread when there are
+/// several).
+pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    let jobs = field_jobs(conn, c)?;
+    let ds = distinct(jobs.iter().map(|j| j.d_m));
+    let fs_all = distinct(jobs.iter().map(|j| j.f_hz));
+    let one_hz = fs_all.iter().any(|f| same_value(*f, 1.0));
+    let f_ref = if one_hz { 1.0 } else { fs_all[0] };
+    let mut abs = Panel::new(Axis::linear("f (Hz)"), Axis::linear("⟨p^k⟩ (Pa)"));
+    let mut rel = Panel::new(
+        Axis::linear("f (Hz)"),
+        Axis::linear(format!("⟨p^k⟩ / ⟨p^k⟩(f = {} Hz)", short(f_ref))),
+    );
+    let mut csv = Table::new(&[
+        "d_m",
+        "f_hz",
+        "pk_pa",
+        "pk_ci95_pa",
+        "jobs",
+        "samples",
+        "pk_over_ref",
+        "pk_over_ref_ci95",
+    ]);
+    for (k, &d) in ds.iter().enumerate() {
+        let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
+        let mut pts = Vec::new();
+        for &f in &fs {
+            let mut per_job = Vec::new();
+            let mut samples = 0;
+            for j in jobs
+                .iter()
+                .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
+            {
+                if let Some((m, ci, n)) = orifice_pk(conn, j.job_id)? {
+                    per_job.push((m, ci));
+                    samples += n;
+                }
+            }
+            if per_job.is_empty() {
+                continue;
+            }
+            let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
+            let (mean, ci) = match mean_ci95(&values) {
+                Some((m, ci)) => (m, Some(ci)),
+                None => (values[0], per_job[0].1),
+            };
+            pts.push((f, mean, ci, per_job.len(), samples));
+        }
+        let reference = pts
+            .iter()
+            .find(|p| same_value(p.0, f_ref))
+            .map(|p| (p.1, p.2));
+        let label = Some(format!("D = {} mm", mm(d)));
+        abs.series.push(
+            Series::points(
+                label.clone(),
+                k,
+                pts.iter().map(|p| p.0).collect(),
+                pts.iter().map(|p| p.1).collect(),
+            )
+            .with_errors(pts.iter().map(|p| p.2).collect()),
+        );
+        let mut rx = Vec::new();
+        let mut ry = Vec::new();
+        let mut re = Vec::new();
+        for p in &pts {
+            let (ratio, err) = match reference {
+                Some((r, rci)) if r > 0.0 => {
+                    let ratio = p.1 / r;
+                    // Relative CIs in quadrature; the reference point itself is 1 by construction.
+                    let err = if same_value(p.0, f_ref) {
+                        Some(0.0)
+                    } else {
+                        match (p.2, rci) {
+                            (Some(e), Some(er)) => {
+                                Some(ratio * ((e / p.1).powi(2) + (er / r).powi(2)).sqrt())
+                            }
+                            _ => None,
+                        }
+                    };
+                    (Some(ratio), err)
+                }
+                _ => (None, None),
+            };
+            if let Some(r) = ratio {
+                rx.push(p.0);
+                ry.push(r);
+                re.push(err);
+            }
+            csv.push(vec![
+                csv_num(Some(d)),
+                short(p.0),
+                csv_num(Some(p.1)),
+                csv_num(p.2),
+                p.3.to_string(),
+                p.4.to_string(),
+                csv_num(ratio),
+                csv_num(err),
+            ]);
+        }
+        rel.series
+            .push(Series::points(label, k, rx, ry).with_errors(re));
+    }
+    abs.title = Some("(a) ⟨p^k⟩ in the cylinder r ≤ R, |z| ≤ R/2".into());
+    abs.legend = Legend::Hidden; // the colours are (b)'s legend
+    rel.title = Some(if one_hz {
+        "(b) normalised by f = 1 Hz".into()
+    } else {
+        format!(
+            "(b) normalised by the lowest f present, {} Hz (no 1 Hz job)",
+            short(f_ref)
+        )
+    });
+    let fig = Figure {
+        title: Some(
+            "fig11: mean kinetic pressure at the orifice vs f, 95 % CI (flowing samples)".into(),
+        ),
+        panels: vec![abs, rel],
+        columns: 2,
+        panel_size: (520, 400),
+    };
+    let files = write_all(&fig, &csv, out, "fig11")?;
+    Ok(Drawn {
+        text: csv.to_text(),
+        files,
+    })
+}
