@@ -51,6 +51,8 @@ pub struct MapPanel {
     pub values: Vec<f64>,
     /// Arrows (r, z, u_r, u_z) in m and m/s, drawn on both halves (u_r mirrored).
     pub arrows: Vec<(f64, f64, f64, f64)>,
+    /// Streamlines, polylines of (r, z) points (m), drawn on both halves.
+    pub streamlines: Vec<Vec<(f64, f64)>>,
     /// Dashed rectangles (r_max, z_lo, z_hi) (m), drawn on both halves.
     pub boxes: Vec<(f64, f64, f64)>,
 }
@@ -213,6 +215,18 @@ impl MapFigure {
                     .map_err(err)?;
                 chart
                     .draw_series(std::iter::once(Circle::new(b, 1, WHITE.filled())))
+                    .map_err(err)?;
+            }
+        }
+        for line in &p.streamlines {
+            for sign in [1.0, -1.0] {
+                let pts: Vec<(f64, f64)> =
+                    line.iter().map(|&(r, z)| (sign * r / l, z / l)).collect();
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        pts,
+                        WHITE.stroke_width(1),
+                    )))
                     .map_err(err)?;
             }
         }

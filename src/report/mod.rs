@@ -18,6 +18,7 @@ mod silo;
 mod silo_data;
 mod silo_fields;
 mod silo_normalise;
+mod streamlines;
 mod table;
 
 pub use campaign::{find_campaign, CampaignRef};

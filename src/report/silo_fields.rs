@@ -1,6 +1,6 @@
 //! The silo paper's coarse-grained field figures, fig6–fig11, from the field sets and series the
 //! field observer stored (`field_sets`, `field_arrays`, `silo_field_series`) and nothing else:
-//! φ maps over time (fig6), |V| with a quiver of (V_r, V_z) (fig7), V_θ (fig8), profiles across
+//! φ maps over time (fig6), |V| with streamlines of (V_r, V_z) (fig7), V_θ (fig8), profiles across
 //! the orifice (fig9), mean kinetic-pressure maps (fig10) and ⟨p^k⟩ in the orifice cylinder vs f
 //! (fig11). Lengths are in units of the silo radius R_c, as in the paper.
 
@@ -14,6 +14,7 @@ use super::drawn::{write_all, Drawn};
 use super::field_map::{MapFigure, MapPanel, MapRow};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
 use super::silo_data::{distinct, done_discharge_rows, same_value};
+use super::streamlines::Field2d;
 use super::table::{csv_num, mm, short, Table};
 use crate::observe::fits::mean_ci95;
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
@@ -134,6 +135,7 @@ fn panel(title: String, set: &FieldSet, values: Vec<f64>, phi: &[f64]) -> MapPan
             .map(|(v, p)| if *p >= EMPTY_PHI { v } else { f64::NAN })
             .collect(),
         arrows: Vec::new(),
+        streamlines: Vec::new(),
         boxes: Vec::new(),
     }
 }
@@ -212,7 +214,6 @@ fn time_maps(
         "max",
     ]);
     let rc = chosen[0].silo_radius_m;
-    let mut max_speed: f64 = 0.0;
     for j in &chosen {
         let mut panels = Vec::new();
         for set in j.maps() {
@@ -231,18 +232,38 @@ fn time_maps(
             let mid = 0.5 * (set.t_start_s + set.t_end_s);
             let mut p = panel(format!("t = {} s", short(mid)), set, values, phi);
             if matches!(q, MapQuantity::Speed) {
-                // A quiver on every third point of every third row, where there is material.
-                for jz in (1..set.shape[1]).step_by(3) {
-                    for ir in (1..set.shape[0]).step_by(3) {
-                        let k = jz * set.shape[0] + ir;
-                        if phi[k] >= EMPTY_PHI {
-                            let (ur, uz) = (v.data[3 * k], v.data[3 * k + 2]);
-                            max_speed = max_speed.max(ur.hypot(uz));
-                            p.arrows
-                                .push((set.coordinate(0, ir), set.coordinate(1, jz), ur, uz));
-                        }
-                    }
-                }
+                // Streamlines of (V_r, V_z) where there is material, seeded every 4th point.
+                let (nr, nz) = (set.shape[0], set.shape[1]);
+                let masked = |c: usize| -> Vec<f64> {
+                    (0..nr * nz)
+                        .map(|k| {
+                            if phi[k] >= EMPTY_PHI {
+                                v.data[3 * k + c]
+                            } else {
+                                f64::NAN
+                            }
+                        })
+                        .collect()
+                };
+                let (ur, uz) = (masked(0), masked(2));
+                let f = Field2d {
+                    r0: set.origin_m[0],
+                    dr: set.spacing_m[0],
+                    nr,
+                    z0: set.origin_m[1],
+                    dz: set.spacing_m[1],
+                    nz,
+                    ur: &ur,
+                    uz: &uz,
+                };
+                // At rest below 1 % of the panel's fastest flow: no direction to follow there.
+                let fastest = ur
+                    .iter()
+                    .zip(&uz)
+                    .map(|(a, b)| a.hypot(*b))
+                    .filter(|x| x.is_finite())
+                    .fold(0.0, f64::max);
+                p.streamlines = f.streamlines(4, 4 * (nr + nz), 0.01 * fastest);
             }
             let (lo, hi) = finite_range(std::slice::from_ref(&p));
             csv.push(vec![
@@ -279,7 +300,7 @@ fn time_maps(
     let z_range = material_z_range(&all);
     let what = match q {
         MapQuantity::Phi => "solid fraction φ(r, z, t)",
-        MapQuantity::Speed => "speed |V|(r, z, t), arrows (V_r, V_z)",
+        MapQuantity::Speed => "speed |V|(r, z, t), streamlines of (V_r, V_z)",
         MapQuantity::Azimuthal => "azimuthal velocity V_θ(r, z, t)",
     };
     let figure = MapFigure {
@@ -293,12 +314,7 @@ fn time_maps(
         length_m: rc,
         length_name: "R_c".into(),
         z_range_m: z_range,
-        // The fastest arrow spans two grid cells.
-        arrow_scale: if max_speed > 0.0 {
-            2.0 * chosen[0].sets[0].spacing_m[0] / rc / max_speed
-        } else {
-            0.0
-        },
+        arrow_scale: 0.0,
     };
     let mut files = figure.write(out, fig)?;
     let csv_path = out.join(format!("{fig}.csv"));
@@ -315,7 +331,7 @@ pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
     time_maps(conn, c, out, "fig6", MapQuantity::Phi)
 }
 
-/// Fig. 7: |V| maps with a quiver of (V_r, V_z).
+/// Fig. 7: |V| maps with streamlines of (V_r, V_z).
 pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
     time_maps(conn, c, out, "fig7", MapQuantity::Speed)
 }
