@@ -109,20 +109,25 @@ mod tests {
         (ur, uz)
     }
 
-    #[test]
-    fn lines_follow_uniform_and_circular_flows() {
-        // Uniform downward flow: every line is vertical (r constant to rounding).
-        let (ur, uz) = grid(|_, _| (0.0, -1.0));
-        let f = Field2d {
+    /// The test grid of `grid`'s fields.
+    fn field<'a>(ur: &'a [f64], uz: &'a [f64]) -> Field2d<'a> {
+        Field2d {
             r0: 0.0,
             dr: 0.05,
             nr: 41,
             z0: -1.0,
             dz: 0.05,
             nz: 41,
-            ur: &ur,
-            uz: &uz,
-        };
+            ur,
+            uz,
+        }
+    }
+
+    #[test]
+    fn lines_follow_uniform_and_circular_flows() {
+        // Uniform downward flow: every line is vertical (r constant to rounding).
+        let (ur, uz) = grid(|_, _| (0.0, -1.0));
+        let f = field(&ur, &uz);
         let lines = f.streamlines(10, 200, 1e-9);
         assert!(!lines.is_empty());
         for l in &lines {
@@ -134,16 +139,7 @@ mod tests {
         }
         // Rotation about (1, 0): u = (−(z − 0), r − 1); lines stay on circles within 1 %.
         let (ur, uz) = grid(|r, z| (-z, r - 1.0));
-        let f = Field2d {
-            r0: 0.0,
-            dr: 0.05,
-            nr: 41,
-            z0: -1.0,
-            dz: 0.05,
-            nz: 41,
-            ur: &ur,
-            uz: &uz,
-        };
+        let f = field(&ur, &uz);
         for l in f.streamlines(8, 100, 1e-9) {
             let rad = |p: &(f64, f64)| (p.0 - 1.0).hypot(p.1);
             let r0 = rad(&l[0]);
@@ -159,16 +155,7 @@ mod tests {
         for i in 0..41 {
             ur[20 * 41 + i] = f64::NAN;
         }
-        let f = Field2d {
-            r0: 0.0,
-            dr: 0.05,
-            nr: 41,
-            z0: -1.0,
-            dz: 0.05,
-            nz: 41,
-            ur: &ur,
-            uz: &uz,
-        };
+        let f = field(&ur, &uz);
         for l in f.streamlines(10, 200, 1e-9) {
             let above = l.iter().any(|p| p.1 > 0.05);
             let below = l.iter().any(|p| p.1 < -0.05);
