@@ -5,9 +5,12 @@
 //!   tilted plane under periodic x/y, and with a cylinder, a rotating orifice plate (rim contacts
 //!   included) and a tilted plane. Positions are quantised so that the drift is exact in f32 on
 //!   both sides: what is compared is the force evaluation alone. "Relative" is |ΔF| / |F| with
-//!   |F| floored at 1e-3 of the packing's rms force (forces that nearly cancel). History rows
-//!   hold the same partners with springs within 1e-5 relative. Measured on lavapipe: forces
-//!   ≤ 5e-7, torques ≤ 6e-6, springs ≤ 6e-7.
+//!   |F| floored at 1e-3 of the packing's rms force (forces that nearly cancel). Torques, whose
+//!   terms cancel more (rim contacts), are held against the CPU f64 result: within 1e-5, or no
+//!   farther than twice the CPU f32 result is (both then err by f32 rounding, summed in
+//!   different orders). History rows hold the same partners with springs within 1e-5 relative.
+//!   Measured on lavapipe: forces ≤ 4e-7, springs ≤ 3e-7; torques against f64: GPU ≤ 1.4e-4,
+//!   CPU f32 ≤ 1.4e-4 (the two within 10 % of each other).
 //! - Head-on collisions on the GPU: restitution within 1 % (linear) and 2 % (Hertz) of e_n, the
 //!   linear contact time within 1 % of π/ω, and both within 1e-4 of the CPU f32 values.
 //! - 1000 steps of a frictional packing falling under gravity (periodic onto a rotating plate, and
@@ -249,13 +252,16 @@ fn image(d: f64, periodic: Option<[f64; 2]>) -> f64 {
 }
 
 /// Stored springs for every current contact (random, up to 4 µm per component), so that the
-/// spring rotation and the Coulomb truncation are exercised in the first step.
+/// spring rotation and the Coulomb truncation are exercised in the first step. A pair's two
+/// rows hold opposite springs, as every run leaves them (each side's update is the other's
+/// negated, exactly): the CPU engine keeps one spring per pair and reads it from one row.
 fn seed_history(s: &mut State<f64>, cfg: &EngineConfig, seed: u64) {
     let slots = s.history.slots;
     if slots == 0 {
         return;
     }
     let mut noise = Noise::new(seed);
+    let mut pair_springs: HashMap<(u32, u32), V3<f64>> = HashMap::new();
     let walls: Vec<_> = cfg.walls.iter().map(|w| w.kernel::<f64>()).collect();
     for i in 0..s.len() {
         let mut keys = Vec::new();
@@ -277,12 +283,23 @@ fn seed_history(s: &mut State<f64>, cfg: &EngineConfig, seed: u64) {
         }
         assert!(keys.len() <= slots, "packing too dense for the history");
         for (k, key) in keys.into_iter().enumerate() {
+            let mut random = || {
+                V3::from_f64([
+                    4e-6 * noise.next(),
+                    4e-6 * noise.next(),
+                    4e-6 * noise.next(),
+                ])
+            };
+            let own = s.id[i];
+            let spring = if key >= wall_key(0) {
+                random()
+            } else if own < key {
+                *pair_springs.entry((own, key)).or_insert_with(random)
+            } else {
+                -*pair_springs.entry((key, own)).or_insert_with(random)
+            };
             s.history.partner[i * slots + k] = key;
-            s.history.spring[i * slots + k] = V3::from_f64([
-                4e-6 * noise.next(),
-                4e-6 * noise.next(),
-                4e-6 * noise.next(),
-            ]);
+            s.history.spring[i * slots + k] = spring;
         }
     }
 }
@@ -314,7 +331,8 @@ fn worst_relative(
     worst
 }
 
-/// One step on both backends from the same packing; returns (force error, torque error).
+/// One step on both backends from the same packing; returns (force error, torque error as a
+/// fraction of its allowance: 0 within 1e-5 of f64, else relative to twice the CPU f32's).
 fn one_step(dev: &GpuDevice, scene: Scene, law: ContactLaw, seed: u64) -> (f64, f64) {
     let periodic = match scene {
         Scene::Periodic => Some([0.0, BOX]),
@@ -338,11 +356,33 @@ fn one_step(dev: &GpuDevice, scene: Scene, law: ContactLaw, seed: u64) -> (f64, 
         );
     }
     let rms = |v: &[V3<f64>]| (v.iter().map(|x| x.norm2()).sum::<f64>() / v.len() as f64).sqrt();
-    let (f_rms, t_rms) = (rms(&sc.force), rms(&sc.torque));
+    let f_rms = rms(&sc.force);
     assert!(f_rms > 0.0, "no contact forces: the packing is not dense");
     let ef = worst_relative(&sg, &sc, |s| &s.force, 1e-3 * f_rms);
+    // Torques sum many terms that nearly cancel (a rim contact against its neighbours), so f32
+    // rounding alone moves them by up to ~1e-4 relative, and the CPU's order of summation
+    // (own pairs, then partners, then walls) is not the GPU's. Either engine is compared with
+    // the CPU f64 result: the GPU must be within 1e-5 of it, or no farther than twice the
+    // CPU f32's own distance from it (the same precision, so the same rounding allowance).
     let et = if sc.rotation {
-        worst_relative(&sg, &sc, |s| &s.torque, 1e-3 * t_rms)
+        let mut c64 = CpuEngine::<f64>::new(cfg.clone(), s.clone(), 1);
+        c64.advance(1).unwrap();
+        let s64 = c64.download();
+        let floor = 1e-3 * rms(&s64.torque);
+        let (eg, ec) = (
+            worst_relative(&sg, &s64, |s| &s.torque, floor),
+            worst_relative(&sc, &s64, |s| &s.torque, floor),
+        );
+        eprintln!("{scene:?}: torque error against f64: GPU {eg:.2e}, CPU f32 {ec:.2e}");
+        assert!(
+            ec <= 1e-3,
+            "{scene:?}: CPU f32 torque error {ec:.2e} against f64"
+        );
+        if eg <= 1e-5 {
+            0.0
+        } else {
+            eg / (2.0 * ec)
+        }
     } else {
         0.0
     };
@@ -403,7 +443,10 @@ fn one_step_forces_and_torques_match_the_cpu() {
         for law in [hertz(0.9, 0.5), linear(0.9, 0.5), hertz(0.8, 0.0)] {
             let (ef, et) = one_step(&dev, scene, law, seed);
             assert!(ef <= 1e-5, "{scene:?}: force error {ef:.2e} > 1e-5");
-            assert!(et <= 1e-5, "{scene:?}: torque error {et:.2e} > 1e-5");
+            assert!(
+                et <= 1.0,
+                "{scene:?}: GPU torques {et:.2} × twice the CPU f32's distance from f64"
+            );
         }
     }
 }

@@ -1,15 +1,25 @@
-//! The CPU backend: velocity Verlet over rayon, generic over the precision. Each particle gathers
-//! the forces on itself from its full neighbour list (`gather.rs`; `oriented.rs` for rods) and
-//! updates only its own contact history, so results are bitwise identical for any thread count.
+//! The CPU backend: velocity Verlet over rayon, generic over the precision.
+//!
+//! Spheres: half Verlet lists with a skin (`grid::build_half`, rebuilt only when a particle has
+//! moved half the skin), each pair evaluated once (Newton's third law) with its tangential
+//! spring kept in the pair's entry; the pair pass leaves i's share in i's force and j's share in
+//! the entry, and a second pass adds, per particle, the shares where it is the partner in entry
+//! order, its walls, and the kick and drift. Every value is written by exactly one task and summed
+//! in a fixed order, so results are bitwise identical for any thread count. The springs go back
+//! into the state's per-particle history table (keyed by partner id, the checkpoint and GPU
+//! format) at the end of each `advance`, and come from it at the start of the next.
+//!
+//! Spherocylinders keep the full-list gather (`oriented.rs`), where each particle gathers its
+//! own forces and updates only its own history rows.
 
 use rayon::prelude::*;
 
 use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
-use super::contact::{ContactRecord, LawKernel};
-use super::gather::ForceContext;
-use super::grid::{self, NeighbourList, Periodic};
-use super::history::{Rows, MAX_SLOTS};
+use super::contact::{elastic_energy, ContactRecord, LawKernel};
+use super::gather::{ForceContext, PairContext, PairSlot, Props, Reaction, SumContext};
+use super::grid::{self, HalfList, NeighbourList, Periodic};
+use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
 use super::oriented;
 use super::real::{Real, V3};
 use super::state::State;
@@ -19,6 +29,9 @@ use super::watchdog::{wall_speed, EnergyBudget};
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
+/// Particles per task of the sphere passes. Fixed (not derived from the thread count), though
+/// the results would not depend on it either: every slot and particle is written by one task.
+const BLOCK: usize = 1024;
 pub(super) const ALIVE: u8 = 1;
 const DYING: u8 = 2;
 const DEAD: u8 = 0;
@@ -40,6 +53,16 @@ pub struct CpuEngine<R: Real> {
     skin: R,
     sink_z: Option<R>,
     list: NeighbourList<R>,
+    /// Spheres: half lists, one slot per pair (spring and last force), one spring per particle
+    /// and wall, packed constants. While a chunk runs, these hold the contact history and the
+    /// state's table is empty; `store_history` writes it back at the chunk's end.
+    half: HalfList<R>,
+    pair_slots: Vec<PairSlot<R>>,
+    reactions: Vec<Reaction<R>>,
+    wall_springs: Vec<V3<R>>,
+    props: Vec<Props<R>>,
+    /// History slots per particle of the state's table.
+    slots: usize,
     /// ALIVE, or DYING (fell through the sink this step, to be reported) or DEAD.
     alive: Vec<u8>,
     // Scratch, per particle: new force, new torque, contact count.
@@ -80,6 +103,12 @@ impl<R: Real> CpuEngine<R> {
             skin: R::from_f64(config.skin_m),
             sink_z: config.sink_z.map(R::from_f64),
             list: NeighbourList::default(),
+            half: HalfList::default(),
+            pair_slots: Vec::new(),
+            reactions: Vec::new(),
+            wall_springs: Vec::new(),
+            props: Vec::new(),
+            slots: state.history.slots,
             alive: Vec::new(),
             f_new: Vec::new(),
             t_new: Vec::new(),
@@ -114,7 +143,506 @@ impl<R: Real> CpuEngine<R> {
             self.state.retain(&keep);
             self.alive = vec![ALIVE; self.state.len()];
             self.list.ref_pos.clear();
+            self.half.ref_pos.clear();
         }
+    }
+
+    // ---- Spheres: half lists, one evaluation per pair, fixed-order per-particle sums. ----
+
+    /// Writes the contact history held by the pair slots and wall springs into a `History`
+    /// table (row of particle k: its own pairs, the pairs where it is the partner with the spring
+    /// negated, then its walls; only touching contacts with a non-zero spring). `slots` = None
+    /// sizes the rows to the fullest particle (a carrier across a mid-chunk re-sort); Some(k)
+    /// is the state's format, and a particle with more contacts than k is an error (its id).
+    fn pairs_to_history(&self, slots: Option<usize>) -> Result<History<R>, u32> {
+        let n = self.state.len();
+        let nw = self.walls.len();
+        let (half, ps, ws, id) = (
+            &self.half,
+            &self.pair_slots,
+            &self.wall_springs,
+            &self.state.id,
+        );
+        let zero = V3::zero();
+        // Every stored (partner key, spring) of particle k, in row order.
+        let row = |k: usize, put: &mut dyn FnMut(u32, V3<R>)| {
+            for e in half.start[k] as usize..half.start[k + 1] as usize {
+                let sl = &ps[e];
+                if sl.touching() && sl.spring != zero {
+                    put(id[half.nbr[e] as usize], sl.spring);
+                }
+            }
+            for r in half.rstart[k] as usize..half.rstart[k + 1] as usize {
+                let sl = &ps[half.rslot[r] as usize];
+                if sl.touching() && sl.spring != zero {
+                    put(id[half.rowner[r] as usize], -sl.spring);
+                }
+            }
+            for w in 0..nw {
+                let s = ws[k * nw + w];
+                if s != zero {
+                    put(wall_key(w), s);
+                }
+            }
+        };
+        let counts: Vec<u32> = self.pool.install(|| {
+            (0..n)
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .map(|k| {
+                    let mut c = 0u32;
+                    row(k, &mut |_, _| c += 1);
+                    c
+                })
+                .collect()
+        });
+        let fullest = counts.iter().copied().max().unwrap_or(0) as usize;
+        let width = match slots {
+            Some(k) => {
+                if let Some(k_over) = (0..n).find(|&k_| counts[k_] as usize > k) {
+                    return Err(id[k_over]);
+                }
+                k
+            }
+            None => fullest.max(1),
+        };
+        let mut h = History::new(width);
+        h.partner = vec![EMPTY; n * width];
+        h.spring = vec![V3::zero(); n * width];
+        self.pool.install(|| {
+            h.partner
+                .par_chunks_mut(width)
+                .zip(h.spring.par_chunks_mut(width))
+                .enumerate()
+                .with_min_len(MIN_LEN)
+                .for_each(|(k, (p, s))| {
+                    let mut m = 0;
+                    row(k, &mut |key, v| {
+                        p[m] = key;
+                        s[m] = v;
+                        m += 1;
+                    });
+                });
+        });
+        Ok(h)
+    }
+
+    /// Re-sorts the spheres by cell and rebuilds the half lists, carrying the springs over by
+    /// partner id through a `History` table that the sort permutes with the particles. With
+    /// `from_pairs` the springs come from the current slots (a rebuild inside a chunk);
+    /// otherwise from the state's table (a chunk's start), which is then taken out of the state.
+    fn rebuild_half(&mut self, from_pairs: bool) {
+        if from_pairs {
+            let carrier = self
+                .pairs_to_history(None)
+                .expect("unsized history rows cannot overflow");
+            self.state.history = carrier;
+        }
+        self.compact();
+        let (periodic, skin) = (self.periodic, self.skin);
+        let state = &mut self.state;
+        let half = &mut self.half;
+        self.pool
+            .install(|| grid::build_half(state, &periodic, skin, half));
+        let n = self.state.len();
+        self.alive = vec![ALIVE; n];
+        let s = &self.state;
+        self.props = (0..n)
+            .map(|i| Props {
+                r: s.radius[i],
+                m: s.mass[i],
+                inv_m: s.inv_mass[i],
+                inv_i: if s.rotation {
+                    s.inv_inertia[i]
+                } else {
+                    R::zero()
+                },
+                inv_d: R::one() / (s.radius[i] * R::from_f64(2.0)),
+            })
+            .collect();
+        let nw = self.walls.len();
+        self.pair_slots.clear();
+        self.pair_slots.resize(self.half.len(), PairSlot::default());
+        self.reactions.clear();
+        self.reactions.resize(self.half.len(), Reaction::default());
+        self.wall_springs.clear();
+        self.wall_springs.resize(n * nw, V3::zero());
+        let hist = std::mem::take(&mut self.state.history);
+        if hist.slots > 0 {
+            let (half, id) = (&self.half, &self.state.id);
+            let bounds = block_bounds(&half.start, n);
+            let blocks = split_blocks(&mut self.pair_slots, &bounds.1);
+            let wblocks = split_blocks(&mut self.wall_springs, &scaled(&bounds.0, nw));
+            self.pool.install(|| {
+                blocks
+                    .into_par_iter()
+                    .zip(wblocks)
+                    .enumerate()
+                    .for_each(|(b, (slots, wsp))| {
+                        let first = bounds.0[b];
+                        let mut e0 = half.start[first] as usize;
+                        for i in first..bounds.0[b + 1] {
+                            let e1 = half.start[i + 1] as usize;
+                            for e in e0..e1 {
+                                let sp = hist.spring_of(i, id[half.nbr[e] as usize]);
+                                let sl = &mut slots[e - bounds.1[b]];
+                                sl.spring = sp;
+                                // A stored spring marks a contact that existed: keep it.
+                                sl.h = if sp != V3::zero() {
+                                    R::zero()
+                                } else {
+                                    -R::one()
+                                };
+                            }
+                            e0 = e1;
+                            for w in 0..nw {
+                                wsp[(i - first) * nw + w] = hist.spring_of(i, wall_key(w));
+                            }
+                        }
+                    });
+            });
+        } else {
+            for sl in &mut self.pair_slots {
+                sl.h = -R::one();
+            }
+        }
+        // The table stays out of the state while the chunk runs (the slots hold the history).
+        self.state.history = History::new(0);
+    }
+
+    /// Puts the history back into the state in its format (`slots` per particle).
+    fn store_history(&mut self) -> Result<(), EngineError> {
+        if self.slots == 0 || self.state.history.slots == self.slots {
+            return Ok(());
+        }
+        match self.pairs_to_history(Some(self.slots)) {
+            Ok(h) => {
+                self.state.history = h;
+                Ok(())
+            }
+            Err(id) => {
+                // Keep what fits, so the state stays readable; the run reports the overflow.
+                let mut h = self.pairs_to_history(None).expect("unsized rows");
+                let k = self.slots;
+                let w = h.slots;
+                let n = self.state.len();
+                let (mut p, mut s) = (Vec::with_capacity(n * k), Vec::with_capacity(n * k));
+                for i in 0..n {
+                    p.extend_from_slice(&h.partner[i * w..i * w + k.min(w)]);
+                    s.extend_from_slice(&h.spring[i * w..i * w + k.min(w)]);
+                    for _ in w..k {
+                        p.push(EMPTY);
+                        s.push(V3::zero());
+                    }
+                }
+                h.slots = k;
+                h.partner = p;
+                h.spring = s;
+                self.state.history = h;
+                Err(EngineError::HistoryFull {
+                    id,
+                    slots: k,
+                    step: self.state.step,
+                })
+            }
+        }
+    }
+
+    /// Evaluates every pair once: springs into the slots, each partner's share into
+    /// `reactions`, each particle's own share into `state.force`/`torque` (and its count of
+    /// touching pairs into `contacts`). Returns the largest overlap ratio.
+    fn pair_pass(&mut self) -> R {
+        let n = self.state.len();
+        self.contacts.resize(n, 0);
+        let s = &mut self.state;
+        let ctx = PairContext {
+            pos: &s.pos,
+            vel: &s.vel,
+            omega: &s.omega,
+            props: &self.props,
+            alive: &self.alive,
+            law: &self.law_pp,
+            periodic: &self.periodic,
+            dt: self.dt,
+            keep_springs: self.slots > 0,
+        };
+        let rot = s.rotation;
+        let (parts, entries) = block_bounds(&self.half.start, n);
+        let blocks = split_blocks(&mut self.pair_slots, &entries)
+            .into_iter()
+            .zip(split_blocks(&mut self.reactions, &entries))
+            .zip(split_blocks(&mut s.force, &parts))
+            .zip(split_blocks(&mut s.torque, &parts))
+            .zip(split_blocks(&mut self.contacts, &parts))
+            .collect::<Vec<_>>();
+        let (start, nbr) = (&self.half.start, &self.half.nbr);
+        self.pool.install(|| {
+            blocks
+                .into_par_iter()
+                .enumerate()
+                .map(|(b, ((((slots, react), force), torque), nc))| {
+                    let mut m = R::zero();
+                    for (l, i) in (parts[b]..parts[b + 1]).enumerate() {
+                        let (a, z) = (start[i] as usize, start[i + 1] as usize);
+                        let (a0, z0) = (a - entries[b], z - entries[b]);
+                        let (f, t, ov, c) =
+                            ctx.pairs_of(i, &nbr[a..z], &mut slots[a0..z0], &mut react[a0..z0]);
+                        force[l] = f;
+                        if rot {
+                            torque[l] = t;
+                        }
+                        nc[l] = c;
+                        m = m.max(ov);
+                    }
+                    m
+                })
+                .reduce(R::zero, |a, b| a.max(b))
+        })
+    }
+
+    /// Completes each particle's force and torque (own share from the pair pass, then the
+    /// reactions where it is the partner in entry order, then its walls: a fixed order) in
+    /// `state.force`/`torque`, then kicks by `kick` and, with `drift`, drifts (the next step's
+    /// opening). Returns (some particle died, the lists need a rebuild, largest wall overlap,
+    /// most contacts of one particle).
+    fn sum_kick_drift(&mut self, kick: R, drift: bool) -> (bool, bool, R, u32) {
+        let n = self.state.len();
+        let nw = self.walls.len();
+        let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
+        let half2 = self.skin * self.skin * R::from_f64(0.25);
+        let law_pw = self.law_pw;
+        let ctx = SumContext {
+            react: &self.reactions,
+            rstart: &self.half.rstart,
+            rslot: &self.half.rslot,
+            law_pw: &law_pw,
+            walls: &self.walls,
+            dt,
+            keep_springs: self.slots > 0,
+        };
+        let parts: Vec<usize> = (0..n.div_ceil(BLOCK))
+            .map(|b| b * BLOCK)
+            .chain(std::iter::once(n))
+            .collect();
+        let s = &mut self.state;
+        let rot = s.rotation;
+        let refs = &self.half.ref_pos;
+        let props = &self.props;
+        let blocks = split_blocks(&mut s.pos, &parts)
+            .into_iter()
+            .zip(split_blocks(&mut s.vel, &parts))
+            .zip(split_blocks(&mut s.force, &parts))
+            .zip(split_blocks(&mut s.omega, &parts))
+            .zip(split_blocks(&mut s.torque, &parts))
+            .zip(split_blocks(&mut self.alive, &parts))
+            .zip(split_blocks(&mut self.contacts, &parts))
+            .zip(split_blocks(&mut self.wall_springs, &scaled(&parts, nw)))
+            .collect::<Vec<_>>();
+        self.pool.install(|| {
+            blocks
+                .into_par_iter()
+                .enumerate()
+                .map(
+                    |(b, (((((((pos, vel), force), omega), torque), alive), nc), wsp))| {
+                        let mut out = (false, false, R::zero(), 0u32);
+                        let first = parts[b];
+                        for l in 0..pos.len() {
+                            let k = first + l;
+                            if alive[l] != ALIVE {
+                                force[l] = V3::zero();
+                                if rot {
+                                    torque[l] = V3::zero();
+                                }
+                                nc[l] = 0;
+                                continue;
+                            }
+                            let pr = props[k];
+                            let (w, t0) = if rot {
+                                (omega[l], torque[l])
+                            } else {
+                                (V3::zero(), V3::zero())
+                            };
+                            let wall_sp = &mut wsp[l * nw..(l + 1) * nw];
+                            let (f, t, ov, c) =
+                                ctx.sum(k, force[l], t0, pos[l], vel[l], w, pr, wall_sp);
+                            out.2 = out.2.max(ov);
+                            force[l] = f;
+                            nc[l] += c;
+                            out.3 = out.3.max(nc[l]);
+                            if rot {
+                                torque[l] = t;
+                            }
+                            if pr.inv_m == R::zero() {
+                                continue;
+                            }
+                            if rot {
+                                omega[l] += t * (pr.inv_i * kick);
+                            }
+                            let v = &mut vel[l];
+                            *v += (f * pr.inv_m + g) * kick;
+                            if !drift {
+                                continue;
+                            }
+                            let x = &mut pos[l];
+                            *x += *v * dt;
+                            periodic.wrap(x);
+                            if matches!(sink, Some(zs) if x.z < zs) {
+                                alive[l] = DYING;
+                                out.0 = true;
+                            }
+                            out.1 |= periodic.delta(refs[k], *x).norm2() > half2;
+                        }
+                        out
+                    },
+                )
+                .reduce(
+                    || (false, false, R::zero(), 0),
+                    |p, q| (p.0 || q.0, p.1 || q.1, p.2.max(q.2), p.3.max(q.3)),
+                )
+        })
+    }
+
+    /// Elastic energy of the contacts from the half lists and slots (each pair once), summed in
+    /// particle order in f64 (the same for any thread count). Needs fresh lists.
+    fn pair_elastic_energy(&self) -> f64 {
+        let s = &self.state;
+        let (half, ps, props) = (&self.half, &self.pair_slots, &self.props);
+        let nw = self.walls.len();
+        let per: Vec<f64> = self.pool.install(|| {
+            (0..s.len())
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .map(|i| {
+                    if self.alive[i] != ALIVE {
+                        return 0.0;
+                    }
+                    let (pi, ri) = (s.pos[i], props[i].r);
+                    let mut e = 0.0;
+                    let entries = half.start[i] as usize..half.start[i + 1] as usize;
+                    for (&j, slot) in half.nbr[entries.clone()].iter().zip(&ps[entries]) {
+                        let j = j as usize;
+                        if self.alive[j] != ALIVE {
+                            continue;
+                        }
+                        let rj = props[j].r;
+                        let sum = ri + rj;
+                        let dist2 = self.periodic.delta(s.pos[j], pi).norm2();
+                        if dist2 >= sum * sum {
+                            continue;
+                        }
+                        let sp = if slot.touching() {
+                            slot.spring
+                        } else {
+                            V3::zero()
+                        };
+                        e += elastic_energy(&self.law_pp, sum - dist2.sqrt(), ri * rj / sum, sp)
+                            .to_f64();
+                    }
+                    if props[i].inv_m != R::zero() {
+                        for (w, wall) in self.walls.iter().enumerate() {
+                            if let Some(wc) = wall.touch(pi, ri) {
+                                let sp = self.wall_springs[i * nw + w];
+                                e += elastic_energy(&self.law_pw, wc.overlap, ri, sp).to_f64();
+                            }
+                        }
+                    }
+                    e
+                })
+                .collect()
+        });
+        per.iter().sum()
+    }
+
+    /// A chunk of sphere steps: velocity Verlet with the closing half kick of each step fused
+    /// with the next step's opening one, and the force sums fused with the kick and drift (one
+    /// pass over the particles per step besides the pair pass).
+    fn advance_spheres(
+        &mut self,
+        steps: u64,
+        report: &mut ChunkReport,
+        budget: &mut Option<EnergyBudget>,
+        check_energy: bool,
+    ) -> Result<(), EngineError> {
+        // NOTE: a chunk always starts from a fresh sort and list built from the state's own
+        // history table, so that a run resumed from a checkpoint (taken between chunks) follows
+        // exactly the same operations as one that never stopped.
+        self.rebuild_half(false);
+        if check_energy {
+            *budget = Some(self.energy_budget_spheres(steps));
+        }
+        if steps == 0 {
+            return Ok(());
+        }
+        let half = self.dt * R::from_f64(0.5);
+        let mut live = self
+            .state
+            .inv_mass
+            .iter()
+            .filter(|&&m| m != R::zero())
+            .count() as u64;
+        let (mut died, mut moved) = self.kick_drift(half);
+        for k in 0..steps {
+            let t_next = self.state.time + self.config.dt_s;
+            if died {
+                let s = &self.state;
+                for i in 0..s.len() {
+                    if self.alive[i] == DYING {
+                        report.removed.push(SinkEvent {
+                            id: s.id[i],
+                            mass_kg: s.mass[i].to_f64(),
+                            time_s: t_next,
+                        });
+                        self.alive[i] = DEAD;
+                        live -= 1;
+                    }
+                }
+            }
+            if moved {
+                self.rebuild_half(true);
+            }
+            let ov_pairs = self.pair_pass();
+            let step = self.state.step;
+            self.state.time = t_next;
+            self.state.step += 1;
+            let last = k + 1 == steps;
+            let (d, m, ov_walls, fullest) = if last {
+                self.sum_kick_drift(half, false)
+            } else {
+                self.sum_kick_drift(self.dt, true)
+            };
+            // The history table would not hold this step's contacts: fail now, at the step
+            // where it happens (as the GPU does), not when the chunk writes the table back.
+            if self.slots > 0 && fullest as usize > self.slots {
+                let i = (0..self.state.len())
+                    .find(|&i| self.contacts[i] as usize > self.slots)
+                    .unwrap_or(0);
+                return Err(EngineError::HistoryFull {
+                    id: self.state.id[i],
+                    slots: self.slots,
+                    step,
+                });
+            }
+            (died, moved) = (d, m);
+            let ov = ov_pairs.max(ov_walls).to_f64();
+            if ov > self.watchdog.max_overlap_ratio {
+                return Err(EngineError::Overlap {
+                    ratio: ov,
+                    limit: self.watchdog.max_overlap_ratio,
+                    step: self.state.step,
+                });
+            }
+            report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
+            report.steps += 1;
+            report.particle_steps += live;
+        }
+        Ok(())
+    }
+
+    /// `energy_budget` with the elastic energy from the half lists (fresh at a chunk's start).
+    fn energy_budget_spheres(&self, steps: u64) -> EnergyBudget {
+        let mut b = self.energy_budget_without_elastic(steps);
+        b.elastic_j = self.pair_elastic_energy();
+        b
     }
 
     /// Contact forces and torques on every particle, from the current positions and velocities.
@@ -247,7 +775,11 @@ impl<R: Real> CpuEngine<R> {
         let half2 = self.skin * self.skin * R::from_f64(0.25);
         let s = &mut self.state;
         let alive = &mut self.alive;
-        let refs = &self.list.ref_pos;
+        let refs = if s.oriented {
+            &self.list.ref_pos
+        } else {
+            &self.half.ref_pos
+        };
         let stale = refs.len() != s.pos.len();
         if s.oriented {
             let ref_axis = &self.list.ref_axis;
@@ -486,6 +1018,13 @@ impl<R: Real> CpuEngine<R> {
     /// The energy watchdog's budget for a chunk of `steps` starting now (`watchdog.rs`); needs
     /// fresh lists. O(N) plus one contact pass, once per chunk.
     fn energy_budget(&self, steps: u64) -> EnergyBudget {
+        let mut b = self.energy_budget_without_elastic(steps);
+        b.elastic_j = self.sum_elastic_energy();
+        b
+    }
+
+    /// `energy_budget` but for the elastic energy (left at zero).
+    fn energy_budget_without_elastic(&self, steps: u64) -> EnergyBudget {
         let s = &self.state;
         let mobile_mass_kg: f64 = (0..s.len())
             .filter(|&i| s.inv_mass[i] != R::zero())
@@ -495,7 +1034,7 @@ impl<R: Real> CpuEngine<R> {
         let g = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
         EnergyBudget {
             kinetic_j: s.kinetic_energy(),
-            elastic_j: self.sum_elastic_energy(),
+            elastic_j: 0.0,
             mobile_mass_kg,
             speed_gain_m_per_s: g * steps as f64 * self.config.dt_s
                 + wall_speed(&self.config.walls, s),
@@ -534,39 +1073,50 @@ impl<R: Real> CpuEngine<R> {
 impl<R: Real> Backend for CpuEngine<R> {
     fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError> {
         let mut report = ChunkReport::default();
-        let builds0 = self.list.builds;
+        let builds0 = self.list.builds + self.half.builds;
         // NOTE: a chunk always starts from a fresh sort and list, so that a run resumed from a
         // checkpoint (taken between chunks) follows exactly the same operations as one that never
         // stopped.
         let pool = self.pool.clone();
         let check_energy = steps > 0 && self.watchdog.max_kinetic_growth.is_finite();
         let mut budget = None;
-        pool.install(|| -> Result<(), EngineError> {
-            self.rebuild();
-            if check_energy {
-                budget = Some(self.energy_budget(steps));
-            }
-            let half = self.dt * R::from_f64(0.5);
-            // Particle-steps count mobile particles only (fixed base particles are not integrated).
-            let mut live = self
-                .state
-                .inv_mass
-                .iter()
-                .filter(|&&m| m != R::zero())
-                .count() as u64;
-            for k in 0..steps {
-                let removed_before = report.removed.len();
-                let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;
-                live -= (report.removed.len() - removed_before) as u64;
-                report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
-                report.steps += 1;
-                report.particle_steps += live;
-            }
-            if steps > 0 {
-                self.close_kick();
-            }
-            Ok(())
-        })?;
+        if !self.state.oriented {
+            let r = pool
+                .install(|| self.advance_spheres(steps, &mut report, &mut budget, check_energy));
+            // The history goes back into the state whatever happened (observers, checkpoints
+            // and error reports read it).
+            let stored = self.store_history();
+            r?;
+            stored?;
+        } else {
+            pool.install(|| -> Result<(), EngineError> {
+                self.rebuild();
+                if check_energy {
+                    budget = Some(self.energy_budget(steps));
+                }
+                let half = self.dt * R::from_f64(0.5);
+                // Particle-steps count mobile particles only (fixed base particles are not
+                // integrated).
+                let mut live = self
+                    .state
+                    .inv_mass
+                    .iter()
+                    .filter(|&&m| m != R::zero())
+                    .count() as u64;
+                for k in 0..steps {
+                    let removed_before = report.removed.len();
+                    let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;
+                    live -= (report.removed.len() - removed_before) as u64;
+                    report.max_overlap_ratio = report.max_overlap_ratio.max(ov);
+                    report.steps += 1;
+                    report.particle_steps += live;
+                }
+                if steps > 0 {
+                    self.close_kick();
+                }
+                Ok(())
+            })?;
+        }
         self.check_finite()?;
         // Dead particles leave the state before anyone sees it (observers, checkpoints).
         let n_before = self.state.len();
@@ -577,7 +1127,7 @@ impl<R: Real> Backend for CpuEngine<R> {
         let n = self.contacts.len().max(1);
         report.contacts_per_particle =
             self.contacts.iter().map(|&c| c as f64).sum::<f64>() / n as f64;
-        report.list_builds = self.list.builds - builds0;
+        report.list_builds = self.list.builds + self.half.builds - builds0;
         // NOTE: after the finiteness check (a NaN must be reported as such) and the compaction
         // (particles removed by the sink no longer count).
         if let Some(b) = budget {
@@ -596,6 +1146,8 @@ impl<R: Real> Backend for CpuEngine<R> {
         self.state = state.convert();
         self.alive = vec![ALIVE; self.state.len()];
         self.list = NeighbourList::default();
+        self.half = HalfList::default();
+        self.slots = self.state.history.slots;
     }
 
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
@@ -610,4 +1162,36 @@ impl<R: Real> Backend for CpuEngine<R> {
             threads: self.threads,
         }
     }
+}
+
+/// Block boundaries of the sphere passes: particles `parts[b]..parts[b + 1]` and their half-list
+/// entries `entries[b]..entries[b + 1]`.
+fn block_bounds(start: &[u32], n: usize) -> (Vec<usize>, Vec<usize>) {
+    let parts: Vec<usize> = (0..n.div_ceil(BLOCK))
+        .map(|b| b * BLOCK)
+        .chain(std::iter::once(n))
+        .collect();
+    let entries = parts.iter().map(|&p| start[p] as usize).collect();
+    (parts, entries)
+}
+
+/// `bounds` times `k` (arrays with k values per particle).
+fn scaled(bounds: &[usize], k: usize) -> Vec<usize> {
+    bounds.iter().map(|&b| b * k).collect()
+}
+
+/// Splits `v` into the disjoint pieces `bounds[b]..bounds[b + 1]`, so that parallel tasks each
+/// own one; an empty `v` (an array the run does not have) gives empty pieces.
+fn split_blocks<'a, T>(mut v: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
+    let pieces = bounds.len().saturating_sub(1);
+    if v.is_empty() {
+        return (0..pieces).map(|_| <&mut [T]>::default()).collect();
+    }
+    let mut out = Vec::with_capacity(pieces);
+    for w in bounds.windows(2) {
+        let (a, rest) = v.split_at_mut(w[1] - w[0]);
+        out.push(a);
+        v = rest;
+    }
+    out
 }

@@ -1,7 +1,8 @@
-//! The sphere path's per-particle force gather of the CPU engine: each particle sums the forces
-//! of its own contacts (full neighbour list, walls) and rewrites only its own history rows, so the
-//! result does not depend on the thread that runs it. Oriented particles hand over to
-//! `oriented.rs` through [`ForceContext::oriented`].
+//! Force kernels of the CPU engine. `PairContext` and `SumContext` are the sphere step: one
+//! evaluation per pair of the half lists, then a fixed-order sum per particle (`cpu.rs`).
+//! `ForceContext` is the per-particle gather over full lists, each particle summing its own
+//! contacts and rewriting only its own history rows: what contact records and the elastic
+//! energy read between chunks, and the door to `oriented.rs` for spherocylinders.
 
 use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
 use super::cpu::ALIVE;
@@ -224,5 +225,236 @@ impl<'a, R: Real> ForceContext<'a, R> {
             t = V3::zero();
         }
         (f, t, max_ov, nc, full)
+    }
+}
+
+/// One entry of the half list as the pair pass keeps it: the pair's tangential spring (i's view;
+/// j's is its negative) and whether the pair touched at the last evaluation.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PairSlot<R: Real> {
+    pub(super) spring: V3<R>,
+    /// Half the overlap, or −1 when the pair does not touch.
+    pub(super) h: R,
+}
+
+impl<R: Real> PairSlot<R> {
+    #[inline(always)]
+    pub(super) fn touching(&self) -> bool {
+        self.h >= R::zero()
+    }
+}
+
+/// What the pair (i, j) does to its partner j at the last evaluation: force and torque, zero
+/// when the pair does not touch. Read by j's sum; i adds its own share during the pair pass.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Reaction<R: Real> {
+    pub(super) f: V3<R>,
+    pub(super) t: V3<R>,
+}
+
+/// Per-particle constants the pair pass reads for a partner, packed so that one partner costs
+/// one cache line instead of several arrays.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Props<R: Real> {
+    pub(super) r: R,
+    pub(super) m: R,
+    pub(super) inv_m: R,
+    pub(super) inv_i: R,
+    /// 1 / (2r): overlap ratios without a division per contact.
+    pub(super) inv_d: R,
+}
+
+/// Everything the sphere pair pass reads.
+pub(super) struct PairContext<'a, R: Real> {
+    pub(super) pos: &'a [V3<R>],
+    pub(super) vel: &'a [V3<R>],
+    /// Empty when rotation is off.
+    pub(super) omega: &'a [V3<R>],
+    pub(super) props: &'a [Props<R>],
+    pub(super) alive: &'a [u8],
+    pub(super) law: &'a LawKernel<R>,
+    pub(super) periodic: &'a Periodic<R>,
+    pub(super) dt: R,
+    /// Whether springs are kept from step to step (history slots > 0).
+    pub(super) keep_springs: bool,
+}
+
+impl<R: Real> PairContext<'_, R> {
+    /// Evaluates every pair (i, j > i) of particle i once (`nbr`, `slots` and `react` are i's
+    /// entries): advances the springs in place, leaves each partner's force and torque in
+    /// `react`, and returns i's own share (force, torque), the largest overlap ratio and i's
+    /// count of touching pairs. Each entry belongs to one particle, so any split over threads
+    /// writes the same bits.
+    #[inline]
+    pub(super) fn pairs_of(
+        &self,
+        i: usize,
+        nbr: &[u32],
+        slots: &mut [PairSlot<R>],
+        react: &mut [Reaction<R>],
+    ) -> (V3<R>, V3<R>, R, u32) {
+        let mut f = V3::zero();
+        let mut t = V3::zero();
+        let mut max_ov = R::zero();
+        let mut nc = 0u32;
+        if self.alive[i] != ALIVE {
+            for (sl, r) in slots.iter_mut().zip(react.iter_mut()) {
+                if sl.touching() {
+                    sl.h = -R::one();
+                    *r = Reaction::default();
+                }
+            }
+            return (f, t, max_ov, nc);
+        }
+        let pi = self.pos[i];
+        let vi = self.vel[i];
+        let rot = !self.omega.is_empty();
+        let wi = if rot { self.omega[i] } else { V3::zero() };
+        let Props {
+            r: ri,
+            m: mi,
+            inv_m: im_i,
+            inv_d: id_i,
+            ..
+        } = self.props[i];
+        let fixed_i = im_i == R::zero();
+        let half = R::from_f64(0.5);
+        for ((sl, r), &j) in slots.iter_mut().zip(react.iter_mut()).zip(nbr) {
+            let j = j as usize;
+            let Props {
+                r: rj,
+                m: mj,
+                inv_m: im_j,
+                inv_d: id_j,
+                ..
+            } = self.props[j];
+            let d = self.periodic.delta(self.pos[j], pi); // from j to i
+            let dist2 = d.norm2();
+            let sum = ri + rj;
+            if dist2 >= sum * sum || self.alive[j] != ALIVE {
+                // A contact that ends loses its spring (the next one starts from zero).
+                if sl.touching() {
+                    sl.h = -R::one();
+                    *r = Reaction::default();
+                }
+                continue;
+            }
+            let dist = dist2.sqrt();
+            let n = d * (R::one() / dist);
+            let overlap = sum - dist;
+            let h = overlap * half;
+            let (li, lj) = (ri - h, rj - h);
+            let bi = -(n * li);
+            let bj = n * lj;
+            let wj = if rot { self.omega[j] } else { V3::zero() };
+            let v_rel = (vi + wi.cross(bi)) - (self.vel[j] + wj.cross(bj));
+            // A fixed partner acts as infinitely heavy.
+            let m_eff = if im_j == R::zero() {
+                mi
+            } else if fixed_i {
+                mj
+            } else {
+                mi * mj / (mi + mj)
+            };
+            let c = ContactInput {
+                overlap,
+                normal: n,
+                v_rel,
+                r_eff: ri * rj / sum,
+                m_eff,
+            };
+            let mut spring = if self.keep_springs && sl.touching() {
+                sl.spring
+            } else {
+                V3::zero()
+            };
+            let fc = contact_force(self.law, &c, &mut spring, self.dt);
+            sl.spring = spring;
+            sl.h = h;
+            // Both torques are −(lever) (n × f): i's lever r_i − h, j's r_j − h (j feels −f).
+            let nf = n.cross(fc);
+            f += fc;
+            t -= nf * li;
+            *r = Reaction {
+                f: -fc,
+                t: -(nf * lj),
+            };
+            max_ov = max_ov.max(overlap * id_i.max(id_j));
+            nc += 1;
+        }
+        (f, t, max_ov, nc)
+    }
+}
+
+/// What the per-particle sum of particle k reads besides its own kinematics.
+pub(super) struct SumContext<'a, R: Real> {
+    pub(super) react: &'a [Reaction<R>],
+    pub(super) rstart: &'a [u32],
+    pub(super) rslot: &'a [u32],
+    pub(super) law_pw: &'a LawKernel<R>,
+    pub(super) walls: &'a [WallKernel<R>],
+    pub(super) dt: R,
+    pub(super) keep_springs: bool,
+}
+
+impl<R: Real> SumContext<'_, R> {
+    /// Adds to particle k's own share (`f`, `t`, from the pair pass) the reactions of the pairs
+    /// where it is the partner (entry order) and its walls (springs in `wall_springs`, one per
+    /// wall). Returns force, torque, largest wall overlap ratio and the number of contacts
+    /// added. Fixed particles get zero.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sum(
+        &self,
+        k: usize,
+        mut f: V3<R>,
+        mut t: V3<R>,
+        pk: V3<R>,
+        vk: V3<R>,
+        wk: V3<R>,
+        pr: Props<R>,
+        wall_springs: &mut [V3<R>],
+    ) -> (V3<R>, V3<R>, R, u32) {
+        let mut nc = 0u32;
+        let mut max_ov = R::zero();
+        for &e in &self.rslot[self.rstart[k] as usize..self.rstart[k + 1] as usize] {
+            let r = &self.react[e as usize];
+            f += r.f;
+            t += r.t;
+            nc += u32::from(r.f != V3::zero());
+        }
+        if pr.inv_m == R::zero() {
+            // Fixed particles feel no wall (as on the GPU): no wall spring survives either.
+            wall_springs.fill(V3::zero());
+            return (V3::zero(), V3::zero(), max_ov, nc);
+        }
+        let rk = pr.r;
+        for (wall, ws) in self.walls.iter().zip(wall_springs.iter_mut()) {
+            let Some(wc) = wall.touch(pk, rk) else {
+                *ws = V3::zero();
+                continue;
+            };
+            let n = wc.normal;
+            let bi = -(n * (rk - wc.overlap * R::from_f64(0.5)));
+            let v_rel = vk + wk.cross(bi) - wc.wall_velocity;
+            let c = ContactInput {
+                overlap: wc.overlap,
+                normal: n,
+                v_rel,
+                r_eff: rk,
+                m_eff: pr.m,
+            };
+            let mut spring = if self.keep_springs { *ws } else { V3::zero() };
+            let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
+            *ws = spring;
+            f += fc;
+            t += bi.cross(fc);
+            max_ov = max_ov.max(wc.overlap * pr.inv_d);
+            nc += 1;
+        }
+        (f, t, max_ov, nc)
     }
 }

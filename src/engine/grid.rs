@@ -1,7 +1,8 @@
 //! Neighbour search: a uniform cell grid filled by a counting sort (O(N)), which also reorders the
-//! particles by cell so that neighbours sit close in memory, then a full Verlet list per particle
-//! (each particle gathers its own forces: no float atomics, identical results for any thread
-//! count). Periodic axes use the minimum image.
+//! particles by cell so that neighbours sit close in memory, then either half lists (spheres'
+//! step: each pair once, `HalfList`) or full lists (spherocylinders, contact records). Both are
+//! built in a fixed order, so they do not depend on the thread count. Periodic axes use the
+//! minimum image.
 
 use rayon::prelude::*;
 
@@ -16,32 +17,57 @@ pub struct Periodic<R: Real> {
 }
 
 impl<R: Real> Periodic<R> {
-    /// Minimum-image separation b − a.
+    /// Minimum-image separation b − a. Positions are wrapped into the box, so |b − a| < L and one
+    /// conditional shift is the minimum image (a branch instead of `floor`, which is a libm call
+    /// on baseline x86-64 and sat in the innermost loop).
     #[inline(always)]
     pub fn delta(&self, a: V3<R>, b: V3<R>) -> V3<R> {
         let mut d = b - a;
         if let Some((lo, hi)) = self.x {
-            let l = hi - lo;
-            d.x -= l * (d.x / l + R::from_f64(0.5)).floor();
+            d.x = image(d.x, hi - lo);
         }
         if let Some((lo, hi)) = self.y {
-            let l = hi - lo;
-            d.y -= l * (d.y / l + R::from_f64(0.5)).floor();
+            d.y = image(d.y, hi - lo);
         }
         d
     }
 
-    /// Wraps a position into the box.
+    /// Wraps a position into the box (the `floor` only for a particle more than a box away).
     #[inline(always)]
     pub fn wrap(&self, p: &mut V3<R>) {
         if let Some((lo, hi)) = self.x {
-            let l = hi - lo;
-            p.x -= l * ((p.x - lo) / l).floor();
+            p.x = wrap1(p.x, lo, hi);
         }
         if let Some((lo, hi)) = self.y {
-            let l = hi - lo;
-            p.y -= l * ((p.y - lo) / l).floor();
+            p.y = wrap1(p.y, lo, hi);
         }
+    }
+}
+
+/// The minimum image of a separation `d` with |d| < `l` along a periodic axis of length `l`.
+#[inline(always)]
+fn image<R: Real>(d: R, l: R) -> R {
+    let half = l * R::from_f64(0.5);
+    if d > half {
+        d - l
+    } else if d < -half {
+        d + l
+    } else {
+        d
+    }
+}
+
+#[inline(always)]
+fn wrap1<R: Real>(x: R, lo: R, hi: R) -> R {
+    let l = hi - lo;
+    if x >= lo && x < hi {
+        x
+    } else if x >= hi && x < hi + l {
+        x - l
+    } else if x < lo && x >= lo - l {
+        x + l
+    } else {
+        x - l * ((x - lo) / l).floor()
     }
 }
 
@@ -107,21 +133,44 @@ fn axis<R: Real>(lo: f64, hi: f64, cell: f64, periodic: bool) -> Axis<R> {
     }
 }
 
-/// Sorts `state` by cell and rebuilds `list` with cutoff r_i + r_j + skin (r the reach: the
-/// radius, plus l/2 for a spherocylinder).
-pub fn build<R: Real>(
-    state: &mut State<R>,
-    periodic: &Periodic<R>,
-    skin: R,
-    list: &mut NeighbourList<R>,
-) {
+/// The cell grid of one rebuild, over the particles as sorted by `sort_by_cell`.
+struct Grid<R: Real> {
+    ax: [Axis<R>; 3],
+    /// Cell c holds the particles start[c]..start[c + 1].
+    start: Vec<u32>,
+    /// Reach of each (sorted) particle: its radius, plus l/2 for a spherocylinder.
+    reach: Vec<R>,
+}
+
+impl<R: Real> Grid<R> {
+    /// Calls `f(j)` for every particle j in the 27 cells around `p` (each cell once).
+    #[inline]
+    fn around(&self, p: V3<R>, mut f: impl FnMut(usize)) {
+        let ax = &self.ax;
+        let (cx, cy, cz) = (ax[0].cell(p.x), ax[1].cell(p.y), ax[2].cell(p.z));
+        let (mut nx, mut ny, mut nz) = ([0; 3], [0; 3], [0; 3]);
+        let kx = ax[0].around(cx, &mut nx);
+        let ky = ax[1].around(cy, &mut ny);
+        let kz = ax[2].around(cz, &mut nz);
+        for &z in &nz[..kz] {
+            for &y in &ny[..ky] {
+                for &x in &nx[..kx] {
+                    let c = (z * ax[1].n + y) * ax[0].n + x;
+                    for j in self.start[c]..self.start[c + 1] {
+                        f(j as usize);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Wraps positions into the periodic box (so that one shift is the minimum image), sorts
+/// `state` by cell (a stable counting sort: deterministic) and returns the grid.
+fn sort_by_cell<R: Real>(state: &mut State<R>, periodic: &Periodic<R>, skin: R) -> Grid<R> {
     let n = state.len();
-    list.builds += 1;
-    if n == 0 {
-        list.count.clear();
-        list.index.clear();
-        list.ref_pos.clear();
-        return;
+    for p in &mut state.pos {
+        periodic.wrap(p);
     }
     // The reach of a particle from its centre: its radius, plus l/2 for a spherocylinder. Cells
     // are sized from the longest particle.
@@ -190,12 +239,31 @@ pub fn build<R: Real>(
     }
     state.permute(&order);
     let reach: Vec<R> = order.iter().map(|&o| reach[o as usize]).collect();
+    Grid { ax, start, reach }
+}
 
+/// Sorts `state` by cell and rebuilds `list` with cutoff r_i + r_j + skin (r the reach: the
+/// radius, plus l/2 for a spherocylinder).
+pub fn build<R: Real>(
+    state: &mut State<R>,
+    periodic: &Periodic<R>,
+    skin: R,
+    list: &mut NeighbourList<R>,
+) {
+    let n = state.len();
+    list.builds += 1;
+    if n == 0 {
+        list.count.clear();
+        list.index.clear();
+        list.ref_pos.clear();
+        return;
+    }
+    let grid = sort_by_cell(state, periodic, skin);
     if list.stride == 0 {
         list.stride = 32;
     }
     let pos = &state.pos;
-    let rad = &reach;
+    let rad = &grid.reach;
     loop {
         let stride = list.stride;
         list.count.resize(n, 0);
@@ -207,36 +275,23 @@ pub fn build<R: Real>(
             .enumerate()
             .map(|(i, (row, count))| {
                 let p = pos[i];
-                let (cx, cy, cz) = (ax[0].cell(p.x), ax[1].cell(p.y), ax[2].cell(p.z));
-                let (mut nx, mut ny, mut nz) = ([0; 3], [0; 3], [0; 3]);
-                let kx = ax[0].around(cx, &mut nx);
-                let ky = ax[1].around(cy, &mut ny);
-                let kz = ax[2].around(cz, &mut nz);
                 let mut k = 0usize;
                 let mut over = false;
-                for &z in &nz[..kz] {
-                    for &y in &ny[..ky] {
-                        for &x in &nx[..kx] {
-                            let c = (z * ax[1].n + y) * ax[0].n + x;
-                            for j in start[c]..start[c + 1] {
-                                let j = j as usize;
-                                if j == i {
-                                    continue;
-                                }
-                                let d = periodic.delta(p, pos[j]);
-                                let cut = rad[i] + rad[j] + skin;
-                                if d.norm2() < cut * cut {
-                                    if k < stride {
-                                        row[k] = j as u32;
-                                    } else {
-                                        over = true;
-                                    }
-                                    k += 1;
-                                }
-                            }
-                        }
+                grid.around(p, |j| {
+                    if j == i {
+                        return;
                     }
-                }
+                    let d = periodic.delta(p, pos[j]);
+                    let cut = rad[i] + rad[j] + skin;
+                    if d.norm2() < cut * cut {
+                        if k < stride {
+                            row[k] = j as u32;
+                        } else {
+                            over = true;
+                        }
+                        k += 1;
+                    }
+                });
                 // Cells are visited in a fixed order, but sort so the sum order does not depend
                 // on how the cells of a periodic axis wrap.
                 let m = k.min(stride);
@@ -257,4 +312,125 @@ pub fn build<R: Real>(
         list.ref_axis
             .extend(state.orientation.iter().map(|q| q.axis_z()));
     }
+}
+
+/// Particles per rayon task when building half lists (rows are gathered per block, then
+/// concatenated in block order: the list does not depend on the thread count).
+const HALF_BLOCK: usize = 2048;
+
+/// Half neighbour lists of spheres in CSR form: particle i's partners j > i (sorted order) within
+/// r_i + r_j + skin, pairs of two fixed particles left out. Each pair appears once, so its force
+/// is computed once (Newton's third law) and its tangential spring lives in its entry. The
+/// transposed index (`rstart`, `rslot`: the entries in which a particle is the partner j, in
+/// entry order) lets each particle sum its forces in a fixed order without atomics.
+#[derive(Clone, Debug, Default)]
+pub struct HalfList<R: Real> {
+    /// Particle i's entries are start[i]..start[i + 1].
+    pub start: Vec<u32>,
+    /// Partner j of each entry.
+    pub nbr: Vec<u32>,
+    /// Entries in which particle j is the partner: rslot[rstart[j]..rstart[j + 1]].
+    pub rstart: Vec<u32>,
+    pub rslot: Vec<u32>,
+    /// The particle i owning each entry of `rslot`.
+    pub rowner: Vec<u32>,
+    /// Positions when the list was built (for the skin criterion).
+    pub ref_pos: Vec<V3<R>>,
+    pub builds: u64,
+}
+
+impl<R: Real> HalfList<R> {
+    pub fn len(&self) -> usize {
+        self.nbr.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nbr.is_empty()
+    }
+}
+
+/// Sorts `state` (spheres) by cell and rebuilds the half list `list`; `fixed` pairs (both
+/// inverse masses zero) are left out.
+pub fn build_half<R: Real>(
+    state: &mut State<R>,
+    periodic: &Periodic<R>,
+    skin: R,
+    list: &mut HalfList<R>,
+) {
+    let n = state.len();
+    list.builds += 1;
+    list.start.clear();
+    list.nbr.clear();
+    list.rstart.clear();
+    list.rslot.clear();
+    list.rowner.clear();
+    list.ref_pos.clear();
+    if n == 0 {
+        list.start.push(0);
+        list.rstart.push(0);
+        return;
+    }
+    let grid = sort_by_cell(state, periodic, skin);
+    let pos = &state.pos;
+    let rad = &grid.reach;
+    let inv_mass = &state.inv_mass;
+    let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(HALF_BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let range = b * HALF_BLOCK..((b + 1) * HALF_BLOCK).min(n);
+            let mut counts = Vec::with_capacity(range.len());
+            let mut nbr = Vec::with_capacity(range.len() * 8);
+            for i in range {
+                let p = pos[i];
+                let fixed_i = inv_mass[i] == R::zero();
+                let row0 = nbr.len();
+                grid.around(p, |j| {
+                    // Fixed pairs never interact: they would only cost a distance test a step.
+                    if j <= i || (fixed_i && inv_mass[j] == R::zero()) {
+                        return;
+                    }
+                    let d = periodic.delta(p, pos[j]);
+                    let cut = rad[i] + rad[j] + skin;
+                    if d.norm2() < cut * cut {
+                        nbr.push(j as u32);
+                    }
+                });
+                // Ascending partners: a fixed order, and the partners' data read in memory order.
+                nbr[row0..].sort_unstable();
+                counts.push((nbr.len() - row0) as u32);
+            }
+            (counts, nbr)
+        })
+        .collect();
+    list.start.reserve(n + 1);
+    list.start.push(0);
+    let mut total = 0u32;
+    for (counts, nbr) in &blocks {
+        for &c in counts {
+            total += c;
+            list.start.push(total);
+        }
+        list.nbr.extend_from_slice(nbr);
+    }
+    // Transpose: a counting sort of the entries by partner, in entry order (deterministic).
+    list.rstart.resize(n + 1, 0);
+    for &j in &list.nbr {
+        list.rstart[j as usize + 1] += 1;
+    }
+    for j in 0..n {
+        list.rstart[j + 1] += list.rstart[j];
+    }
+    let mut fill = list.rstart.clone();
+    list.rslot.resize(list.nbr.len(), 0);
+    list.rowner.resize(list.nbr.len(), 0);
+    for i in 0..n {
+        for e in list.start[i]..list.start[i + 1] {
+            let j = list.nbr[e as usize] as usize;
+            let r = fill[j] as usize;
+            list.rslot[r] = e;
+            list.rowner[r] = i as u32;
+            fill[j] += 1;
+        }
+    }
+    list.ref_pos.extend_from_slice(&state.pos);
 }

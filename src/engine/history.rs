@@ -1,8 +1,9 @@
 //! Contact history: the tangential spring of every contact a particle has, keyed by the partner's
-//! stable id (a particle id, or a wall's id from `wall_key`). It lives with the particle, so it
-//! survives re-sorting and removal, and each particle updates only its own rows (no races, no
-//! float atomics). A pair's spring is stored twice (i's view and j's view); the two copies are
-//! mirror images up to rounding.
+//! stable id (a particle id, or a wall's id from `wall_key`). This per-particle table is the
+//! exchange format (checkpoints, GPU, spherocylinders): it lives with the particle, so it survives
+//! re-sorting and removal. A pair's spring is stored twice (i's view and j's view), mirror images
+//! (exact negatives when the sphere step wrote them; up to rounding from the GPU). The sphere step
+//! keeps springs per pair while a chunk runs (`cpu.rs`) and writes them back here.
 
 use super::real::{Real, V3};
 

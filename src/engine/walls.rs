@@ -144,7 +144,14 @@ impl<R: Real> WallKernel<R> {
                 }
                 let dx = p.x - self.a.x;
                 let dy = p.y - self.a.y;
-                let rr = (dx * dx + dy * dy).sqrt();
+                let rr2 = dx * dx + dy * dy;
+                // Well inside: no contact, without the square root (every particle, every step).
+                // The margin keeps the decision at the surface to the exact test below.
+                let inner = self.r - rad;
+                if inner > R::zero() && rr2 < inner * inner * R::from_f64(0.999) {
+                    return None;
+                }
+                let rr = rr2.sqrt();
                 let d = self.r - rr;
                 if d >= rad || rr <= R::zero() {
                     return None;
