@@ -13,7 +13,7 @@ use std::process::Command;
 
 use sweep::engine::walls::WallShape;
 use sweep::engine::{Backend, CpuEngine};
-use sweep::observe::fits::beverloo_fit;
+use sweep::observe::fits::{beverloo_c_at_k, beverloo_fit};
 use sweep::scene::silo::{SiloParams, SiloPhase, SiloScene};
 
 fn launch(dir: &Path, campaign: &serde_json::Value) {
@@ -85,8 +85,9 @@ fn beverloo_at_f0_over_four_orifices() {
         assert!(w[1] > w[0], "Q must rise with D: {y:?}");
     }
     let fit = beverloo_fit(&x, &y, d, rho_b, 9.81).expect("fit");
+    let c15 = beverloo_c_at_k(&x, &y, d, rho_b, 9.81, 1.5).expect("C at k = 1.5");
     eprintln!(
-        "Beverloo: C = {:.3}, k = {:.3}, ρ_b = {rho_b:.0} kg/m³, Q = {y:?}",
+        "Beverloo: C = {:.3}, k = {:.3}; at k = 1.5: C = {c15:.3}; ρ_b = {rho_b:.0} kg/m³, Q = {y:?}",
         fit.c, fit.k
     );
     assert!((1.0..=2.0).contains(&fit.k), "k = {}", fit.k);

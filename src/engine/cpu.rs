@@ -23,9 +23,11 @@ use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
 use super::oriented;
 use super::real::{Real, V3};
 use super::state::State;
+use super::team::Team;
 use super::walls::WallKernel;
 pub use super::watchdog::Watchdog;
 use super::watchdog::{wall_speed, EnergyBudget};
+use std::sync::Mutex;
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
@@ -72,6 +74,8 @@ pub struct CpuEngine<R: Real> {
     /// Shared so `advance` can enter it once per chunk: the per-step parallel passes then run
     /// inside the pool instead of handing work over to it several times a step.
     pool: std::sync::Arc<rayon::ThreadPool>,
+    /// The sphere step's passes run on this team (its threads stay awake between passes).
+    team: Team,
     threads: usize,
     pub watchdog: Watchdog,
 }
@@ -114,6 +118,7 @@ impl<R: Real> CpuEngine<R> {
             t_new: Vec::new(),
             contacts: Vec::new(),
             pool,
+            team: Team::new(threads),
             threads,
             watchdog: Watchdog::default(),
             state,
@@ -268,11 +273,12 @@ impl<R: Real> CpuEngine<R> {
         self.wall_springs.clear();
         self.wall_springs.resize(n * nw, V3::zero());
         let hist = std::mem::take(&mut self.state.history);
-        if hist.slots > 0 {
-            let (half, id) = (&self.half, &self.state.id);
+        {
+            let (half, id, props) = (&self.half, &self.state.id, &self.props);
             let bounds = block_bounds(&half.start, n);
             let blocks = split_blocks(&mut self.pair_slots, &bounds.1);
             let wblocks = split_blocks(&mut self.wall_springs, &scaled(&bounds.0, nw));
+            let hist = &hist;
             self.pool.install(|| {
                 blocks
                     .into_par_iter()
@@ -284,27 +290,27 @@ impl<R: Real> CpuEngine<R> {
                         for i in first..bounds.0[b + 1] {
                             let e1 = half.start[i + 1] as usize;
                             for e in e0..e1 {
-                                let sp = hist.spring_of(i, id[half.nbr[e] as usize]);
+                                let j = half.nbr[e] as usize;
                                 let sl = &mut slots[e - bounds.1[b]];
-                                sl.spring = sp;
-                                // A stored spring marks a contact that existed: keep it.
-                                sl.h = if sp != V3::zero() {
-                                    R::zero()
-                                } else {
-                                    -R::one()
-                                };
+                                *sl = PairSlot::between(&props[i], &props[j]);
+                                if hist.slots > 0 {
+                                    let sp = hist.spring_of(i, id[j]);
+                                    sl.spring = sp;
+                                    // A stored spring marks a contact that existed: keep it.
+                                    if sp != V3::zero() {
+                                        sl.h = R::zero();
+                                    }
+                                }
                             }
                             e0 = e1;
-                            for w in 0..nw {
-                                wsp[(i - first) * nw + w] = hist.spring_of(i, wall_key(w));
+                            if hist.slots > 0 {
+                                for w in 0..nw {
+                                    wsp[(i - first) * nw + w] = hist.spring_of(i, wall_key(w));
+                                }
                             }
                         }
                     });
             });
-        } else {
-            for sl in &mut self.pair_slots {
-                sl.h = -R::one();
-            }
         }
         // The table stays out of the state while the chunk runs (the slots hold the history).
         self.state.history = History::new(0);
@@ -376,28 +382,30 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.contacts, &parts))
             .collect::<Vec<_>>();
         let (start, nbr) = (&self.half.start, &self.half.nbr);
-        self.pool.install(|| {
-            blocks
-                .into_par_iter()
-                .enumerate()
-                .map(|(b, ((((slots, react), force), torque), nc))| {
-                    let mut m = R::zero();
-                    for (l, i) in (parts[b]..parts[b + 1]).enumerate() {
-                        let (a, z) = (start[i] as usize, start[i + 1] as usize);
-                        let (a0, z0) = (a - entries[b], z - entries[b]);
-                        let (f, t, ov, c) =
-                            ctx.pairs_of(i, &nbr[a..z], &mut slots[a0..z0], &mut react[a0..z0]);
-                        force[l] = f;
-                        if rot {
-                            torque[l] = t;
-                        }
-                        nc[l] = c;
-                        m = m.max(ov);
+        // One task per block, claimed by whichever team thread is free (the blocks' work
+        // differs: walls, free surface); each block's slices behind an uncontended lock.
+        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
+        self.team
+            .run(cells.len(), |b| {
+                let mut guard = cells[b].lock().unwrap();
+                let ((((slots, react), force), torque), nc) = &mut *guard;
+                let mut m = R::zero();
+                for (l, i) in (parts[b]..parts[b + 1]).enumerate() {
+                    let (a, z) = (start[i] as usize, start[i + 1] as usize);
+                    let (a0, z0) = (a - entries[b], z - entries[b]);
+                    let (f, t, ov, c) =
+                        ctx.pairs_of(i, &nbr[a..z], &mut slots[a0..z0], &mut react[a0..z0]);
+                    force[l] = f;
+                    if rot {
+                        torque[l] = t;
                     }
-                    m
-                })
-                .reduce(R::zero, |a, b| a.max(b))
-        })
+                    nc[l] = c;
+                    m = m.max(ov);
+                }
+                m
+            })
+            .into_iter()
+            .fold(R::zero(), |a, b| a.max(b))
     }
 
     /// Completes each particle's force and torque (own share from the pair pass, then the
@@ -438,68 +446,67 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(split_blocks(&mut self.wall_springs, &scaled(&parts, nw)))
             .collect::<Vec<_>>();
-        self.pool.install(|| {
-            blocks
-                .into_par_iter()
-                .enumerate()
-                .map(
-                    |(b, (((((((pos, vel), force), omega), torque), alive), nc), wsp))| {
-                        let mut out = (false, false, R::zero(), 0u32);
-                        let first = parts[b];
-                        for l in 0..pos.len() {
-                            let k = first + l;
-                            if alive[l] != ALIVE {
-                                force[l] = V3::zero();
-                                if rot {
-                                    torque[l] = V3::zero();
-                                }
-                                nc[l] = 0;
-                                continue;
-                            }
-                            let pr = props[k];
-                            let (w, t0) = if rot {
-                                (omega[l], torque[l])
-                            } else {
-                                (V3::zero(), V3::zero())
-                            };
-                            let wall_sp = &mut wsp[l * nw..(l + 1) * nw];
-                            let (f, t, ov, c) =
-                                ctx.sum(k, force[l], t0, pos[l], vel[l], w, pr, wall_sp);
-                            out.2 = out.2.max(ov);
-                            force[l] = f;
-                            nc[l] += c;
-                            out.3 = out.3.max(nc[l]);
+        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
+        self.team
+            .run(cells.len(), |b| {
+                let mut guard = cells[b].lock().unwrap();
+                let (((((((pos, vel), force), omega), torque), alive), nc), wsp) = &mut *guard;
+                {
+                    let mut out = (false, false, R::zero(), 0u32);
+                    let first = parts[b];
+                    for l in 0..pos.len() {
+                        let k = first + l;
+                        if alive[l] != ALIVE {
+                            force[l] = V3::zero();
                             if rot {
-                                torque[l] = t;
+                                torque[l] = V3::zero();
                             }
-                            if pr.inv_m == R::zero() {
-                                continue;
-                            }
-                            if rot {
-                                omega[l] += t * (pr.inv_i * kick);
-                            }
-                            let v = &mut vel[l];
-                            *v += (f * pr.inv_m + g) * kick;
-                            if !drift {
-                                continue;
-                            }
-                            let x = &mut pos[l];
-                            *x += *v * dt;
-                            periodic.wrap(x);
-                            if matches!(sink, Some(zs) if x.z < zs) {
-                                alive[l] = DYING;
-                                out.0 = true;
-                            }
-                            out.1 |= periodic.delta(refs[k], *x).norm2() > half2;
+                            nc[l] = 0;
+                            continue;
                         }
-                        out
-                    },
-                )
-                .reduce(
-                    || (false, false, R::zero(), 0),
-                    |p, q| (p.0 || q.0, p.1 || q.1, p.2.max(q.2), p.3.max(q.3)),
-                )
-        })
+                        let pr = props[k];
+                        let (w, t0) = if rot {
+                            (omega[l], torque[l])
+                        } else {
+                            (V3::zero(), V3::zero())
+                        };
+                        let wall_sp = &mut wsp[l * nw..(l + 1) * nw];
+                        let (f, t, ov, c) =
+                            ctx.sum(k, force[l], t0, pos[l], vel[l], w, pr, wall_sp);
+                        out.2 = out.2.max(ov);
+                        force[l] = f;
+                        nc[l] += c;
+                        out.3 = out.3.max(nc[l]);
+                        if rot {
+                            torque[l] = t;
+                        }
+                        if pr.inv_m == R::zero() {
+                            continue;
+                        }
+                        if rot {
+                            omega[l] += t * (pr.inv_i * kick);
+                        }
+                        let v = &mut vel[l];
+                        *v += (f * pr.inv_m + g) * kick;
+                        if !drift {
+                            continue;
+                        }
+                        let x = &mut pos[l];
+                        *x += *v * dt;
+                        periodic.wrap(x);
+                        if matches!(sink, Some(zs) if x.z < zs) {
+                            alive[l] = DYING;
+                            out.0 = true;
+                        }
+                        out.1 |= periodic.delta(refs[k], *x).norm2() > half2;
+                    }
+                    out
+                }
+            })
+            .into_iter()
+            .fold((false, false, R::zero(), 0), |p, q| {
+                (p.0 || q.0, p.1 || q.1, p.2.max(q.2), p.3.max(q.3))
+            })
     }
 
     /// Elastic energy of the contacts from the half lists and slots (each pair once), summed in

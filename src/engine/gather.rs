@@ -229,16 +229,50 @@ impl<'a, R: Real> ForceContext<'a, R> {
 }
 
 /// One entry of the half list as the pair pass keeps it: the pair's tangential spring (i's view;
-/// j's is its negative) and whether the pair touched at the last evaluation.
+/// j's is its negative), whether the pair touched at the last evaluation, and the pair's
+/// constants, computed once per list build so that the pass reads nothing of j but its
+/// kinematics (and divides only by the distance).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct PairSlot<R: Real> {
     pub(super) spring: V3<R>,
     /// Half the overlap, or −1 when the pair does not touch.
     pub(super) h: R,
+    /// r_i + r_j: the contact distance.
+    pub(super) sum: R,
+    /// r_j: j's lever is r_j − h.
+    pub(super) rj: R,
+    /// R* = r_i r_j / (r_i + r_j).
+    pub(super) r_eff: R,
+    /// m* (a fixed partner acts as infinitely heavy).
+    pub(super) m_eff: R,
+    /// 1 / (2 min(r_i, r_j)): the overlap ratio the watchdog checks.
+    pub(super) inv_d: R,
 }
 
 impl<R: Real> PairSlot<R> {
+    /// A new entry for the pair (i, j): no spring, not touching.
+    #[inline]
+    pub(super) fn between(i: &Props<R>, j: &Props<R>) -> Self {
+        let sum = i.r + j.r;
+        let m_eff = if j.inv_m == R::zero() {
+            i.m
+        } else if i.inv_m == R::zero() {
+            j.m
+        } else {
+            i.m * j.m / (i.m + j.m)
+        };
+        Self {
+            spring: V3::zero(),
+            h: -R::one(),
+            sum,
+            rj: j.r,
+            r_eff: i.r * j.r / sum,
+            m_eff,
+            inv_d: i.inv_d.max(j.inv_d),
+        }
+    }
+
     #[inline(always)]
     pub(super) fn touching(&self) -> bool {
         self.h >= R::zero()
@@ -313,27 +347,13 @@ impl<R: Real> PairContext<'_, R> {
         let vi = self.vel[i];
         let rot = !self.omega.is_empty();
         let wi = if rot { self.omega[i] } else { V3::zero() };
-        let Props {
-            r: ri,
-            m: mi,
-            inv_m: im_i,
-            inv_d: id_i,
-            ..
-        } = self.props[i];
-        let fixed_i = im_i == R::zero();
+        let ri = self.props[i].r;
         let half = R::from_f64(0.5);
         for ((sl, r), &j) in slots.iter_mut().zip(react.iter_mut()).zip(nbr) {
             let j = j as usize;
-            let Props {
-                r: rj,
-                m: mj,
-                inv_m: im_j,
-                inv_d: id_j,
-                ..
-            } = self.props[j];
             let d = self.periodic.delta(self.pos[j], pi); // from j to i
             let dist2 = d.norm2();
-            let sum = ri + rj;
+            let sum = sl.sum;
             if dist2 >= sum * sum || self.alive[j] != ALIVE {
                 // A contact that ends loses its spring (the next one starts from zero).
                 if sl.touching() {
@@ -346,25 +366,17 @@ impl<R: Real> PairContext<'_, R> {
             let n = d * (R::one() / dist);
             let overlap = sum - dist;
             let h = overlap * half;
-            let (li, lj) = (ri - h, rj - h);
+            let (li, lj) = (ri - h, sl.rj - h);
             let bi = -(n * li);
             let bj = n * lj;
             let wj = if rot { self.omega[j] } else { V3::zero() };
             let v_rel = (vi + wi.cross(bi)) - (self.vel[j] + wj.cross(bj));
-            // A fixed partner acts as infinitely heavy.
-            let m_eff = if im_j == R::zero() {
-                mi
-            } else if fixed_i {
-                mj
-            } else {
-                mi * mj / (mi + mj)
-            };
             let c = ContactInput {
                 overlap,
                 normal: n,
                 v_rel,
-                r_eff: ri * rj / sum,
-                m_eff,
+                r_eff: sl.r_eff,
+                m_eff: sl.m_eff,
             };
             let mut spring = if self.keep_springs && sl.touching() {
                 sl.spring
@@ -382,7 +394,7 @@ impl<R: Real> PairContext<'_, R> {
                 f: -fc,
                 t: -(nf * lj),
             };
-            max_ov = max_ov.max(overlap * id_i.max(id_j));
+            max_ov = max_ov.max(overlap * sl.inv_d);
             nc += 1;
         }
         (f, t, max_ov, nc)

@@ -14,6 +14,7 @@ mod oriented;
 pub mod real;
 pub mod shape;
 pub mod state;
+mod team;
 pub mod walls;
 pub mod watchdog;
 

@@ -326,16 +326,7 @@ pub fn beverloo_fit(
     let c0 = line.slope.powf(2.5) / scale;
     // Residual sum of squares in Q for a given k, with the best C for that k.
     let d_lo = d.iter().copied().fold(f64::INFINITY, f64::min);
-    let c_for_k = |k: f64| {
-        let h: Vec<f64> = d
-            .iter()
-            .map(|di| scale * (di - k * particle_d_m).max(0.0).powf(2.5))
-            .collect();
-        let hh: f64 = h.iter().map(|hi| hi * hi).sum();
-        let c = h.iter().zip(&q).map(|(hi, qi)| hi * qi).sum::<f64>() / hh;
-        let ssr: f64 = h.iter().zip(&q).map(|(hi, qi)| (qi - c * hi).powi(2)).sum();
-        (ssr, c)
-    };
+    let c_for_k = |k: f64| c_and_ssr_at_k(&d, &q, particle_d_m, scale, k);
     let k_hi = (k0 + 1.0).min(d_lo / particle_d_m);
     let k_ref = golden_min(|k| c_for_k(k).0, k0 - 1.0, k_hi, 1e-12);
     let (ssr0, _) = c_for_k(k0);
@@ -356,6 +347,50 @@ pub fn beverloo_fit(
         rms_residual_kg_per_s: rms,
         ..fit
     })
+}
+
+/// The least-squares C of Q = C ρ_b √g (D − k d)^{5/2} at a given k, and the residual sum of
+/// squares in Q: (ssr, C).
+fn c_and_ssr_at_k(d: &[f64], q: &[f64], particle_d_m: f64, scale: f64, k: f64) -> (f64, f64) {
+    let h: Vec<f64> = d
+        .iter()
+        .map(|di| scale * (di - k * particle_d_m).max(0.0).powf(2.5))
+        .collect();
+    let hh: f64 = h.iter().map(|hi| hi * hi).sum();
+    let c = h.iter().zip(q).map(|(hi, qi)| hi * qi).sum::<f64>() / hh;
+    let ssr: f64 = h.iter().zip(q).map(|(hi, qi)| (qi - c * hi).powi(2)).sum();
+    (ssr, c)
+}
+
+/// Beverloo's C with k held fixed (k = 1.5 is the usual value for spheres): unlike the joint
+/// fit, whose C and k trade off against each other, this C moves only with the flow rates.
+/// None for no point with Q > 0 and D > k d, or non-finite or non-positive inputs.
+pub fn beverloo_c_at_k(
+    d_m: &[f64],
+    q: &[f64],
+    particle_d_m: f64,
+    bulk_density: f64,
+    g: f64,
+    k: f64,
+) -> Option<f64> {
+    if d_m.len() != q.len()
+        || [particle_d_m, bulk_density, g, k]
+            .iter()
+            .any(|&v| !v.is_finite() || v <= 0.0)
+    {
+        return None;
+    }
+    let (d, q): (Vec<f64>, Vec<f64>) = d_m
+        .iter()
+        .zip(q)
+        .filter(|(di, qi)| qi.is_finite() && **qi > 0.0 && **di > k * particle_d_m)
+        .map(|(&di, &qi)| (di, qi))
+        .unzip();
+    if d.is_empty() {
+        return None;
+    }
+    let (_, c) = c_and_ssr_at_k(&d, &q, particle_d_m, bulk_density * g.sqrt(), k);
+    c.is_finite().then_some(c)
 }
 
 fn rms_residual(x: &[f64], y: &[f64], model: impl Fn(f64) -> f64) -> f64 {
