@@ -91,10 +91,14 @@ fn beverloo_at_f0_over_four_orifices() {
         fit.c, fit.k
     );
     assert!((1.0..=2.0).contains(&fit.k), "k = {}", fit.k);
-    // C and k are fitted jointly from four 1.5 s runs and are strongly anticorrelated: a change
-    // of the re-insertion seeds alone (seeds ignore observers since session 3) moved C to 0.425
-    // with k = 1.16, so the band is 0.6 ± 0.2 (published values for spheres: 0.55–0.65).
+    // The jointly fitted C and k trade off against each other (changes of the trajectories
+    // alone have moved them between (0.425, 1.16) and (0.46, 1.28)), so the joint C only gets a
+    // sanity band; the physics check is C at the usual k = 1.5, which moves only with the flow
+    // rates themselves. Published values for spheres are 0.55–0.65 (Beverloo: 0.58); this silo
+    // is soft (Y = 3 MPa, n_c = 20) and narrow (22 d), which the accuracy map shows moves Q by
+    // up to ~15 %, hence 0.45–0.65. Measured: 0.513.
     assert!((0.4..=0.8).contains(&fit.c), "C = {}", fit.c);
+    assert!((0.45..=0.65).contains(&c15), "C at k = 1.5: {c15}");
 }
 
 #[test]
