@@ -17,7 +17,9 @@ use rayon::prelude::*;
 use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
 use super::contact::{elastic_energy, ContactRecord, LawKernel};
-use super::gather::{ForceContext, PairContext, PairSlot, Props, Reaction, SumContext};
+use super::gather::{
+    ForceContext, PairContext, PairScratch, PairSlot, Props, Reaction, SumContext,
+};
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
 use super::oriented;
@@ -60,6 +62,8 @@ pub struct CpuEngine<R: Real> {
     /// state's table is empty; `store_history` writes it back at the chunk's end.
     half: HalfList<R>,
     pair_slots: Vec<PairSlot<R>>,
+    /// Per block of the pair pass: its touching pairs (vectors reused from step to step).
+    pair_scratch: Vec<PairScratch<R>>,
     reactions: Vec<Reaction<R>>,
     wall_springs: Vec<V3<R>>,
     props: Vec<Props<R>>,
@@ -109,6 +113,7 @@ impl<R: Real> CpuEngine<R> {
             list: NeighbourList::default(),
             half: HalfList::default(),
             pair_slots: Vec::new(),
+            pair_scratch: Vec::new(),
             reactions: Vec::new(),
             wall_springs: Vec::new(),
             props: Vec::new(),
@@ -372,14 +377,18 @@ impl<R: Real> CpuEngine<R> {
             dt: self.dt,
             keep_springs: self.slots > 0,
         };
-        let rot = s.rotation;
         let (parts, entries) = block_bounds(&self.half.start, n);
+        let nblocks = parts.len() - 1;
+        if self.pair_scratch.len() < nblocks {
+            self.pair_scratch.resize_with(nblocks, PairScratch::default);
+        }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
             .zip(split_blocks(&mut self.reactions, &entries))
             .zip(split_blocks(&mut s.force, &parts))
             .zip(split_blocks(&mut s.torque, &parts))
             .zip(split_blocks(&mut self.contacts, &parts))
+            .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
         let (start, nbr) = (&self.half.start, &self.half.nbr);
         // One task per block, claimed by whichever team thread is free (the blocks' work
@@ -388,21 +397,10 @@ impl<R: Real> CpuEngine<R> {
         self.team
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
-                let ((((slots, react), force), torque), nc) = &mut *guard;
-                let mut m = R::zero();
-                for (l, i) in (parts[b]..parts[b + 1]).enumerate() {
-                    let (a, z) = (start[i] as usize, start[i + 1] as usize);
-                    let (a0, z0) = (a - entries[b], z - entries[b]);
-                    let (f, t, ov, c) =
-                        ctx.pairs_of(i, &nbr[a..z], &mut slots[a0..z0], &mut react[a0..z0]);
-                    force[l] = f;
-                    if rot {
-                        torque[l] = t;
-                    }
-                    nc[l] = c;
-                    m = m.max(ov);
-                }
-                m
+                let (((((slots, react), force), torque), nc), scratch) = &mut *guard;
+                ctx.block(
+                    parts[b], start, nbr, entries[b], slots, react, force, torque, nc, scratch,
+                )
             })
             .into_iter()
             .fold(R::zero(), |a, b| a.max(b))
@@ -581,28 +579,12 @@ impl<R: Real> CpuEngine<R> {
             return Ok(());
         }
         let half = self.dt * R::from_f64(0.5);
-        let mut live = self
-            .state
-            .inv_mass
-            .iter()
-            .filter(|&&m| m != R::zero())
-            .count() as u64;
+        let mut live = self.mobile_count();
         let (mut died, mut moved) = self.kick_drift(half);
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
             if died {
-                let s = &self.state;
-                for i in 0..s.len() {
-                    if self.alive[i] == DYING {
-                        report.removed.push(SinkEvent {
-                            id: s.id[i],
-                            mass_kg: s.mass[i].to_f64(),
-                            time_s: t_next,
-                        });
-                        self.alive[i] = DEAD;
-                        live -= 1;
-                    }
-                }
+                live -= self.bury_dying(t_next, &mut report.removed);
             }
             if moved {
                 self.rebuild_half(true);
@@ -922,21 +904,39 @@ impl<R: Real> CpuEngine<R> {
     }
 
     /// One velocity-Verlet step (with the closing half kick deferred, see `kick_drift`).
+    /// Reports the particles that fell through the sink this step (at `time_s`) and marks them
+    /// dead; returns how many.
+    fn bury_dying(&mut self, time_s: f64, removed: &mut Vec<SinkEvent>) -> u64 {
+        let s = &self.state;
+        let mut buried = 0;
+        for i in 0..s.len() {
+            if self.alive[i] == DYING {
+                removed.push(SinkEvent {
+                    id: s.id[i],
+                    mass_kg: s.mass[i].to_f64(),
+                    time_s,
+                });
+                self.alive[i] = DEAD;
+                buried += 1;
+            }
+        }
+        buried
+    }
+
+    /// Particles that are integrated (fixed base particles are not): what particle-steps count.
+    fn mobile_count(&self) -> u64 {
+        self.state
+            .inv_mass
+            .iter()
+            .filter(|&&m| m != R::zero())
+            .count() as u64
+    }
+
     fn step(&mut self, kick: R, removed: &mut Vec<SinkEvent>) -> Result<f64, EngineError> {
         let (died, moved) = self.kick_drift(kick);
         let t_next = self.state.time + self.config.dt_s;
         if died {
-            let s = &self.state;
-            for i in 0..s.len() {
-                if self.alive[i] == DYING {
-                    removed.push(SinkEvent {
-                        id: s.id[i],
-                        mass_kg: s.mass[i].to_f64(),
-                        time_s: t_next,
-                    });
-                    self.alive[i] = DEAD;
-                }
-            }
+            self.bury_dying(t_next, removed);
         }
         if moved {
             self.rebuild();
@@ -1102,14 +1102,7 @@ impl<R: Real> Backend for CpuEngine<R> {
                     budget = Some(self.energy_budget(steps));
                 }
                 let half = self.dt * R::from_f64(0.5);
-                // Particle-steps count mobile particles only (fixed base particles are not
-                // integrated).
-                let mut live = self
-                    .state
-                    .inv_mass
-                    .iter()
-                    .filter(|&&m| m != R::zero())
-                    .count() as u64;
+                let mut live = self.mobile_count();
                 for k in 0..steps {
                     let removed_before = report.removed.len();
                     let ov = self.step(if k == 0 { half } else { self.dt }, &mut report.removed)?;

@@ -9,6 +9,7 @@ use super::cpu::ALIVE;
 use super::grid::{NeighbourList, Periodic};
 use super::history::{wall_key, Rows};
 use super::oriented::OrientedContext;
+use super::pair_lanes::{self, LaneInput, LaneOutput, LANES};
 use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
@@ -180,16 +181,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
                 if let Some(wc) = wall.touch(pi, ri) {
-                    let n = wc.normal;
-                    let bi = -(n * (ri - wc.overlap * R::from_f64(0.5)));
-                    let v_rel = vi + wi.cross(bi) - wc.wall_velocity;
-                    let c = ContactInput {
-                        overlap: wc.overlap,
-                        normal: n,
-                        v_rel,
-                        r_eff: ri,
-                        m_eff: mi,
-                    };
+                    let (bi, c) = wc.sphere_input(ri, mi, vi, wi);
                     let key = wall_key(w);
                     let fc = match rows.as_deref_mut() {
                         Some(rows) => {
@@ -316,88 +308,142 @@ pub(super) struct PairContext<'a, R: Real> {
     pub(super) keep_springs: bool,
 }
 
+/// A block's touching pairs, found by the distance test and evaluated `LANES` at a time.
+/// Kept by the engine per block so that its vectors grow once.
+#[derive(Default)]
+pub(super) struct PairScratch<R: Real> {
+    /// Block-local entry and owner (block-local particle) of each touching pair, in entry order.
+    entry: Vec<u32>,
+    owner: Vec<u32>,
+    d: Vec<V3<R>>,
+    dist2: Vec<R>,
+}
+
 impl<R: Real> PairContext<'_, R> {
-    /// Evaluates every pair (i, j > i) of particle i once (`nbr`, `slots` and `react` are i's
-    /// entries): advances the springs in place, leaves each partner's force and torque in
-    /// `react`, and returns i's own share (force, torque), the largest overlap ratio and i's
-    /// count of touching pairs. Each entry belongs to one particle, so any split over threads
-    /// writes the same bits.
-    #[inline]
-    pub(super) fn pairs_of(
+    /// Evaluates every pair (i, j > i) of the particles `first..first + force.len()` once:
+    /// `start` and `nbr` are the half list, whose entries of this block begin at `e0`; `slots`
+    /// and `react` are this block's entries. Advances the springs in place, leaves each
+    /// partner's force and torque in `react`, and writes each particle's own share in `force`
+    /// and `torque` (summed in entry order) and its count of touching pairs in `nc`. Returns the
+    /// largest overlap ratio. Every value belongs to one block, so any split over threads writes
+    /// the same bits.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn block(
         &self,
-        i: usize,
+        first: usize,
+        start: &[u32],
         nbr: &[u32],
+        e0: usize,
         slots: &mut [PairSlot<R>],
         react: &mut [Reaction<R>],
-    ) -> (V3<R>, V3<R>, R, u32) {
-        let mut f = V3::zero();
-        let mut t = V3::zero();
-        let mut max_ov = R::zero();
-        let mut nc = 0u32;
-        if self.alive[i] != ALIVE {
-            for (sl, r) in slots.iter_mut().zip(react.iter_mut()) {
-                if sl.touching() {
-                    sl.h = -R::one();
-                    *r = Reaction::default();
-                }
-            }
-            return (f, t, max_ov, nc);
-        }
-        let pi = self.pos[i];
-        let vi = self.vel[i];
+        force: &mut [V3<R>],
+        torque: &mut [V3<R>],
+        nc: &mut [u32],
+        scratch: &mut PairScratch<R>,
+    ) -> R {
         let rot = !self.omega.is_empty();
-        let wi = if rot { self.omega[i] } else { V3::zero() };
-        let ri = self.props[i].r;
-        let half = R::from_f64(0.5);
-        for ((sl, r), &j) in slots.iter_mut().zip(react.iter_mut()).zip(nbr) {
-            let j = j as usize;
-            let d = self.periodic.delta(self.pos[j], pi); // from j to i
-            let dist2 = d.norm2();
-            let sum = sl.sum;
-            if dist2 >= sum * sum || self.alive[j] != ALIVE {
-                // A contact that ends loses its spring (the next one starts from zero).
-                if sl.touching() {
-                    sl.h = -R::one();
-                    *r = Reaction::default();
+        let count = force.len();
+        // 1. The distance test: touching pairs into the scratch lists, ended contacts reset
+        // (a contact that ends loses its spring; the next one starts from zero).
+        scratch.entry.clear();
+        scratch.owner.clear();
+        scratch.d.clear();
+        scratch.dist2.clear();
+        for l in 0..count {
+            let i = first + l;
+            let (a, z) = (start[i] as usize - e0, start[i + 1] as usize - e0);
+            let alive_i = self.alive[i] == ALIVE;
+            let pi = self.pos[i];
+            for e in a..z {
+                let sl = &mut slots[e];
+                let j = nbr[e + e0] as usize;
+                let d = self.periodic.delta(self.pos[j], pi); // from j to i
+                let dist2 = d.norm2();
+                if !alive_i || dist2 >= sl.sum * sl.sum || self.alive[j] != ALIVE {
+                    if sl.touching() {
+                        sl.h = -R::one();
+                        react[e] = Reaction::default();
+                    }
+                    continue;
                 }
-                continue;
+                scratch.entry.push(e as u32);
+                scratch.owner.push(l as u32);
+                scratch.d.push(d);
+                scratch.dist2.push(dist2);
             }
-            let dist = dist2.sqrt();
-            let n = d * (R::one() / dist);
-            let overlap = sum - dist;
-            let h = overlap * half;
-            let (li, lj) = (ri - h, sl.rj - h);
-            let bi = -(n * li);
-            let bj = n * lj;
-            let wj = if rot { self.omega[j] } else { V3::zero() };
-            let v_rel = (vi + wi.cross(bi)) - (self.vel[j] + wj.cross(bj));
-            let c = ContactInput {
-                overlap,
-                normal: n,
-                v_rel,
-                r_eff: sl.r_eff,
-                m_eff: sl.m_eff,
-            };
-            let mut spring = if self.keep_springs && sl.touching() {
-                sl.spring
-            } else {
-                V3::zero()
-            };
-            let fc = contact_force(self.law, &c, &mut spring, self.dt);
-            sl.spring = spring;
-            sl.h = h;
-            // Both torques are −(lever) (n × f): i's lever r_i − h, j's r_j − h (j feels −f).
-            let nf = n.cross(fc);
-            f += fc;
-            t -= nf * li;
-            *r = Reaction {
-                f: -fc,
-                t: -(nf * lj),
-            };
-            max_ov = max_ov.max(overlap * sl.inv_d);
-            nc += 1;
         }
-        (f, t, max_ov, nc)
+        // 2. The contacts, LANES at a time; 3. each owner's share summed in entry order.
+        for l in 0..count {
+            force[l] = V3::zero();
+            if rot {
+                torque[l] = V3::zero();
+            }
+            nc[l] = 0;
+        }
+        let mut max_ov = R::zero();
+        let touching = scratch.entry.len();
+        let mut inp = LaneInput::<R>::default();
+        let mut out = LaneOutput::<R>::default();
+        let put = |a: &mut [[R; LANES]; 3], k: usize, v: V3<R>| {
+            a[0][k] = v.x;
+            a[1][k] = v.y;
+            a[2][k] = v.z;
+        };
+        for g in (0..touching).step_by(LANES) {
+            let in_group = (touching - g).min(LANES);
+            for k in 0..LANES {
+                // Lanes past the end repeat the group's first pair (their results are ignored).
+                let c = g + if k < in_group { k } else { 0 };
+                let e = scratch.entry[c] as usize;
+                let i = first + scratch.owner[c] as usize;
+                let j = nbr[e + e0] as usize;
+                let sl = &slots[e];
+                put(&mut inp.d, k, scratch.d[c]);
+                inp.dist2[k] = scratch.dist2[c];
+                put(&mut inp.vi, k, self.vel[i]);
+                put(&mut inp.vj, k, self.vel[j]);
+                let (wi, wj) = if rot {
+                    (self.omega[i], self.omega[j])
+                } else {
+                    (V3::zero(), V3::zero())
+                };
+                put(&mut inp.wi, k, wi);
+                put(&mut inp.wj, k, wj);
+                inp.ri[k] = self.props[i].r;
+                inp.rj[k] = sl.rj;
+                inp.sum[k] = sl.sum;
+                inp.r_eff[k] = sl.r_eff;
+                inp.m_eff[k] = sl.m_eff;
+                let spring = if self.keep_springs && sl.touching() {
+                    sl.spring
+                } else {
+                    V3::zero()
+                };
+                put(&mut inp.spring, k, spring);
+            }
+            pair_lanes::evaluate(self.law, self.dt, &inp, &mut out);
+            for k in 0..in_group {
+                let c = g + k;
+                let e = scratch.entry[c] as usize;
+                let l = scratch.owner[c] as usize;
+                let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
+                let sl = &mut slots[e];
+                sl.spring = get(&out.spring);
+                sl.h = out.h[k];
+                let fc = get(&out.f);
+                react[e] = Reaction {
+                    f: -fc,
+                    t: get(&out.tj),
+                };
+                force[l] += fc;
+                if rot {
+                    torque[l] -= get(&out.ti);
+                }
+                nc[l] += 1;
+                max_ov = max_ov.max(out.overlap[k] * sl.inv_d);
+            }
+        }
+        max_ov
     }
 }
 
@@ -449,16 +495,7 @@ impl<R: Real> SumContext<'_, R> {
                 *ws = V3::zero();
                 continue;
             };
-            let n = wc.normal;
-            let bi = -(n * (rk - wc.overlap * R::from_f64(0.5)));
-            let v_rel = vk + wk.cross(bi) - wc.wall_velocity;
-            let c = ContactInput {
-                overlap: wc.overlap,
-                normal: n,
-                v_rel,
-                r_eff: rk,
-                m_eff: pr.m,
-            };
+            let (bi, c) = wc.sphere_input(rk, pr.m, vk, wk);
             let mut spring = if self.keep_springs { *ws } else { V3::zero() };
             let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
             *ws = spring;

@@ -11,6 +11,7 @@ pub mod gpu;
 pub mod grid;
 pub mod history;
 mod oriented;
+mod pair_lanes;
 pub mod real;
 pub mod shape;
 pub mod state;

@@ -5,6 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::contact::ContactInput;
 use super::real::{Real, V3};
 use super::shape::{contact_plane, PlaneContact, Spherocylinder};
 
@@ -54,6 +55,25 @@ pub struct WallContact<R: Real> {
     pub overlap: R,
     /// Velocity of the wall's surface at the contact point.
     pub wall_velocity: V3<R>,
+}
+
+impl<R: Real> WallContact<R> {
+    /// The lever from the centre of a sphere (radius `r`, mass `m`, velocity `v`, angular
+    /// velocity `w`) to the contact point, and the contact law's input for this contact (a wall
+    /// acts as infinitely heavy and flat: R* = r, m* = m).
+    #[inline(always)]
+    pub fn sphere_input(&self, r: R, m: R, v: V3<R>, w: V3<R>) -> (V3<R>, ContactInput<R>) {
+        let n = self.normal;
+        let lever = -(n * (r - self.overlap * R::from_f64(0.5)));
+        let input = ContactInput {
+            overlap: self.overlap,
+            normal: n,
+            v_rel: v + w.cross(lever) - self.wall_velocity,
+            r_eff: r,
+            m_eff: m,
+        };
+        (lever, input)
+    }
 }
 
 /// A wall in the run's precision.
