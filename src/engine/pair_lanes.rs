@@ -193,8 +193,8 @@ mod tests {
             let dir = [u(1.0), u(1.0), u(1.0)];
             let dn = (dir.iter().map(|x| x.to_f64().powi(2)).sum::<f64>()).sqrt();
             let dist = sum * (1.0 - 0.05 * (0.5 + 0.5 * u(1.0).to_f64()));
-            for k in 0..3 {
-                inp.d[k][l] = R::from_f64(dir[k].to_f64() / dn * dist);
+            for (k, dk) in dir.iter().enumerate() {
+                inp.d[k][l] = R::from_f64(dk.to_f64() / dn * dist);
                 inp.vi[k][l] = u(1.0);
                 inp.vj[k][l] = u(1.0);
                 inp.wi[k][l] = u(100.0);
