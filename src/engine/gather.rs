@@ -345,31 +345,37 @@ impl<R: Real> PairContext<'_, R> {
         let count = force.len();
         // 1. The distance test: touching pairs into the scratch lists, ended contacts reset
         // (a contact that ends loses its spring; the next one starts from zero).
-        scratch.entry.clear();
-        scratch.owner.clear();
-        scratch.d.clear();
-        scratch.dist2.clear();
+        // Branch-free compaction: every entry is written at the next free place and the place
+        // advances only for a touching pair (whether a pair touches is a coin flip the branch
+        // predictor loses).
+        let entries = slots.len();
+        if scratch.entry.len() < entries {
+            scratch.entry.resize(entries, 0);
+            scratch.owner.resize(entries, 0);
+            scratch.d.resize(entries, V3::zero());
+            scratch.dist2.resize(entries, R::zero());
+        }
+        let mut touching = 0usize;
         for l in 0..count {
             let i = first + l;
             let (a, z) = (start[i] as usize - e0, start[i + 1] as usize - e0);
             let alive_i = self.alive[i] == ALIVE;
             let pi = self.pos[i];
             for e in a..z {
-                let sl = &mut slots[e];
                 let j = nbr[e + e0] as usize;
                 let d = self.periodic.delta(self.pos[j], pi); // from j to i
                 let dist2 = d.norm2();
-                if !alive_i || dist2 >= sl.sum * sl.sum || self.alive[j] != ALIVE {
-                    if sl.touching() {
-                        sl.h = -R::one();
-                        react[e] = Reaction::default();
-                    }
-                    continue;
+                let sl = &mut slots[e];
+                let touches = alive_i & (dist2 < sl.sum * sl.sum) & (self.alive[j] == ALIVE);
+                scratch.entry[touching] = e as u32;
+                scratch.owner[touching] = l as u32;
+                scratch.d[touching] = d;
+                scratch.dist2[touching] = dist2;
+                touching += usize::from(touches);
+                if !touches && sl.touching() {
+                    sl.h = -R::one();
+                    react[e] = Reaction::default();
                 }
-                scratch.entry.push(e as u32);
-                scratch.owner.push(l as u32);
-                scratch.d.push(d);
-                scratch.dist2.push(dist2);
             }
         }
         // 2. The contacts, LANES at a time; 3. each owner's share summed in entry order.
@@ -381,7 +387,6 @@ impl<R: Real> PairContext<'_, R> {
             nc[l] = 0;
         }
         let mut max_ov = R::zero();
-        let touching = scratch.entry.len();
         let mut inp = LaneInput::<R>::default();
         let mut out = LaneOutput::<R>::default();
         let put = |a: &mut [[R; LANES]; 3], k: usize, v: V3<R>| {
