@@ -29,6 +29,9 @@ struct Shared {
     job: Mutex<Option<(u32, Body, usize)>>,
     /// Tasks finished in the current epoch.
     done: AtomicUsize,
+    /// The first panic of a task in the current epoch, re-raised by `run` once every task has
+    /// finished (unwinding earlier would free what helpers may still be using).
+    panic: Mutex<Option<Box<dyn std::any::Any + Send>>>,
     stop: AtomicBool,
 }
 
@@ -45,6 +48,7 @@ impl Team {
             claim: AtomicU64::new(0),
             job: Mutex::new(None),
             done: AtomicUsize::new(0),
+            panic: Mutex::new(None),
             stop: AtomicBool::new(false),
         });
         let helpers = (1..threads.max(1))
@@ -91,6 +95,10 @@ impl Team {
         while sh.done.load(Ordering::Acquire) < tasks {
             std::hint::spin_loop();
         }
+        let panicked = sh.panic.lock().unwrap().take();
+        if let Some(p) = panicked {
+            std::panic::resume_unwind(p);
+        }
         results
             .into_iter()
             .map(|m| m.into_inner().unwrap().expect("every task ran"))
@@ -120,7 +128,10 @@ fn work(sh: &Shared, epoch: u32, body: Body, tasks: usize) {
             .compare_exchange_weak(c, c + 1, Ordering::AcqRel, Ordering::Acquire)
         {
             Ok(_) => {
-                body((c & 0xffff_ffff) as usize);
+                let k = (c & 0xffff_ffff) as usize;
+                if let Err(p) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(k))) {
+                    sh.panic.lock().unwrap().get_or_insert(p);
+                }
                 sh.done.fetch_add(1, Ordering::Release);
                 c = sh.claim.load(Ordering::Acquire);
             }
@@ -154,5 +165,49 @@ fn helper(sh: &Shared) {
             std::thread::park_timeout(Duration::from_millis(10));
             idle_since = Instant::now();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_task_runs_once_and_results_come_in_task_order() {
+        for threads in [1, 2, 3] {
+            let mut team = Team::new(threads);
+            for round in 0..200 {
+                let counts: Vec<AtomicUsize> = (0..37).map(|_| AtomicUsize::new(0)).collect();
+                let out = team.run(37, |k| {
+                    counts[k].fetch_add(1, Ordering::Relaxed);
+                    k * round
+                });
+                assert_eq!(out, (0..37).map(|k| k * round).collect::<Vec<_>>());
+                assert!(counts.iter().all(|c| c.load(Ordering::Relaxed) == 1));
+            }
+        }
+    }
+
+    #[test]
+    fn a_panicking_task_is_reraised_after_the_others_finish() {
+        let mut team = Team::new(2);
+        let finished = AtomicUsize::new(0);
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            team.run(16, |k| {
+                if k == 3 {
+                    panic!("task 3");
+                }
+                // Some work, so that other tasks are still running when task 3 panics.
+                let mut x = 0u64;
+                for i in 0..100_000u64 {
+                    x = std::hint::black_box(x.wrapping_add(i));
+                }
+                finished.fetch_add(1, Ordering::Relaxed);
+            })
+        }));
+        assert!(r.is_err());
+        assert_eq!(finished.load(Ordering::Relaxed), 15);
+        // The team still works afterwards.
+        assert_eq!(team.run(4, |k| k), vec![0, 1, 2, 3]);
     }
 }
