@@ -92,8 +92,16 @@ impl Team {
             h.thread().unpark();
         }
         work(sh, self.epoch, body, tasks);
+        // A helper still running a task may have been descheduled (more threads than cores):
+        // after a short spin, give the core away instead of burning it.
+        let mut spins = 0u32;
         while sh.done.load(Ordering::Acquire) < tasks {
-            std::hint::spin_loop();
+            if spins < 4096 {
+                spins += 1;
+                std::hint::spin_loop();
+            } else {
+                std::thread::yield_now();
+            }
         }
         let panicked = sh.panic.lock().unwrap().take();
         if let Some(p) = panicked {
