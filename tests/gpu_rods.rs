@@ -49,11 +49,11 @@
 
 mod common;
 use common::gpu::device;
+use common::rods::{law, shape, stiffness, G, L, RHO};
 use common::Noise;
 
 use std::collections::{BTreeSet, HashMap};
 
-use sweep::engine::contact::{ContactLaw, NormalModel};
 use sweep::engine::cpu::{Watchdog, HISTORY_SLOTS};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::history::{wall_key, EMPTY};
@@ -61,34 +61,6 @@ use sweep::engine::shape::{contact_spherocylinders, Quat, Spherocylinder};
 use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};
 use sweep::scene::chute::{ChuteParams, ChuteScene};
-
-const L: f64 = 0.125;
-const RHO: f64 = 2600.0;
-const G: f64 = 1.0;
-
-fn law(kn: f64, e: f64, mu: f64) -> ContactLaw {
-    ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    }
-}
-
-fn shape(xi: f64) -> Spherocylinder<f64> {
-    Spherocylinder::from_aspect_ratio(L, xi).unwrap()
-}
-
-/// k_n = 2e5 m g / L (the chute's) and dt = t_c/50 with m* = m/2.
-fn stiffness(xi: f64) -> (f64, f64) {
-    let m = shape(xi).mass(RHO);
-    let kn = 2e5 * m * G / L;
-    let tc = std::f64::consts::PI * (0.5 * m / kn).sqrt();
-    (kn, tc / 50.0)
-}
 
 fn plane(point: [f64; 3], normal: [f64; 3]) -> Wall {
     Wall {

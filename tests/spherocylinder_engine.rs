@@ -15,43 +15,15 @@
 //!   tangential springs differently, so they may differ by rounding only).
 
 mod common;
+use common::rods::{law, shape, stiffness, G, L, RHO};
 use common::Noise;
 
 use sweep::checkpoint::{self, Header};
-use sweep::engine::contact::{ContactLaw, NormalModel};
 use sweep::engine::cpu::HISTORY_SLOTS;
 use sweep::engine::real::V3;
 use sweep::engine::shape::{contact_spherocylinders, rotational_energy, Quat, Spherocylinder};
 use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
-
-const L: f64 = 0.125;
-const RHO: f64 = 2600.0;
-const G: f64 = 1.0;
-
-fn law(kn: f64, e: f64, mu: f64) -> ContactLaw {
-    ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    }
-}
-
-fn shape(xi: f64) -> Spherocylinder<f64> {
-    Spherocylinder::from_aspect_ratio(L, xi).unwrap()
-}
-
-/// k_n = 2e5 m g / L and dt = t_c/50 with m* = m/2.
-fn stiffness(xi: f64) -> (f64, f64) {
-    let m = shape(xi).mass(RHO);
-    let kn = 2e5 * m * G / L;
-    let tc = std::f64::consts::PI * (0.5 * m / kn).sqrt();
-    (kn, tc / 50.0)
-}
 
 fn plane_config(xi: f64, e: f64, mu: f64) -> EngineConfig {
     let (kn, dt) = stiffness(xi);

@@ -5,11 +5,11 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::plot::ensure_font;
+use super::plot::write_svg_and_png;
 
 const FONT: &str = "sans-serif";
 
@@ -105,25 +105,7 @@ impl MapFigure {
     /// # Errors
     /// When the font cannot be loaded or a file cannot be written.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-        ensure_font()?;
-        let size = self.size();
-        let svg = dir.join(format!("{stem}.svg"));
-        {
-            let root = SVGBackend::new(&svg, size).into_drawing_area();
-            self.draw(&root)
-                .with_context(|| format!("drawing {}", svg.display()))?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
-        }
-        let png = dir.join(format!("{stem}.png"));
-        {
-            let root = BitMapBackend::new(&png, size).into_drawing_area();
-            self.draw(&root)
-                .with_context(|| format!("drawing {}", png.display()))?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
-        }
-        Ok(vec![svg, png])
+        write_svg_and_png(dir, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {

@@ -40,6 +40,36 @@ pub enum Scale {
     Log,
 }
 
+/// Draws a figure of `size` pixels twice, into `<dir>/<stem>.svg` and `<dir>/<stem>.png` (one
+/// drawing function per backend: plotters' backends are types), and returns the two paths.
+///
+/// # Errors
+/// When the font cannot be loaded or a file cannot be drawn or written.
+pub(super) fn write_svg_and_png(
+    dir: &Path,
+    stem: &str,
+    size: (u32, u32),
+    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+) -> Result<Vec<PathBuf>> {
+    ensure_font()?;
+    let svg = dir.join(format!("{stem}.svg"));
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw_svg(&root).with_context(|| format!("drawing {}", svg.display()))?;
+        root.present()
+            .map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
+    }
+    let png = dir.join(format!("{stem}.png"));
+    {
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        draw_png(&root).with_context(|| format!("drawing {}", png.display()))?;
+        root.present()
+            .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
+    }
+    Ok(vec![svg, png])
+}
+
 /// One axis of a panel.
 #[derive(Debug, Clone)]
 pub struct Axis {
@@ -228,23 +258,7 @@ impl Figure {
     /// # Errors
     /// When the font cannot be loaded or a file cannot be written.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-        ensure_font()?;
-        let size = self.size();
-        let svg = dir.join(format!("{stem}.svg"));
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        self.draw(&root)
-            .with_context(|| format!("drawing {}", svg.display()))?;
-        root.present()
-            .map_err(|e| anyhow!("writing {}: {e}", svg.display()))?;
-        drop(root);
-        let png = dir.join(format!("{stem}.png"));
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        self.draw(&root)
-            .with_context(|| format!("drawing {}", png.display()))?;
-        root.present()
-            .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
-        drop(root);
-        Ok(vec![svg, png])
+        write_svg_and_png(dir, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {

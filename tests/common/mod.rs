@@ -4,6 +4,7 @@
 pub mod collision;
 pub mod fit;
 pub mod gpu;
+pub mod rods;
 pub mod silo;
 
 use rand::{Rng, SeedableRng};

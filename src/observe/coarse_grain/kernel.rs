@@ -99,7 +99,7 @@ impl Kernel1d {
 
 /// erf(b) − erf(a), through erfc when both are on the same side: there erf ≈ ±1 and the plain
 /// difference would cancel.
-fn erf_difference(a: f64, b: f64) -> f64 {
+pub(super) fn erf_difference(a: f64, b: f64) -> f64 {
     if a >= 0.0 && b >= 0.0 {
         libm::erfc(a) - libm::erfc(b)
     } else if a <= 0.0 && b <= 0.0 {

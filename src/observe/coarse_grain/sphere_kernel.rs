@@ -5,7 +5,7 @@
 //! gives an azimuthal average (`ring`) that does not depend on a particle's azimuth, and it keeps
 //! the fields objective. Owns values and the branch-line integral; knows nothing of grids.
 
-use super::kernel::Kernel;
+use super::kernel::{erf_difference, Kernel};
 
 /// Below |h| = this × w the branch line integral is the midpoint value (as `Kernel1d::line`).
 const LINE_MIDPOINT_BELOW: f64 = 1e-5;
@@ -98,15 +98,4 @@ impl SphereKernel {
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// erf(b) − erf(a), through erfc on one side of zero (where the plain difference cancels).
-fn erf_difference(a: f64, b: f64) -> f64 {
-    if a >= 0.0 && b >= 0.0 {
-        libm::erfc(a) - libm::erfc(b)
-    } else if a <= 0.0 && b <= 0.0 {
-        libm::erfc(-b) - libm::erfc(-a)
-    } else {
-        libm::erf(b) - libm::erf(a)
-    }
 }
