@@ -634,8 +634,10 @@ impl<R: Real> CpuEngine<R> {
         b
     }
 
-    /// Contact forces and torques on every particle, from the current positions and velocities.
+    /// Contact forces and torques on every spherocylinder, from the current positions and
+    /// velocities (full lists, each particle gathering its own).
     fn compute_forces(&mut self) -> Result<R, EngineError> {
+        debug_assert!(self.state.oriented, "spheres run advance_spheres");
         let n = self.state.len();
         self.f_new.resize(n, V3::zero());
         self.t_new.resize(n, V3::zero());
@@ -655,13 +657,15 @@ impl<R: Real> CpuEngine<R> {
             dt: self.dt,
         };
 
+        // Spheres never come here: they run `advance_spheres` on the half lists.
         let full = self.pool.install(|| {
-            if self.state.oriented && slots == 0 {
-                return self
-                    .f_new
-                    .par_iter_mut()
-                    .zip(self.t_new.par_iter_mut())
-                    .zip(self.contacts.par_iter_mut())
+            let out = self
+                .f_new
+                .par_iter_mut()
+                .zip(self.t_new.par_iter_mut())
+                .zip(self.contacts.par_iter_mut());
+            if slots == 0 {
+                return out
                     .enumerate()
                     .with_min_len(MIN_LEN)
                     .map(|(i, ((f, t), nc))| {
@@ -673,66 +677,24 @@ impl<R: Real> CpuEngine<R> {
                     })
                     .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)));
             }
-            if self.state.oriented {
-                let out = self
-                    .f_new
-                    .par_iter_mut()
-                    .zip(self.t_new.par_iter_mut())
-                    .zip(self.contacts.par_iter_mut());
-                return out
-                    .zip(
-                        hist.partner
-                            .par_chunks_mut(slots)
-                            .zip(hist.spring.par_chunks_mut(slots)),
-                    )
-                    .enumerate()
-                    .with_min_len(MIN_LEN)
-                    .map(|(i, (((f, t), nc), (p, s)))| {
-                        let mut rows = Rows::open(p, s);
-                        let r =
-                            ctx.oriented(i)
-                                .particle::<false>(i, Some(&mut rows), &mut Vec::new());
-                        *f = r.0;
-                        *t = r.1;
-                        *nc = r.3;
-                        (r.4, r.2)
-                    })
-                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)));
-            }
-            let out = self
-                .f_new
-                .par_iter_mut()
-                .zip(self.t_new.par_iter_mut())
-                .zip(self.contacts.par_iter_mut());
-            if slots > 0 {
-                out.zip(
-                    hist.partner
-                        .par_chunks_mut(slots)
-                        .zip(hist.spring.par_chunks_mut(slots)),
-                )
-                .enumerate()
-                .with_min_len(MIN_LEN)
-                .map(|(i, (((f, t), nc), (p, s)))| {
-                    let mut rows = Rows::open(p, s);
-                    let r = ctx.particle::<false>(i, Some(&mut rows), &mut Vec::new());
-                    *f = r.0;
-                    *t = r.1;
-                    *nc = r.3;
-                    (r.4, r.2)
-                })
-                .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
-            } else {
-                out.enumerate()
-                    .with_min_len(MIN_LEN)
-                    .map(|(i, ((f, t), nc))| {
-                        let r = ctx.particle::<false>(i, None, &mut Vec::new());
-                        *f = r.0;
-                        *t = r.1;
-                        *nc = r.3;
-                        (r.4, r.2)
-                    })
-                    .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
-            }
+            out.zip(
+                hist.partner
+                    .par_chunks_mut(slots)
+                    .zip(hist.spring.par_chunks_mut(slots)),
+            )
+            .enumerate()
+            .with_min_len(MIN_LEN)
+            .map(|(i, (((f, t), nc), (p, s)))| {
+                let mut rows = Rows::open(p, s);
+                let r = ctx
+                    .oriented(i)
+                    .particle::<false>(i, Some(&mut rows), &mut Vec::new());
+                *f = r.0;
+                *t = r.1;
+                *nc = r.3;
+                (r.4, r.2)
+            })
+            .reduce(|| (false, R::zero()), |a, b| (a.0 || b.0, a.1.max(b.1)))
         });
         self.state.history = hist;
         let (full, max_ov) = full;
