@@ -253,7 +253,7 @@ impl<R: Real> CpuEngine<R> {
         let state = &mut self.state;
         let half = &mut self.half;
         self.pool
-            .install(|| grid::build_half(state, &periodic, skin, half));
+            .install(|| grid::build_half(state, &periodic, skin, BLOCK, half));
         let n = self.state.len();
         self.alive = vec![ALIVE; n];
         let s = &self.state;
@@ -419,8 +419,8 @@ impl<R: Real> CpuEngine<R> {
         let law_pw = self.law_pw;
         let ctx = SumContext {
             react: &self.reactions,
-            rstart: &self.half.rstart,
-            rslot: &self.half.rslot,
+            xstart: &self.half.xstart,
+            xslot: &self.half.xslot,
             law_pw: &law_pw,
             walls: &self.walls,
             dt,

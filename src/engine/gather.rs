@@ -322,9 +322,10 @@ pub(super) struct PairScratch<R: Real> {
 impl<R: Real> PairContext<'_, R> {
     /// Evaluates every pair (i, j > i) of the particles `first..first + force.len()` once:
     /// `start` and `nbr` are the half list, whose entries of this block begin at `e0`; `slots`
-    /// and `react` are this block's entries. Advances the springs in place, leaves each
-    /// partner's force and torque in `react`, and writes each particle's own share in `force`
-    /// and `torque` (summed in entry order) and its count of touching pairs in `nc`. Returns the
+    /// and `react` are this block's entries. Advances the springs in place and writes into
+    /// `force`, `torque` and `nc` (count of touching pairs) what the block's pairs do to its
+    /// particles, in entry order; a partner in a later block gets its force and torque in
+    /// `react` instead. Returns the
     /// largest overlap ratio. Every value belongs to one block, so any split over threads writes
     /// the same bits.
     #[allow(clippy::too_many_arguments)]
@@ -378,7 +379,7 @@ impl<R: Real> PairContext<'_, R> {
                 }
             }
         }
-        // 2. The contacts, LANES at a time; 3. each owner's share summed in entry order.
+        // 2. The contacts, LANES at a time; 3. their forces summed in entry order.
         for l in 0..count {
             force[l] = V3::zero();
             if rot {
@@ -436,15 +437,26 @@ impl<R: Real> PairContext<'_, R> {
                 sl.spring = get(&out.spring);
                 sl.h = out.h[k];
                 let fc = get(&out.f);
-                react[e] = Reaction {
-                    f: -fc,
-                    t: get(&out.tj),
-                };
                 force[l] += fc;
                 if rot {
                     torque[l] -= get(&out.ti);
                 }
                 nc[l] += 1;
+                // The partner's share: directly when it lies in this block (it comes after
+                // the owner, so every particle's sum keeps one fixed order), else for its pass.
+                let jl = nbr[e + e0] as usize - first;
+                if jl < count {
+                    force[jl] -= fc;
+                    if rot {
+                        torque[jl] += get(&out.tj);
+                    }
+                    nc[jl] += 1;
+                } else {
+                    react[e] = Reaction {
+                        f: -fc,
+                        t: get(&out.tj),
+                    };
+                }
                 max_ov = max_ov.max(out.overlap[k] * sl.inv_d);
             }
         }
@@ -455,8 +467,9 @@ impl<R: Real> PairContext<'_, R> {
 /// What the per-particle sum of particle k reads besides its own kinematics.
 pub(super) struct SumContext<'a, R: Real> {
     pub(super) react: &'a [Reaction<R>],
-    pub(super) rstart: &'a [u32],
-    pub(super) rslot: &'a [u32],
+    /// The entries whose reaction k adds here (their owner lies in an earlier block).
+    pub(super) xstart: &'a [u32],
+    pub(super) xslot: &'a [u32],
     pub(super) law_pw: &'a LawKernel<R>,
     pub(super) walls: &'a [WallKernel<R>],
     pub(super) dt: R,
@@ -464,8 +477,8 @@ pub(super) struct SumContext<'a, R: Real> {
 }
 
 impl<R: Real> SumContext<'_, R> {
-    /// Adds to particle k's own share (`f`, `t`, from the pair pass) the reactions of the pairs
-    /// where it is the partner (entry order) and its walls (springs in `wall_springs`, one per
+    /// Adds to particle k's share from the pair pass (`f`, `t`) the reactions of the pairs
+    /// where it is the partner and the owner lies in an earlier block (entry order), and its walls (springs in `wall_springs`, one per
     /// wall). Returns force, torque, largest wall overlap ratio and the number of contacts
     /// added. Fixed particles get zero.
     #[inline]
@@ -483,7 +496,7 @@ impl<R: Real> SumContext<'_, R> {
     ) -> (V3<R>, V3<R>, R, u32) {
         let mut nc = 0u32;
         let mut max_ov = R::zero();
-        for &e in &self.rslot[self.rstart[k] as usize..self.rstart[k + 1] as usize] {
+        for &e in &self.xslot[self.xstart[k] as usize..self.xstart[k + 1] as usize] {
             let r = &self.react[e as usize];
             f += r.f;
             t += r.t;

@@ -323,6 +323,10 @@ const HALF_BLOCK: usize = 2048;
 /// is computed once (Newton's third law) and its tangential spring lives in its entry. The
 /// transposed index (`rstart`, `rslot`: the entries in which a particle is the partner j, in
 /// entry order) lets each particle sum its forces in a fixed order without atomics.
+///
+/// The pair pass runs over blocks of `block` particles and adds a pair's reaction to its
+/// partner directly when both lie in the same block; `xstart`/`xslot` index the rest (entries
+/// whose owner lies in an earlier block), which the partner adds in its own pass.
 #[derive(Clone, Debug, Default)]
 pub struct HalfList<R: Real> {
     /// Particle i's entries are start[i]..start[i + 1].
@@ -334,6 +338,10 @@ pub struct HalfList<R: Real> {
     pub rslot: Vec<u32>,
     /// The particle i owning each entry of `rslot`.
     pub rowner: Vec<u32>,
+    /// Entries whose partner j lies in a later block than their owner:
+    /// xslot[xstart[j]..xstart[j + 1]], in entry order.
+    pub xstart: Vec<u32>,
+    pub xslot: Vec<u32>,
     /// Positions when the list was built (for the skin criterion).
     pub ref_pos: Vec<V3<R>>,
     pub builds: u64,
@@ -350,11 +358,12 @@ impl<R: Real> HalfList<R> {
 }
 
 /// Sorts `state` (spheres) by cell and rebuilds the half list `list`; `fixed` pairs (both
-/// inverse masses zero) are left out.
+/// inverse masses zero) are left out. `block`: particles per block of the pair pass.
 pub fn build_half<R: Real>(
     state: &mut State<R>,
     periodic: &Periodic<R>,
     skin: R,
+    block: usize,
     list: &mut HalfList<R>,
 ) {
     let n = state.len();
@@ -364,10 +373,13 @@ pub fn build_half<R: Real>(
     list.rstart.clear();
     list.rslot.clear();
     list.rowner.clear();
+    list.xstart.clear();
+    list.xslot.clear();
     list.ref_pos.clear();
     if n == 0 {
         list.start.push(0);
         list.rstart.push(0);
+        list.xstart.push(0);
         return;
     }
     let grid = sort_by_cell(state, periodic, skin);
@@ -431,6 +443,17 @@ pub fn build_half<R: Real>(
             list.rowner[r] = i as u32;
             fill[j] += 1;
         }
+    }
+    list.xstart.reserve(n + 1);
+    list.xstart.push(0);
+    for j in 0..n {
+        let (a, b) = (list.rstart[j] as usize, list.rstart[j + 1] as usize);
+        for r in a..b {
+            if list.rowner[r] as usize / block != j / block {
+                list.xslot.push(list.rslot[r]);
+            }
+        }
+        list.xstart.push(list.xslot.len() as u32);
     }
     list.ref_pos.extend_from_slice(&state.pos);
 }

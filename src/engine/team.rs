@@ -21,10 +21,13 @@ const SPIN: Duration = Duration::from_micros(50);
 type Body = &'static (dyn Fn(usize) + Sync);
 
 struct Shared {
-    /// (epoch << 32) | next unclaimed task of that epoch. A claim is a compare-and-swap that
-    /// checks the epoch, so a helper holding a stale epoch can never run a newer body, and a
-    /// body is only called for a claimed, unfinished task (while `run` still waits for it).
-    claim: AtomicU64,
+    /// Per thread, (epoch << 32) | next unclaimed task of its home range (thread t's range is
+    /// `home(t)`). A claim is a compare-and-swap that checks the epoch, so a helper holding a
+    /// stale epoch can never run a newer body, and a body is only called for a claimed,
+    /// unfinished task (while `run` still waits for it). Each thread takes its own range first
+    /// and then the others': a block's data then stays in one core's cache from pass to pass
+    /// and step to step, while a slow thread's work is still taken over.
+    claim: Vec<Padded>,
     /// The current epoch's body and task count.
     job: Mutex<Option<(u32, Body, usize)>>,
     /// Tasks finished in the current epoch.
@@ -34,6 +37,10 @@ struct Shared {
     panic: Mutex<Option<Box<dyn std::any::Any + Send>>>,
     stop: AtomicBool,
 }
+
+/// A counter on its own cache lines, so that one thread's claims do not slow another's.
+#[repr(align(128))]
+struct Padded(AtomicU64);
 
 pub struct Team {
     shared: Arc<Shared>,
@@ -45,7 +52,9 @@ impl Team {
     /// A team of `threads` (≥ 1) threads: this one and `threads − 1` helpers.
     pub fn new(threads: usize) -> Self {
         let shared = Arc::new(Shared {
-            claim: AtomicU64::new(0),
+            claim: (0..threads.max(1))
+                .map(|_| Padded(AtomicU64::new(0)))
+                .collect(),
             job: Mutex::new(None),
             done: AtomicUsize::new(0),
             panic: Mutex::new(None),
@@ -56,7 +65,7 @@ impl Team {
                 let sh = shared.clone();
                 std::thread::Builder::new()
                     .name(format!("sweep-team-{k}"))
-                    .spawn(move || helper(&sh))
+                    .spawn(move || helper(&sh, k))
                     .expect("spawning a team thread")
             })
             .collect();
@@ -86,12 +95,15 @@ impl Team {
         let sh = &*self.shared;
         sh.done.store(0, Ordering::Relaxed);
         *sh.job.lock().unwrap() = Some((self.epoch, body, tasks));
-        sh.claim
-            .store(u64::from(self.epoch) << 32, Ordering::Release);
+        // Thread 0's counter last: a helper that sees the new epoch there sees every range.
+        for (t, c) in sh.claim.iter().enumerate().rev() {
+            let lo = home(t, sh.claim.len(), tasks).start as u64;
+            c.0.store((u64::from(self.epoch) << 32) | lo, Ordering::Release);
+        }
         for h in &self.helpers {
             h.thread().unpark();
         }
-        work(sh, self.epoch, body, tasks);
+        work(sh, 0, self.epoch, body, tasks);
         // A helper still running a task may have been descheduled (more threads than cores):
         // after a short spin, give the core away instead of burning it.
         let mut spins = 0u32;
@@ -124,44 +136,55 @@ impl Drop for Team {
     }
 }
 
-/// Claims and runs tasks of `epoch` until none is left.
-fn work(sh: &Shared, epoch: u32, body: Body, tasks: usize) {
-    let mut c = sh.claim.load(Ordering::Acquire);
+/// Thread t's home range of `tasks` split over `threads`.
+fn home(t: usize, threads: usize, tasks: usize) -> std::ops::Range<usize> {
+    t * tasks / threads..(t + 1) * tasks / threads
+}
+
+/// Thread `me` claims and runs tasks of `epoch`, its own range first, until none is left.
+fn work(sh: &Shared, me: usize, epoch: u32, body: Body, tasks: usize) {
+    let threads = sh.claim.len();
+    for u in (0..threads).map(|k| (me + k) % threads) {
+        work_range(sh, u, epoch, body, home(u, threads, tasks).end);
+    }
+}
+
+/// Claims and runs the tasks of range `u` of `epoch` (which ends at `end`) until none is left.
+fn work_range(sh: &Shared, u: usize, epoch: u32, body: Body, end: usize) {
+    let claim = &sh.claim[u].0;
+    let mut c = claim.load(Ordering::Acquire);
     loop {
-        if (c >> 32) as u32 != epoch || (c & 0xffff_ffff) as usize >= tasks {
+        if (c >> 32) as u32 != epoch || (c & 0xffff_ffff) as usize >= end {
             return;
         }
-        match sh
-            .claim
-            .compare_exchange_weak(c, c + 1, Ordering::AcqRel, Ordering::Acquire)
-        {
+        match claim.compare_exchange_weak(c, c + 1, Ordering::AcqRel, Ordering::Acquire) {
             Ok(_) => {
                 let k = (c & 0xffff_ffff) as usize;
                 if let Err(p) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(k))) {
                     sh.panic.lock().unwrap().get_or_insert(p);
                 }
                 sh.done.fetch_add(1, Ordering::Release);
-                c = sh.claim.load(Ordering::Acquire);
+                c = claim.load(Ordering::Acquire);
             }
             Err(now) => c = now,
         }
     }
 }
 
-fn helper(sh: &Shared) {
+fn helper(sh: &Shared, me: usize) {
     let mut seen = 0u32;
     let mut idle_since = Instant::now();
     loop {
         if sh.stop.load(Ordering::Acquire) {
             return;
         }
-        let epoch = (sh.claim.load(Ordering::Acquire) >> 32) as u32;
+        let epoch = (sh.claim[0].0.load(Ordering::Acquire) >> 32) as u32;
         if epoch != seen {
             seen = epoch;
             let job = *sh.job.lock().unwrap();
             if let Some((e, body, tasks)) = job {
                 if e == epoch {
-                    work(sh, e, body, tasks);
+                    work(sh, me, e, body, tasks);
                 }
             }
             idle_since = Instant::now();
