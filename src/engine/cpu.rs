@@ -22,6 +22,7 @@ use super::gather::{
 };
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
+use super::kinematics::{self, Kin};
 use super::oriented;
 use super::real::{Real, V3};
 use super::state::State;
@@ -61,6 +62,8 @@ pub struct CpuEngine<R: Real> {
     /// and wall, packed constants. While a chunk runs, these hold the contact history and the
     /// state's table is empty; `store_history` writes it back at the chunk's end.
     half: HalfList<R>,
+    /// The spheres' motion while a chunk runs (the state's arrays are stale meanwhile).
+    kin: Vec<Kin<R>>,
     pair_slots: Vec<PairSlot<R>>,
     /// Per block of the pair pass: its touching pairs (vectors reused from step to step).
     pair_scratch: Vec<PairScratch<R>>,
@@ -112,6 +115,7 @@ impl<R: Real> CpuEngine<R> {
             sink_z: config.sink_z.map(R::from_f64),
             list: NeighbourList::default(),
             half: HalfList::default(),
+            kin: Vec::new(),
             pair_slots: Vec::new(),
             pair_scratch: Vec::new(),
             reactions: Vec::new(),
@@ -243,6 +247,7 @@ impl<R: Real> CpuEngine<R> {
     /// otherwise from the state's table (a chunk's start), which is then taken out of the state.
     fn rebuild_half(&mut self, from_pairs: bool) {
         if from_pairs {
+            kinematics::scatter_to(&self.kin, &mut self.state);
             let carrier = self
                 .pairs_to_history(None)
                 .expect("unsized history rows cannot overflow");
@@ -319,6 +324,7 @@ impl<R: Real> CpuEngine<R> {
         }
         // The table stays out of the state while the chunk runs (the slots hold the history).
         self.state.history = History::new(0);
+        kinematics::gather_from(&mut self.kin, &self.state, |_| true);
     }
 
     /// Puts the history back into the state in its format (`slots` per particle).
@@ -367,11 +373,9 @@ impl<R: Real> CpuEngine<R> {
         self.contacts.resize(n, 0);
         let s = &mut self.state;
         let ctx = PairContext {
-            pos: &s.pos,
-            vel: &s.vel,
-            omega: &s.omega,
+            kin: &self.kin,
+            rotation: s.rotation,
             props: &self.props,
-            alive: &self.alive,
             law: &self.law_pp,
             periodic: &self.periodic,
             dt: self.dt,
@@ -434,11 +438,9 @@ impl<R: Real> CpuEngine<R> {
         let rot = s.rotation;
         let refs = &self.half.ref_pos;
         let props = &self.props;
-        let blocks = split_blocks(&mut s.pos, &parts)
+        let blocks = split_blocks(&mut self.kin, &parts)
             .into_iter()
-            .zip(split_blocks(&mut s.vel, &parts))
             .zip(split_blocks(&mut s.force, &parts))
-            .zip(split_blocks(&mut s.omega, &parts))
             .zip(split_blocks(&mut s.torque, &parts))
             .zip(split_blocks(&mut self.alive, &parts))
             .zip(split_blocks(&mut self.contacts, &parts))
@@ -448,11 +450,11 @@ impl<R: Real> CpuEngine<R> {
         self.team
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
-                let (((((((pos, vel), force), omega), torque), alive), nc), wsp) = &mut *guard;
+                let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
                 {
                     let mut out = (false, false, R::zero(), 0u32);
                     let first = parts[b];
-                    for l in 0..pos.len() {
+                    for l in 0..kin.len() {
                         let k = first + l;
                         if alive[l] != ALIVE {
                             force[l] = V3::zero();
@@ -463,14 +465,11 @@ impl<R: Real> CpuEngine<R> {
                             continue;
                         }
                         let pr = props[k];
-                        let (w, t0) = if rot {
-                            (omega[l], torque[l])
-                        } else {
-                            (V3::zero(), V3::zero())
-                        };
+                        let kl = &mut kin[l];
+                        let t0 = if rot { torque[l] } else { V3::zero() };
                         let wall_sp = &mut wsp[l * nw..(l + 1) * nw];
                         let (f, t, ov, c) =
-                            ctx.sum(k, force[l], t0, pos[l], vel[l], w, pr, wall_sp);
+                            ctx.sum(k, force[l], t0, kl.pos, kl.vel, kl.omega, pr, wall_sp);
                         out.2 = out.2.max(ov);
                         force[l] = f;
                         nc[l] += c;
@@ -482,21 +481,20 @@ impl<R: Real> CpuEngine<R> {
                             continue;
                         }
                         if rot {
-                            omega[l] += t * (pr.inv_i * kick);
+                            kl.omega += t * (pr.inv_i * kick);
                         }
-                        let v = &mut vel[l];
-                        *v += (f * pr.inv_m + g) * kick;
+                        kl.vel += (f * pr.inv_m + g) * kick;
                         if !drift {
                             continue;
                         }
-                        let x = &mut pos[l];
-                        *x += *v * dt;
-                        periodic.wrap(x);
-                        if matches!(sink, Some(zs) if x.z < zs) {
+                        kl.pos += kl.vel * dt;
+                        periodic.wrap(&mut kl.pos);
+                        if matches!(sink, Some(zs) if kl.pos.z < zs) {
                             alive[l] = DYING;
+                            kl.live = R::zero();
                             out.0 = true;
                         }
-                        out.1 |= periodic.delta(refs[k], *x).norm2() > half2;
+                        out.1 |= periodic.delta(refs[k], kl.pos).norm2() > half2;
                     }
                     out
                 }
@@ -568,6 +566,20 @@ impl<R: Real> CpuEngine<R> {
         budget: &mut Option<EnergyBudget>,
         check_energy: bool,
     ) -> Result<(), EngineError> {
+        let r = self.sphere_steps(steps, report, budget, check_energy);
+        // Whatever happened, the state holds the motion again (errors report from it).
+        kinematics::scatter_to(&self.kin, &mut self.state);
+        r
+    }
+
+    /// `advance_spheres` with the motion in `kin`.
+    fn sphere_steps(
+        &mut self,
+        steps: u64,
+        report: &mut ChunkReport,
+        budget: &mut Option<EnergyBudget>,
+        check_energy: bool,
+    ) -> Result<(), EngineError> {
         // NOTE: a chunk always starts from a fresh sort and list built from the state's own
         // history table, so that a run resumed from a checkpoint (taken between chunks) follows
         // exactly the same operations as one that never stopped.
@@ -581,6 +593,8 @@ impl<R: Real> CpuEngine<R> {
         let half = self.dt * R::from_f64(0.5);
         let mut live = self.mobile_count();
         let (mut died, mut moved) = self.kick_drift(half);
+        let alive = &self.alive;
+        kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == ALIVE);
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
             if died {

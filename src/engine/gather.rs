@@ -8,6 +8,7 @@ use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord,
 use super::cpu::ALIVE;
 use super::grid::{NeighbourList, Periodic};
 use super::history::{wall_key, Rows};
+use super::kinematics::Kin;
 use super::oriented::OrientedContext;
 use super::pair_lanes::{self, LaneInput, LaneOutput, LANES};
 use super::real::{Real, V3};
@@ -295,12 +296,9 @@ pub(super) struct Props<R: Real> {
 
 /// Everything the sphere pair pass reads.
 pub(super) struct PairContext<'a, R: Real> {
-    pub(super) pos: &'a [V3<R>],
-    pub(super) vel: &'a [V3<R>],
-    /// Empty when rotation is off.
-    pub(super) omega: &'a [V3<R>],
+    pub(super) kin: &'a [Kin<R>],
+    pub(super) rotation: bool,
     pub(super) props: &'a [Props<R>],
-    pub(super) alive: &'a [u8],
     pub(super) law: &'a LawKernel<R>,
     pub(super) periodic: &'a Periodic<R>,
     pub(super) dt: R,
@@ -342,7 +340,7 @@ impl<R: Real> PairContext<'_, R> {
         nc: &mut [u32],
         scratch: &mut PairScratch<R>,
     ) -> R {
-        let rot = !self.omega.is_empty();
+        let rot = self.rotation;
         let count = force.len();
         // 1. The distance test: touching pairs into the scratch lists, ended contacts reset
         // (a contact that ends loses its spring; the next one starts from zero).
@@ -360,14 +358,14 @@ impl<R: Real> PairContext<'_, R> {
         for l in 0..count {
             let i = first + l;
             let (a, z) = (start[i] as usize - e0, start[i + 1] as usize - e0);
-            let alive_i = self.alive[i] == ALIVE;
-            let pi = self.pos[i];
+            let ki = &self.kin[i];
+            let (live_i, pi) = (ki.is_live(), ki.pos);
             for e in a..z {
-                let j = nbr[e + e0] as usize;
-                let d = self.periodic.delta(self.pos[j], pi); // from j to i
+                let kj = &self.kin[nbr[e + e0] as usize];
+                let d = self.periodic.delta(kj.pos, pi); // from j to i
                 let dist2 = d.norm2();
                 let sl = &mut slots[e];
-                let touches = alive_i & (dist2 < sl.sum * sl.sum) & (self.alive[j] == ALIVE);
+                let touches = live_i & (dist2 < sl.sum * sl.sum) & kj.is_live();
                 scratch.entry[touching] = e as u32;
                 scratch.owner[touching] = l as u32;
                 scratch.d[touching] = d;
@@ -406,15 +404,12 @@ impl<R: Real> PairContext<'_, R> {
                 let sl = &slots[e];
                 put(&mut inp.d, k, scratch.d[c]);
                 inp.dist2[k] = scratch.dist2[c];
-                put(&mut inp.vi, k, self.vel[i]);
-                put(&mut inp.vj, k, self.vel[j]);
-                let (wi, wj) = if rot {
-                    (self.omega[i], self.omega[j])
-                } else {
-                    (V3::zero(), V3::zero())
-                };
-                put(&mut inp.wi, k, wi);
-                put(&mut inp.wj, k, wj);
+                let (ki, kj) = (&self.kin[i], &self.kin[j]);
+                put(&mut inp.vi, k, ki.vel);
+                put(&mut inp.vj, k, kj.vel);
+                // Zero when rotation is off.
+                put(&mut inp.wi, k, ki.omega);
+                put(&mut inp.wj, k, kj.omega);
                 inp.ri[k] = self.props[i].r;
                 inp.rj[k] = sl.rj;
                 inp.sum[k] = sl.sum;

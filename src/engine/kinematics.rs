@@ -1,0 +1,57 @@
+//! The sphere step's working copy of the particles' motion: position, velocity and angular
+//! velocity of each sphere packed in one record. The pair pass reads a partner at a random
+//! place in memory; from three arrays (and the alive flags) that costs four cache lines, from
+//! one record one or two. While a chunk of sphere steps runs, the records are the truth and
+//! the state's arrays are stale; `CpuEngine` copies them back before anything else reads the
+//! state (a re-sort, the chunk's end, an error report).
+
+use super::real::{Real, V3};
+use super::state::State;
+
+/// One sphere's motion. `live` is one for a particle that interacts and zero for one that fell
+/// through the sink (so the distance test reads no second array).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Kin<R: Real> {
+    pub(super) pos: V3<R>,
+    pub(super) live: R,
+    pub(super) vel: V3<R>,
+    pub(super) omega: V3<R>,
+}
+
+impl<R: Real> Kin<R> {
+    #[inline(always)]
+    pub(super) fn is_live(&self) -> bool {
+        self.live > R::zero()
+    }
+}
+
+/// Fills `kin` from the state (`live[i]`: whether particle i interacts; zero angular velocity
+/// when the state has no rotation).
+pub(super) fn gather_from<R: Real>(
+    kin: &mut Vec<Kin<R>>,
+    s: &State<R>,
+    live: impl Fn(usize) -> bool,
+) {
+    kin.clear();
+    kin.extend((0..s.len()).map(|i| Kin {
+        pos: s.pos[i],
+        live: if live(i) { R::one() } else { R::zero() },
+        vel: s.vel[i],
+        omega: if s.rotation { s.omega[i] } else { V3::zero() },
+    }));
+}
+
+/// Writes the records' positions and velocities back into the state.
+pub(super) fn scatter_to<R: Real>(kin: &[Kin<R>], s: &mut State<R>) {
+    debug_assert_eq!(kin.len(), s.len());
+    for (k, (p, v)) in kin.iter().zip(s.pos.iter_mut().zip(s.vel.iter_mut())) {
+        *p = k.pos;
+        *v = k.vel;
+    }
+    if s.rotation {
+        for (k, w) in kin.iter().zip(s.omega.iter_mut()) {
+            *w = k.omega;
+        }
+    }
+}
