@@ -2,10 +2,12 @@
 //!
 //! Spheres: half Verlet lists with a skin (`grid::build_half`, rebuilt only when a particle has
 //! moved half the skin), each pair evaluated once (Newton's third law) with its tangential
-//! spring kept in the pair's entry; the pair pass leaves i's share in i's force and j's share in
-//! the entry, and a second pass adds, per particle, the shares where it is the partner in entry
-//! order, its walls, and the kick and drift. Every value is written by exactly one task and summed
-//! in a fixed order, so results are bitwise identical for any thread count. The springs go back
+//! spring kept in the pair's entry. The pair pass runs over fixed blocks of particles and adds
+//! each pair's force to i, and to j when j lies in the same block; a partner in a later block
+//! gets its share in the entry, and a second pass adds, per particle, those shares in entry
+//! order, its walls, and the kick and drift. Every value is written by exactly one task and
+//! summed in a fixed order, so results are bitwise identical for any thread count. While a chunk
+//! runs, the spheres' motion lives in packed records (`kinematics.rs`). The springs go back
 //! into the state's per-particle history table (keyed by partner id, the checkpoint and GPU
 //! format) at the end of each `advance`, and come from it at the start of the next.
 //!
