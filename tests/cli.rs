@@ -924,3 +924,47 @@ fn plan_estimates_each_job_from_its_engines_bench() {
         "says which bench is missing\n{text}"
     );
 }
+
+/// `sweep bench --repeat K` runs K times from the same start: each run must end in the same state
+/// (the bench refuses otherwise), and the reported rate is the median of the K.
+#[test]
+fn bench_repeats_report_the_median_of_identical_runs() {
+    let dir = TempDir::new().unwrap();
+    let out = sweep_cmd(dir.path())
+        .args([
+            "bench",
+            "--scene",
+            "chute-bed",
+            "--particles",
+            "400",
+            "--steps",
+            "20",
+            "--threads",
+            "2",
+            "--repeat",
+            "3",
+            "--no-store",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mut runs: Vec<f64> = v["runs_particle_steps_per_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(runs.len(), 3);
+    runs.sort_by(f64::total_cmp);
+    assert_eq!(v["particle_steps_per_s"].as_f64().unwrap(), runs[1]);
+    assert_eq!(v["best_particle_steps_per_s"].as_f64().unwrap(), runs[2]);
+    // Zero repeats is refused by name.
+    let out = sweep_cmd(dir.path())
+        .args(["bench", "--repeat", "0", "--no-store"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
+}
