@@ -21,15 +21,7 @@ fn collide(law: ContactLaw, v: f64, n_c: f64) -> (f64, f64) {
 }
 
 fn linear(e: f64, kn: f64) -> ContactLaw {
-    ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: 0.0,
-    }
+    common::linear_law(kn, e, 0.0)
 }
 
 fn hertz(e: f64, y: f64) -> ContactLaw {

@@ -213,15 +213,7 @@ fn static_overlap(law: ContactLaw, dt: f64) -> f64 {
 #[test]
 fn resting_overlap_matches_static_equilibrium() {
     let kn = 1.0e4;
-    let linear = ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: 0.3,
-        tangential_restitution: 0.3,
-        friction: 0.0,
-    };
+    let linear = common::linear_law(kn, 0.3, 0.0);
     let delta = static_overlap(linear, wall_dt(&linear, 0.1));
     let expected = mass() * G / kn;
     eprintln!("linear: δ = {delta:.6e} m, m g / k_n = {expected:.6e} m");

@@ -74,16 +74,7 @@ fn hertz(e: f64, mu: f64) -> ContactLaw {
 }
 
 fn linear(e: f64, mu: f64) -> ContactLaw {
-    let kn = 1.0e4;
-    ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    }
+    common::linear_law(1.0e4, e, mu)
 }
 
 fn config(law: ContactLaw, dt: f64, walls: Vec<Wall>, periodic: Option<[f64; 2]>) -> EngineConfig {

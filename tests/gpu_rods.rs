@@ -49,7 +49,8 @@
 
 mod common;
 use common::gpu::device;
-use common::rods::{law, shape, stiffness, G, L, RHO};
+use common::linear_law as law;
+use common::rods::{shape, stiffness, G, L, RHO};
 use common::Noise;
 
 use std::collections::{BTreeSet, HashMap};

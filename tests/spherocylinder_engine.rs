@@ -15,7 +15,8 @@
 //!   tangential springs differently, so they may differ by rounding only).
 
 mod common;
-use common::rods::{law, shape, stiffness, G, L, RHO};
+use common::linear_law as law;
+use common::rods::{shape, stiffness, G, L, RHO};
 use common::Noise;
 
 use sweep::checkpoint::{self, Header};

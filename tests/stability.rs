@@ -23,6 +23,7 @@
 
 mod common;
 use common::gpu::device;
+use common::rods::{shape as rod, L as ROD_L, RHO as ROD_RHO};
 use common::Noise;
 
 use std::f64::consts::PI;
@@ -31,7 +32,7 @@ use std::sync::OnceLock;
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
 use sweep::engine::cpu::{Watchdog, HISTORY_SLOTS};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
-use sweep::engine::shape::{contact_spherocylinders, Quat, Spherocylinder};
+use sweep::engine::shape::{contact_spherocylinders, Quat};
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, EngineError, State, V3};
 
@@ -753,21 +754,10 @@ fn contacts_across_the_periodic_seams() {
 // Spherocylinders (CPU, oriented path), in the chute paper's units: L = 0.125 m, ρ = 2600 kg/m³,
 // linear law k_n = 2e5 m g / L with g = 1 m/s², k_t = 2/7 k_n, dt = t_c/50, no gravity.
 
-const ROD_L: f64 = 0.125;
-const ROD_RHO: f64 = 2600.0;
-
 fn rod_law(xi: f64, e: f64, mu: f64) -> (ContactLaw, f64) {
     let m = rod(xi).mass(ROD_RHO);
     let kn = 2e5 * m / ROD_L;
-    let law = ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    };
+    let law = common::linear_law(kn, e, mu);
     let tc = contact_time(
         &law,
         ContactPair {
@@ -777,10 +767,6 @@ fn rod_law(xi: f64, e: f64, mu: f64) -> (ContactLaw, f64) {
         1.0,
     );
     (law, tc / 50.0)
-}
-
-fn rod(xi: f64) -> Spherocylinder<f64> {
-    Spherocylinder::from_aspect_ratio(ROD_L, xi).unwrap()
 }
 
 fn rod_config(xi: f64, e: f64, mu: f64, periodic: Option<f64>) -> EngineConfig {
@@ -1142,15 +1128,7 @@ fn the_watchdog_lets_an_accelerating_chute_run() {
     let (lx, ly) = (10.0 * sp, 5.0 * sp);
     let m = 2600.0 * PI / 6.0 * d.powi(3);
     let kn = 2e5 * m * 1.0 / d;
-    let law = ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: 0.88,
-        tangential_restitution: 0.88,
-        friction: 0.5,
-    };
+    let law = common::linear_law(kn, 0.88, 0.5);
     let tc = contact_time(
         &law,
         ContactPair {

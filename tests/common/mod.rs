@@ -9,6 +9,21 @@ pub mod silo;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use sweep::engine::contact::{ContactLaw, NormalModel};
+
+/// The chute paper's linear spring–dashpot law: k_t = 2/7 k_n, the same restitution normal and
+/// tangential, friction `mu`.
+pub fn linear_law(kn: f64, e: f64, mu: f64) -> ContactLaw {
+    ContactLaw {
+        normal: NormalModel::Linear {
+            kn_n_per_m: kn,
+            kt_n_per_m: 2.0 / 7.0 * kn,
+        },
+        restitution: e,
+        tangential_restitution: e,
+        friction: mu,
+    }
+}
 
 /// Seeded uniform numbers in [−1, 1), so test scenes are random but reproducible.
 pub struct Noise(ChaCha8Rng);

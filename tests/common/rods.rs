@@ -1,24 +1,11 @@
-//! The spherocylinder test scene's units and contact law: L = 0.125 m rods, ρ = 2600 kg/m³,
-//! g = 1 m/s², the chute paper's linear law (k_t = 2/7 k_n).
+//! The spherocylinder test scene's units, shape and stiffness: L = 0.125 m rods, ρ = 2600 kg/m³,
+//! g = 1 m/s², k_n = 2·10⁵ m g / L (the law itself is `common::linear_law`).
 
-use sweep::engine::contact::{ContactLaw, NormalModel};
 use sweep::engine::shape::Spherocylinder;
 
 pub const L: f64 = 0.125;
 pub const RHO: f64 = 2600.0;
 pub const G: f64 = 1.0;
-
-pub fn law(kn: f64, e: f64, mu: f64) -> ContactLaw {
-    ContactLaw {
-        normal: NormalModel::Linear {
-            kn_n_per_m: kn,
-            kt_n_per_m: 2.0 / 7.0 * kn,
-        },
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    }
-}
 
 pub fn shape(xi: f64) -> Spherocylinder<f64> {
     Spherocylinder::from_aspect_ratio(L, xi).unwrap()
