@@ -233,7 +233,8 @@ pub(super) struct PairSlot<R: Real> {
     pub(super) h: R,
     /// r_i + r_j: the contact distance.
     pub(super) sum: R,
-    /// r_j: j's lever is r_j − h.
+    /// r_i and r_j: the levers are r_i − h and r_j − h.
+    pub(super) ri: R,
     pub(super) rj: R,
     /// R* = r_i r_j / (r_i + r_j).
     pub(super) r_eff: R,
@@ -259,6 +260,7 @@ impl<R: Real> PairSlot<R> {
             spring: V3::zero(),
             h: -R::one(),
             sum,
+            ri: i.r,
             rj: j.r,
             r_eff: i.r * j.r / sum,
             m_eff,
@@ -298,7 +300,6 @@ pub(super) struct Props<R: Real> {
 pub(super) struct PairContext<'a, R: Real> {
     pub(super) kin: &'a [Kin<R>],
     pub(super) rotation: bool,
-    pub(super) props: &'a [Props<R>],
     pub(super) law: &'a LawKernel<R>,
     pub(super) periodic: &'a Periodic<R>,
     pub(super) dt: R,
@@ -306,20 +307,24 @@ pub(super) struct PairContext<'a, R: Real> {
     pub(super) keep_springs: bool,
 }
 
-/// A block's touching pairs, found by the distance test and evaluated `LANES` at a time.
+/// Entries of the half list per pass of the distance test (see `PairContext::block`).
+const CHUNK: usize = 256;
+
+/// A chunk's touching pairs, found by the distance test and evaluated `LANES` at a time.
 /// Kept by the engine per block so that its vectors grow once.
 #[derive(Default)]
 pub(super) struct PairScratch<R: Real> {
-    /// Block-local entry and owner (block-local particle) of each touching pair, in entry order.
+    /// Block-local entry, block-local owner and partner of each touching pair, in entry order.
     entry: Vec<u32>,
     owner: Vec<u32>,
-    d: Vec<V3<R>>,
-    dist2: Vec<R>,
+    partner: Vec<u32>,
+    /// Their contact law's inputs: pair t is lane t % LANES of group t / LANES.
+    groups: Vec<LaneInput<R>>,
 }
 
 impl<R: Real> PairContext<'_, R> {
     /// Evaluates every pair (i, j > i) of the particles `first..first + force.len()` once:
-    /// `start` and `nbr` are the half list, whose entries of this block begin at `e0`; `slots`
+    /// `nbr` is the half list, whose entries of this block begin at `e0`, and `owner` their owners; `slots`
     /// and `react` are this block's entries. Advances the springs in place and writes into
     /// `force`, `torque` and `nc` (count of touching pairs) what the block's pairs do to its
     /// particles, in entry order; a partner in a later block gets its force and torque in
@@ -330,7 +335,7 @@ impl<R: Real> PairContext<'_, R> {
     pub(super) fn block(
         &self,
         first: usize,
-        start: &[u32],
+        owner: &[u32],
         nbr: &[u32],
         e0: usize,
         slots: &mut [PairSlot<R>],
@@ -342,42 +347,14 @@ impl<R: Real> PairContext<'_, R> {
     ) -> R {
         let rot = self.rotation;
         let count = force.len();
-        // 1. The distance test: touching pairs into the scratch lists, ended contacts reset
-        // (a contact that ends loses its spring; the next one starts from zero).
-        // Branch-free compaction: every entry is written at the next free place and the place
-        // advances only for a touching pair (whether a pair touches is a coin flip the branch
-        // predictor loses).
         let entries = slots.len();
-        if scratch.entry.len() < entries {
-            scratch.entry.resize(entries, 0);
-            scratch.owner.resize(entries, 0);
-            scratch.d.resize(entries, V3::zero());
-            scratch.dist2.resize(entries, R::zero());
+        let groups = CHUNK / LANES + 1;
+        if scratch.groups.len() < groups {
+            scratch.entry.resize(CHUNK, 0);
+            scratch.owner.resize(CHUNK, 0);
+            scratch.partner.resize(CHUNK, 0);
+            scratch.groups.resize(groups, LaneInput::default());
         }
-        let mut touching = 0usize;
-        for l in 0..count {
-            let i = first + l;
-            let (a, z) = (start[i] as usize - e0, start[i + 1] as usize - e0);
-            let ki = &self.kin[i];
-            let (live_i, pi) = (ki.is_live(), ki.pos);
-            for e in a..z {
-                let kj = &self.kin[nbr[e + e0] as usize];
-                let d = self.periodic.delta(kj.pos, pi); // from j to i
-                let dist2 = d.norm2();
-                let sl = &mut slots[e];
-                let touches = live_i & (dist2 < sl.sum * sl.sum) & kj.is_live();
-                scratch.entry[touching] = e as u32;
-                scratch.owner[touching] = l as u32;
-                scratch.d[touching] = d;
-                scratch.dist2[touching] = dist2;
-                touching += usize::from(touches);
-                if !touches && sl.touching() {
-                    sl.h = -R::one();
-                    react[e] = Reaction::default();
-                }
-            }
-        }
-        // 2. The contacts, LANES at a time; 3. their forces summed in entry order.
         for l in 0..count {
             force[l] = V3::zero();
             if rot {
@@ -385,86 +362,114 @@ impl<R: Real> PairContext<'_, R> {
             }
             nc[l] = 0;
         }
+        let image = self.periodic.image();
         let mut max_ov = R::zero();
-        let mut inp = LaneInput::<R>::default();
         let mut out = LaneOutput::<R>::default();
-        let put = |a: &mut [[R; LANES]; 3], k: usize, v: V3<R>| {
-            a[0][k] = v.x;
-            a[1][k] = v.y;
-            a[2][k] = v.z;
-        };
-        for g in (0..touching).step_by(LANES) {
-            let in_group = (touching - g).min(LANES);
-            for k in 0..LANES {
-                // Lanes past the end repeat the group's first pair (their results are ignored).
-                let c = g + if k < in_group { k } else { 0 };
-                let e = scratch.entry[c] as usize;
-                let i = first + scratch.owner[c] as usize;
-                let j = nbr[e + e0] as usize;
-                let sl = &slots[e];
-                put(&mut inp.d, k, scratch.d[c]);
-                inp.dist2[k] = scratch.dist2[c];
-                let (ki, kj) = (&self.kin[i], &self.kin[j]);
-                put(&mut inp.vi, k, ki.vel);
-                put(&mut inp.vj, k, kj.vel);
+        // CHUNK entries at a time, so that their lane inputs stay in the first-level cache
+        // between the distance test and the contact law; pairs still go in entry order.
+        for c0 in (0..entries).step_by(CHUNK) {
+            let c1 = (c0 + CHUNK).min(entries);
+            // 1. The distance test: each touching pair's inputs straight into its lane, ended
+            // contacts reset (a contact that ends loses its spring; the next one starts from
+            // zero). Branch-free compaction: every entry is written at the next free place and
+            // the place advances only for a touching pair (whether a pair touches is a coin
+            // flip the branch predictor loses).
+            let mut touching = 0usize;
+            let chunk = owner[c0..c1]
+                .iter()
+                .zip(&nbr[e0 + c0..e0 + c1])
+                .zip(&mut slots[c0..c1]);
+            for (e, ((&o, &j), sl)) in (c0..c1).zip(chunk) {
+                let (o, j) = (o as usize, j as usize);
+                let (ki, kj) = (&self.kin[o], &self.kin[j]);
+                let d = image.delta(kj.pos, ki.pos); // from j to i
+                let dist2 = d.norm2();
+                let touches = ki.is_live() & (dist2 < sl.sum * sl.sum) & kj.is_live();
+                let (lane, k) = (&mut scratch.groups[touching / LANES], touching % LANES);
+                put(&mut lane.d, k, d);
+                lane.dist2[k] = dist2;
+                put(&mut lane.vi, k, ki.vel);
+                put(&mut lane.vj, k, kj.vel);
                 // Zero when rotation is off.
-                put(&mut inp.wi, k, ki.omega);
-                put(&mut inp.wj, k, kj.omega);
-                inp.ri[k] = self.props[i].r;
-                inp.rj[k] = sl.rj;
-                inp.sum[k] = sl.sum;
-                inp.r_eff[k] = sl.r_eff;
-                inp.m_eff[k] = sl.m_eff;
+                put(&mut lane.wi, k, ki.omega);
+                put(&mut lane.wj, k, kj.omega);
+                lane.ri[k] = sl.ri;
+                lane.rj[k] = sl.rj;
+                lane.sum[k] = sl.sum;
+                lane.r_eff[k] = sl.r_eff;
+                lane.m_eff[k] = sl.m_eff;
                 let spring = if self.keep_springs && sl.touching() {
                     sl.spring
                 } else {
                     V3::zero()
                 };
-                put(&mut inp.spring, k, spring);
+                put(&mut lane.spring, k, spring);
+                scratch.entry[touching] = e as u32;
+                scratch.owner[touching] = (o - first) as u32;
+                scratch.partner[touching] = j as u32;
+                touching += usize::from(touches);
+                // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
+                if !touches & sl.touching() {
+                    sl.h = -R::one();
+                    react[e] = Reaction::default();
+                }
             }
-            pair_lanes::evaluate(self.law, self.dt, &inp, &mut out);
-            for k in 0..in_group {
-                let c = g + k;
-                let e = scratch.entry[c] as usize;
-                let l = scratch.owner[c] as usize;
-                let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
-                let sl = &mut slots[e];
-                sl.spring = get(&out.spring);
-                sl.h = out.h[k];
-                let fc = get(&out.f);
-                force[l] += fc;
-                if rot {
-                    torque[l] -= get(&out.ti);
-                }
-                nc[l] += 1;
-                // The partner's share: directly when it lies in this block (it comes after
-                // the owner, so every particle's sum keeps one fixed order), else for its pass.
-                let jl = nbr[e + e0] as usize - first;
-                if jl < count {
-                    force[jl] -= fc;
+            // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
+            // results are ignored); 3. their forces summed in entry order.
+            for g in 0..touching.div_ceil(LANES) {
+                pair_lanes::evaluate(self.law, self.dt, &scratch.groups[g], &mut out);
+                for k in 0..(touching - g * LANES).min(LANES) {
+                    let c = g * LANES + k;
+                    let (e, l) = (scratch.entry[c] as usize, scratch.owner[c] as usize);
+                    let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
+                    let sl = &mut slots[e];
+                    sl.spring = get(&out.spring);
+                    sl.h = out.h[k];
+                    let fc = get(&out.f);
+                    force[l] += fc;
                     if rot {
-                        torque[jl] += get(&out.tj);
+                        torque[l] -= get(&out.ti);
                     }
-                    nc[jl] += 1;
-                } else {
-                    react[e] = Reaction {
-                        f: -fc,
-                        t: get(&out.tj),
-                    };
+                    nc[l] += 1;
+                    // The partner's share: directly when it lies in this block (it comes after
+                    // the owner, so every particle's sum keeps one fixed order), else for its
+                    // pass.
+                    let jl = scratch.partner[c] as usize - first;
+                    if jl < count {
+                        force[jl] -= fc;
+                        if rot {
+                            torque[jl] += get(&out.tj);
+                        }
+                        nc[jl] += 1;
+                    } else {
+                        react[e] = Reaction {
+                            f: -fc,
+                            t: get(&out.tj),
+                        };
+                    }
+                    max_ov = max_ov.max(out.overlap[k] * sl.inv_d);
                 }
-                max_ov = max_ov.max(out.overlap[k] * sl.inv_d);
             }
         }
         max_ov
     }
 }
 
+#[inline(always)]
+fn put<R: Real>(a: &mut [[R; LANES]; 3], k: usize, v: V3<R>) {
+    a[0][k] = v.x;
+    a[1][k] = v.y;
+    a[2][k] = v.z;
+}
+
 /// What the per-particle sum of particle k reads besides its own kinematics.
 pub(super) struct SumContext<'a, R: Real> {
     pub(super) react: &'a [Reaction<R>],
-    /// The entries whose reaction k adds here (their owner lies in an earlier block).
+    /// The entries whose reaction a particle adds (their owner lies in an earlier block), in
+    /// partner then entry order, and their partners.
     pub(super) xstart: &'a [u32],
     pub(super) xslot: &'a [u32],
+    pub(super) xpartner: &'a [u32],
     pub(super) law_pw: &'a LawKernel<R>,
     pub(super) walls: &'a [WallKernel<R>],
     pub(super) dt: R,
@@ -472,15 +477,37 @@ pub(super) struct SumContext<'a, R: Real> {
 }
 
 impl<R: Real> SumContext<'_, R> {
-    /// Adds to particle k's share from the pair pass (`f`, `t`) the reactions of the pairs
-    /// where it is the partner and the owner lies in an earlier block (entry order), and its walls (springs in `wall_springs`, one per
-    /// wall). Returns force, torque, largest wall overlap ratio and the number of contacts
-    /// added. Fixed particles get zero.
+    /// Adds to the shares from the pair pass of the particles `first..first + force.len()` the
+    /// reactions of the pairs where they are the partner and the owner lies in an earlier block
+    /// (each particle's in entry order; one flat loop, not a short loop per particle), and
+    /// counts them in `nc`.
+    pub(super) fn reactions(
+        &self,
+        first: usize,
+        force: &mut [V3<R>],
+        torque: &mut [V3<R>],
+        nc: &mut [u32],
+        rot: bool,
+    ) {
+        let range = self.xstart[first] as usize..self.xstart[first + force.len()] as usize;
+        let (xslot, xpartner) = (&self.xslot[range.clone()], &self.xpartner[range]);
+        for (x, &e) in xslot.iter().enumerate() {
+            let (r, l) = (&self.react[e as usize], xpartner[x] as usize - first);
+            force[l] += r.f;
+            if rot {
+                torque[l] += r.t;
+            }
+            nc[l] += u32::from(r.f != V3::zero());
+        }
+    }
+
+    /// Adds to particle k's force and torque (`f`, `t`: the pair pass's shares and
+    /// `reactions`) its walls (springs in `wall_springs`, one per wall). Returns force, torque,
+    /// largest wall overlap ratio and the number of wall contacts. Fixed particles get zero.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn sum(
         &self,
-        k: usize,
         mut f: V3<R>,
         mut t: V3<R>,
         pk: V3<R>,
@@ -491,12 +518,6 @@ impl<R: Real> SumContext<'_, R> {
     ) -> (V3<R>, V3<R>, R, u32) {
         let mut nc = 0u32;
         let mut max_ov = R::zero();
-        for &e in &self.xslot[self.xstart[k] as usize..self.xstart[k + 1] as usize] {
-            let r = &self.react[e as usize];
-            f += r.f;
-            t += r.t;
-            nc += u32::from(r.f != V3::zero());
-        }
         if pr.inv_m == R::zero() {
             // Fixed particles feel no wall (as on the GPU): no wall spring survives either.
             wall_springs.fill(V3::zero());
