@@ -281,7 +281,8 @@ impl<R: Real> CpuEngine<R> {
         self.pair_slots.clear();
         self.pair_slots.resize(self.half.len(), PairSlot::default());
         self.reactions.clear();
-        self.reactions.resize(self.half.len(), Reaction::default());
+        self.reactions
+            .resize(self.half.xslot.len(), Reaction::default());
         self.wall_springs.clear();
         self.wall_springs.resize(n * nw, V3::zero());
         let hist = std::mem::take(&mut self.state.history);
@@ -383,19 +384,20 @@ impl<R: Real> CpuEngine<R> {
             keep_springs: self.slots > 0,
         };
         let (parts, entries) = block_bounds(&self.half.start, n);
+        let xoff: Vec<usize> = self.half.xoff.iter().map(|&x| x as usize).collect();
         let nblocks = parts.len() - 1;
         if self.pair_scratch.len() < nblocks {
             self.pair_scratch.resize_with(nblocks, PairScratch::default);
         }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
-            .zip(split_blocks(&mut self.reactions, &entries))
+            .zip(split_blocks(&mut self.reactions, &xoff))
             .zip(split_blocks(&mut s.force, &parts))
             .zip(split_blocks(&mut s.torque, &parts))
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
-        let (owner, nbr) = (&self.half.owner, &self.half.nbr);
+        let (owner, nbr, xrank) = (&self.half.owner, &self.half.nbr, &self.half.xrank);
         // One task per block, claimed by whichever team thread is free (the blocks' work
         // differs: walls, free surface); each block's slices behind an uncontended lock.
         let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
@@ -409,6 +411,8 @@ impl<R: Real> CpuEngine<R> {
                     nbr,
                     entries[b],
                     slots,
+                    &xrank[entries[b]..entries[b + 1]],
+                    xoff[b] as u32,
                     react,
                     force,
                     torque,

@@ -6,7 +6,7 @@
 
 use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
 use super::cpu::ALIVE;
-use super::grid::{NeighbourList, Periodic};
+use super::grid::{NeighbourList, Periodic, NOT_CROSS};
 use super::history::{wall_key, Rows};
 use super::kinematics::Kin;
 use super::oriented::OrientedContext;
@@ -324,13 +324,13 @@ pub(super) struct PairScratch<R: Real> {
 
 impl<R: Real> PairContext<'_, R> {
     /// Evaluates every pair (i, j > i) of the particles `first..first + force.len()` once:
-    /// `nbr` is the half list, whose entries of this block begin at `e0`, and `owner` their owners; `slots`
-    /// and `react` are this block's entries. Advances the springs in place and writes into
-    /// `force`, `torque` and `nc` (count of touching pairs) what the block's pairs do to its
-    /// particles, in entry order; a partner in a later block gets its force and torque in
-    /// `react` instead. Returns the
-    /// largest overlap ratio. Every value belongs to one block, so any split over threads writes
-    /// the same bits.
+    /// `nbr` is the half list, whose entries of this block begin at `e0`; `owner`, `slots` and
+    /// `xrank` are this block's entries, and `react` the block's places in the compact array of
+    /// cross reactions, which begin at place `x0` (see `HalfList::xrank`). Advances the springs
+    /// in place and writes into `force`, `torque` and `nc` (count of touching pairs) what the
+    /// block's pairs do to its particles, in entry order; a partner in a later block gets its
+    /// force and torque in `react` instead. Returns the largest overlap ratio. Every value
+    /// belongs to one block, so any split over threads writes the same bits.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn block(
         &self,
@@ -339,6 +339,8 @@ impl<R: Real> PairContext<'_, R> {
         nbr: &[u32],
         e0: usize,
         slots: &mut [PairSlot<R>],
+        xrank: &[u32],
+        x0: u32,
         react: &mut [Reaction<R>],
         force: &mut [V3<R>],
         torque: &mut [V3<R>],
@@ -411,7 +413,9 @@ impl<R: Real> PairContext<'_, R> {
                 // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
                 if !touches & sl.touching() {
                     sl.h = -R::one();
-                    react[e] = Reaction::default();
+                    if xrank[e] != NOT_CROSS {
+                        react[(xrank[e] - x0) as usize] = Reaction::default();
+                    }
                 }
             }
             // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
@@ -442,7 +446,7 @@ impl<R: Real> PairContext<'_, R> {
                         }
                         nc[jl] += 1;
                     } else {
-                        react[e] = Reaction {
+                        react[(xrank[e] - x0) as usize] = Reaction {
                             f: -fc,
                             t: get(&out.tj),
                         };
@@ -465,8 +469,8 @@ fn put<R: Real>(a: &mut [[R; LANES]; 3], k: usize, v: V3<R>) {
 /// What the per-particle sum of particle k reads besides its own kinematics.
 pub(super) struct SumContext<'a, R: Real> {
     pub(super) react: &'a [Reaction<R>],
-    /// The entries whose reaction a particle adds (their owner lies in an earlier block), in
-    /// partner then entry order, and their partners.
+    /// The places in `react` of the reactions a particle adds (their owner lies in an earlier
+    /// block), in partner then entry order, and their partners.
     pub(super) xstart: &'a [u32],
     pub(super) xslot: &'a [u32],
     pub(super) xpartner: &'a [u32],
@@ -491,8 +495,8 @@ impl<R: Real> SumContext<'_, R> {
     ) {
         let range = self.xstart[first] as usize..self.xstart[first + force.len()] as usize;
         let (xslot, xpartner) = (&self.xslot[range.clone()], &self.xpartner[range]);
-        for (x, &e) in xslot.iter().enumerate() {
-            let (r, l) = (&self.react[e as usize], xpartner[x] as usize - first);
+        for (x, &place) in xslot.iter().enumerate() {
+            let (r, l) = (&self.react[place as usize], xpartner[x] as usize - first);
             force[l] += r.f;
             if rot {
                 torque[l] += r.t;

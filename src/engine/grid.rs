@@ -350,6 +350,9 @@ pub fn build<R: Real>(
     }
 }
 
+/// `HalfList::xrank` of an entry whose partner lies in its owner's block.
+pub const NOT_CROSS: u32 = u32::MAX;
+
 /// Particles per rayon task when building half lists (rows are gathered per block, then
 /// concatenated in block order: the list does not depend on the thread count).
 const HALF_BLOCK: usize = 2048;
@@ -377,8 +380,15 @@ pub struct HalfList<R: Real> {
     pub rslot: Vec<u32>,
     /// The particle i owning each entry of `rslot`.
     pub rowner: Vec<u32>,
-    /// Entries whose partner j lies in a later block than their owner:
-    /// xslot[xstart[j]..xstart[j + 1]], in entry order.
+    /// Entries whose partner j lies in a later block than their owner ("cross" entries) hand
+    /// their reaction over in a compact array, in entry order: `xrank[e]` is entry e's place
+    /// there (`NOT_CROSS` for a partner in the owner's block), and block b's cross entries are
+    /// places xoff[b]..xoff[b + 1]. The partner j reads its reactions at places
+    /// xslot[xstart[j]..xstart[j + 1]], in entry order: nearly in memory order, since a block's
+    /// partners lie a roughly constant distance after their owners (a per-entry array read in
+    /// partner order missed the cache on most reads).
+    pub xrank: Vec<u32>,
+    pub xoff: Vec<u32>,
     pub xstart: Vec<u32>,
     pub xslot: Vec<u32>,
     /// The partner j of each entry of `xslot` (the sum pass adds them in one flat loop).
@@ -418,11 +428,14 @@ pub fn build_half<R: Real>(
     list.xstart.clear();
     list.xslot.clear();
     list.xpartner.clear();
+    list.xrank.clear();
+    list.xoff.clear();
     list.ref_pos.clear();
     if n == 0 {
         list.start.push(0);
         list.rstart.push(0);
         list.xstart.push(0);
+        list.xoff.push(0);
         return;
     }
     let grid = sort_by_cell(state, periodic, skin);
@@ -503,5 +516,81 @@ pub fn build_half<R: Real>(
         }
         list.xstart.push(list.xslot.len() as u32);
     }
+    list.xrank.resize(list.nbr.len(), NOT_CROSS);
+    let mut next = 0u32;
+    for i in 0..n {
+        if i % block == 0 {
+            list.xoff.push(next);
+        }
+        for e in list.start[i] as usize..list.start[i + 1] as usize {
+            if list.nbr[e] as usize / block != i / block {
+                list.xrank[e] = next;
+                next += 1;
+            }
+        }
+    }
+    list.xoff.push(next);
+    for x in &mut list.xslot {
+        *x = list.xrank[*x as usize];
+    }
     list.ref_pos.extend_from_slice(&state.pos);
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::{build_half, HalfList, Periodic, NOT_CROSS};
+    use crate::engine::state::State;
+
+    /// The cross entries' compact places: numbered in entry order, block by block as `xoff`
+    /// says, and every partner finds exactly the places of its cross entries, in entry order.
+    #[test]
+    fn cross_reactions_have_compact_places_in_entry_order() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut s = State::<f64>::new(true, 8);
+        for id in 0..3000u32 {
+            let p = [0.0, 1.0, 2.0].map(|_| rng.random::<f64>() * 0.3);
+            s.push_sphere(id, p, [0.0; 3], 0.01, 1000.0, false);
+        }
+        let periodic = Periodic {
+            x: Some((0.0, 0.3)),
+            y: None,
+        };
+        let block = 256;
+        let mut list = HalfList::default();
+        build_half(&mut s, &periodic, 0.004, block, &mut list);
+        let n = s.len();
+        let mut expected: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut next = 0;
+        for i in 0..n {
+            if i % block == 0 {
+                assert_eq!(
+                    list.xoff[i / block],
+                    next,
+                    "block {} starts at its place",
+                    i / block
+                );
+            }
+            for e in list.start[i] as usize..list.start[i + 1] as usize {
+                let j = list.nbr[e] as usize;
+                assert_eq!(list.owner[e] as usize, i);
+                if j / block == i / block {
+                    assert_eq!(list.xrank[e], NOT_CROSS);
+                } else {
+                    assert_eq!(list.xrank[e], next, "entry {e} ({i}, {j})");
+                    expected[j].push(next);
+                    next += 1;
+                }
+            }
+        }
+        assert_eq!(*list.xoff.last().unwrap(), next);
+        assert!(next > 0, "the test needs cross entries");
+        for (j, places) in expected.iter().enumerate() {
+            let (a, b) = (list.xstart[j] as usize, list.xstart[j + 1] as usize);
+            assert_eq!(&list.xslot[a..b], places.as_slice(), "partner {j}");
+            assert!(list.xpartner[a..b].iter().all(|&p| p as usize == j));
+        }
+    }
 }
