@@ -27,6 +27,7 @@ use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
 use super::kinematics::{self, Kin};
 use super::oriented;
 use super::real::{Real, V3};
+use super::skin::DisplacementBound;
 use super::state::State;
 use super::team::Team;
 use super::walls::WallKernel;
@@ -427,14 +428,12 @@ impl<R: Real> CpuEngine<R> {
     /// Completes each particle's force and torque (own share from the pair pass, then the
     /// reactions where it is the partner in entry order, then its walls: a fixed order) in
     /// `state.force`/`torque`, then kicks by `kick` and, with `drift`, drifts (the next step's
-    /// opening). Returns (some particle died, the lists need a rebuild, largest wall overlap,
-    /// most contacts of one particle).
-    fn sum_kick_drift(&mut self, kick: R, drift: bool) -> (bool, bool, R, u32) {
+    /// opening). Returns (some particle died, the largest squared speed of a drifted particle,
+    /// largest wall overlap, most contacts of one particle).
+    fn sum_kick_drift(&mut self, kick: R, drift: bool) -> (bool, R, R, u32) {
         let n = self.state.len();
         let nw = self.walls.len();
         let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
-        let image = periodic.image();
-        let half2 = self.skin * self.skin * R::from_f64(0.25);
         let law_pw = self.law_pw;
         let ctx = SumContext {
             react: &self.reactions,
@@ -452,7 +451,6 @@ impl<R: Real> CpuEngine<R> {
             .collect();
         let s = &mut self.state;
         let rot = s.rotation;
-        let refs = &self.half.ref_pos;
         let props = &self.props;
         let blocks = split_blocks(&mut self.kin, &parts)
             .into_iter()
@@ -468,7 +466,7 @@ impl<R: Real> CpuEngine<R> {
                 let mut guard = cells[b].lock().unwrap();
                 let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
                 {
-                    let mut out = (false, false, R::zero(), 0u32);
+                    let mut out = (false, R::zero(), R::zero(), 0u32);
                     let first = parts[b];
                     ctx.reactions(first, force, torque, nc, rot);
                     // Every array cut to the block's length once, so that the loop's indexing
@@ -477,7 +475,7 @@ impl<R: Real> CpuEngine<R> {
                     let (force, alive, nc) =
                         (&mut force[..count], &mut alive[..count], &mut nc[..count]);
                     let torque = &mut torque[..if rot { count } else { 0 }];
-                    let (props, refs) = (&props[first..][..count], &refs[first..][..count]);
+                    let props = &props[first..][..count];
                     let mut wall_rows = wsp[..count * nw].chunks_exact_mut(nw.max(1));
                     for (l, kl) in kin.iter_mut().enumerate() {
                         let wall_sp: &mut [V3<R>] = if nw == 0 {
@@ -521,15 +519,42 @@ impl<R: Real> CpuEngine<R> {
                             kl.live = R::zero();
                             out.0 = true;
                         }
-                        out.1 |= image.delta(refs[l], kl.pos).norm2() > half2;
+                        // The lists' skin test (skin.rs) needs only the fastest particle.
+                        out.1 = out.1.max(kl.vel.norm2());
                     }
                     out
                 }
             })
             .into_iter()
-            .fold((false, false, R::zero(), 0), |p, q| {
-                (p.0 || q.0, p.1 || q.1, p.2.max(q.2), p.3.max(q.3))
+            .fold((false, R::zero(), R::zero(), 0), |p, q| {
+                (p.0 || q.0, p.1.max(q.1), p.2.max(q.2), p.3.max(q.3))
             })
+    }
+
+    /// The exact skin test on the packed motion: whether a particle that drifted this step
+    /// (alive, or fallen through the sink this step; not fixed) lies more than half the skin
+    /// from where the lists were built, the largest such displacement and the largest
+    /// coordinate magnitude (for `DisplacementBound`).
+    fn measure_displacements(&self) -> (bool, f64, f64) {
+        let image = self.periodic.image();
+        let half2 = self.skin * self.skin * R::from_f64(0.25);
+        let (kin, refs, alive, props) = (&self.kin, &self.half.ref_pos, &self.alive, &self.props);
+        self.pool.install(|| {
+            (0..kin.len())
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .filter(|&i| matches!(alive[i], ALIVE | DYING) && props[i].inv_m != R::zero())
+                .map(|i| {
+                    let p = kin[i].pos;
+                    let d2 = image.delta(refs[i], p).norm2();
+                    let scale = p.x.abs().max(p.y.abs()).max(p.z.abs()).to_f64();
+                    (d2 > half2, d2.to_f64().sqrt(), scale)
+                })
+                .reduce(
+                    || (false, 0.0, 0.0),
+                    |a, b| (a.0 || b.0, a.1.max(b.1), a.2.max(b.2)),
+                )
+        })
     }
 
     /// Elastic energy of the contacts from the half lists and slots (each pair once), summed in
@@ -622,6 +647,9 @@ impl<R: Real> CpuEngine<R> {
         let (mut died, mut moved) = self.kick_drift(half);
         let alive = &self.alive;
         kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == ALIVE);
+        let (skin, dt) = (self.skin.to_f64(), self.config.dt_s);
+        let (_, max_moved, scale) = self.measure_displacements();
+        let mut bound = DisplacementBound::new(skin, max_moved, scale, R::EPSILON);
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
             if died {
@@ -629,17 +657,25 @@ impl<R: Real> CpuEngine<R> {
             }
             if moved {
                 self.rebuild_half(true);
+                bound.rebuilt();
             }
             let ov_pairs = self.pair_pass();
             let step = self.state.step;
             self.state.time = t_next;
             self.state.step += 1;
             let last = k + 1 == steps;
-            let (d, m, ov_walls, fullest) = if last {
+            let (d, v_max2, ov_walls, fullest) = if last {
                 self.sum_kick_drift(half, false)
             } else {
                 self.sum_kick_drift(self.dt, true)
             };
+            // The exact skin test only when the bound nears half the skin (skin.rs).
+            let mut m = false;
+            if !last && bound.drifted(v_max2.to_f64().sqrt(), dt) {
+                let (beyond, max_moved, scale) = self.measure_displacements();
+                m = beyond;
+                bound.measured(max_moved, scale + skin, R::EPSILON);
+            }
             // The history table would not hold this step's contacts: fail now, at the step
             // where it happens (as the GPU does), not when the chunk writes the table back.
             if self.slots > 0 && fullest as usize > self.slots {

@@ -15,6 +15,7 @@ mod oriented;
 mod pair_lanes;
 pub mod real;
 pub mod shape;
+mod skin;
 pub mod state;
 mod team;
 pub mod walls;

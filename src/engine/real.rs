@@ -25,6 +25,8 @@ pub trait Real:
 {
     /// Name used in checkpoints, the store and reports.
     const NAME: &'static str;
+    /// The spacing of the type's numbers just above one.
+    const EPSILON: f64;
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sqrt(self) -> Self;
@@ -55,6 +57,7 @@ pub trait Real:
 
 impl Real for f32 {
     const NAME: &'static str = "f32";
+    const EPSILON: f64 = f32::EPSILON as f64;
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x as f32
@@ -83,6 +86,7 @@ impl Real for f32 {
 
 impl Real for f64 {
     const NAME: &'static str = "f64";
+    const EPSILON: f64 = f64::EPSILON;
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x
