@@ -72,6 +72,8 @@ pub struct CpuEngine<R: Real> {
     pair_scratch: Vec<PairScratch<R>>,
     reactions: Vec<Reaction<R>>,
     wall_springs: Vec<V3<R>>,
+    /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
+    near_walls: Vec<u32>,
     props: Vec<Props<R>>,
     /// History slots per particle of the state's table.
     slots: usize,
@@ -123,6 +125,7 @@ impl<R: Real> CpuEngine<R> {
             pair_scratch: Vec::new(),
             reactions: Vec::new(),
             wall_springs: Vec::new(),
+            near_walls: Vec::new(),
             props: Vec::new(),
             slots: state.history.slots,
             alive: Vec::new(),
@@ -329,6 +332,24 @@ impl<R: Real> CpuEngine<R> {
         // The table stays out of the state while the chunk runs (the slots hold the history).
         self.state.history = History::new(0);
         kinematics::gather_from(&mut self.kin, &self.state, |_| true);
+        // Each sphere's walls: those within its radius plus the skin (it moves less than half
+        // the skin before the next build), and any it has a spring with.
+        let (s, walls, wsp) = (&self.state, &self.walls, &self.wall_springs);
+        let skin = self.skin;
+        self.near_walls = self.pool.install(|| {
+            (0..n)
+                .into_par_iter()
+                .with_min_len(MIN_LEN)
+                .map(|i| {
+                    (0..nw.min(32))
+                        .filter(|&w| {
+                            walls[w].may_touch(s.pos[i], s.radius[i], skin)
+                                || wsp[i * nw + w] != V3::zero()
+                        })
+                        .fold(0u32, |mask, w| mask | 1 << w)
+                })
+                .collect()
+        });
     }
 
     /// Puts the history back into the state in its format (`slots` per particle).
@@ -460,6 +481,7 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(split_blocks(&mut self.wall_springs, &scaled(&parts, nw)))
             .collect::<Vec<_>>();
+        let near_walls = &self.near_walls;
         let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
         self.team
             .run(cells.len(), |b| {
@@ -475,7 +497,7 @@ impl<R: Real> CpuEngine<R> {
                     let (force, alive, nc) =
                         (&mut force[..count], &mut alive[..count], &mut nc[..count]);
                     let torque = &mut torque[..if rot { count } else { 0 }];
-                    let props = &props[first..][..count];
+                    let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
                     let mut wall_rows = wsp[..count * nw].chunks_exact_mut(nw.max(1));
                     for (l, kl) in kin.iter_mut().enumerate() {
                         let wall_sp: &mut [V3<R>] = if nw == 0 {
@@ -494,7 +516,7 @@ impl<R: Real> CpuEngine<R> {
                         let pr = props[l];
                         let t0 = if rot { torque[l] } else { V3::zero() };
                         let (f, t, ov, c) =
-                            ctx.sum(force[l], t0, kl.pos, kl.vel, kl.omega, pr, wall_sp);
+                            ctx.sum(force[l], t0, kl.pos, kl.vel, kl.omega, pr, wall_sp, near[l]);
                         out.2 = out.2.max(ov);
                         force[l] = f;
                         nc[l] += c;

@@ -506,7 +506,8 @@ impl<R: Real> SumContext<'_, R> {
     }
 
     /// Adds to particle k's force and torque (`f`, `t`: the pair pass's shares and
-    /// `reactions`) its walls (springs in `wall_springs`, one per wall). Returns force, torque,
+    /// `reactions`) its walls (springs in `wall_springs`, one per wall), testing only the walls
+    /// in `near` (bit w for wall w < 32; see `WallKernel::may_touch`). Returns force, torque,
     /// largest wall overlap ratio and the number of wall contacts. Fixed particles get zero.
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -519,6 +520,7 @@ impl<R: Real> SumContext<'_, R> {
         wk: V3<R>,
         pr: Props<R>,
         wall_springs: &mut [V3<R>],
+        near: u32,
     ) -> (V3<R>, V3<R>, R, u32) {
         let mut nc = 0u32;
         let mut max_ov = R::zero();
@@ -528,7 +530,22 @@ impl<R: Real> SumContext<'_, R> {
             return (V3::zero(), V3::zero(), max_ov, nc);
         }
         let rk = pr.r;
-        for (wall, ws) in self.walls.iter().zip(wall_springs.iter_mut()) {
+        // Only the walls the particle may reach before the next list build (the others give no
+        // contact and hold a zero spring), in wall order: the set bits of `near`, then any
+        // walls past the 32nd. Most particles reach none, and the test for that is one branch
+        // that changes only at the edges of the bed, not one per wall and particle.
+        let mut bits = near;
+        let far = (32..self.walls.len()).map(|w| w as u32);
+        let walls = std::iter::from_fn(|| {
+            (bits != 0).then(|| {
+                let w = bits.trailing_zeros();
+                bits &= bits - 1;
+                w
+            })
+        })
+        .chain(far);
+        for w in walls {
+            let (wall, ws) = (&self.walls[w as usize], &mut wall_springs[w as usize]);
             let Some(wc) = wall.touch(pk, rk) else {
                 *ws = V3::zero();
                 continue;

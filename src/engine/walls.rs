@@ -147,6 +147,27 @@ impl Wall {
 }
 
 impl<R: Real> WallKernel<R> {
+    /// Whether a sphere of radius `rad` whose centre stays within `m` of `p` may touch this
+    /// wall: false only when a lower bound on its distance from the wall exceeds the radius,
+    /// so that `touch` gives nothing anywhere within `m`. Walls do not move (a rotating wall
+    /// only gives its surface a velocity), so a particle's walls can be picked once per list
+    /// build (with `m` the skin) and the others skipped until the next.
+    pub fn may_touch(&self, p: V3<R>, rad: R, m: R) -> bool {
+        let reach = rad + m;
+        match self.kind {
+            0 => (p - self.a).dot(self.b) < reach,
+            1 => {
+                if p.z < self.z0 - m || p.z > self.z1 + m {
+                    return false;
+                }
+                let (dx, dy) = (p.x - self.a.x, p.y - self.a.y);
+                self.r - (dx * dx + dy * dy).sqrt() < reach
+            }
+            // The plate's face or its rim, both in the plane z = z0.
+            _ => (p.z - self.z0).abs() < reach,
+        }
+    }
+
     /// The contact of a sphere (centre `p`, radius `rad`) with this wall, if they overlap.
     #[inline]
     pub fn touch(&self, p: V3<R>, rad: R) -> Option<WallContact<R>> {
@@ -295,6 +316,73 @@ impl<R: Real> WallKernel<R> {
             V3::new(-self.omega * rel.y, self.omega * rel.x, R::zero())
         } else {
             V3::zero()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::{Wall, WallShape};
+    use crate::engine::real::V3;
+
+    /// `may_touch` never rules out a wall that a sphere moved by up to `m` touches: random
+    /// centres near each kind of wall (plate face and rim, cylinder side and ends, a tilted
+    /// plane), random moves of length up to m.
+    #[test]
+    fn may_touch_never_misses_a_contact_within_the_margin() {
+        let shapes = [
+            WallShape::Plane {
+                point: [0.0, 0.0, -0.01],
+                normal: [0.0, 0.6, 0.8],
+            },
+            WallShape::Cylinder {
+                axis_xy: [0.01, 0.0],
+                radius: 0.05,
+                z_min: 0.0,
+                z_max: 0.1,
+            },
+            WallShape::OrificePlate {
+                z: 0.0,
+                center_xy: [0.0, 0.0],
+                orifice_radius: 0.013,
+            },
+        ];
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (rad, m) = (0.003, 0.0012);
+        for shape in shapes {
+            let wall = Wall {
+                shape,
+                rotation: None,
+            }
+            .kernel::<f64>();
+            let (mut touched, mut ruled_out) = (0, 0);
+            for _ in 0..200_000 {
+                let p0 = V3::new(
+                    rng.random_range(-0.07..0.07),
+                    rng.random_range(-0.07..0.07),
+                    rng.random_range(-0.03..0.13),
+                );
+                let may = wall.may_touch(p0, rad, m);
+                ruled_out += usize::from(!may);
+                let dir: V3<f64> = V3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                let p = p0 + dir * (m * rng.random::<f64>() / dir.norm().max(1e-9));
+                if wall.touch(p, rad).is_some() {
+                    touched += 1;
+                    assert!(may, "{shape:?}: a sphere at {p0:?} moved to {p:?} touches");
+                }
+            }
+            // The test means something only if both outcomes occur often.
+            assert!(
+                touched > 1000 && ruled_out > 10_000,
+                "{touched} {ruled_out}"
+            );
         }
     }
 }
