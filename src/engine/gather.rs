@@ -228,6 +228,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct PairSlot<R: Real> {
+    /// Zero whenever the pair does not touch (`h` < 0).
     pub(super) spring: V3<R>,
     /// Half the overlap, or −1 when the pair does not touch.
     pub(super) h: R,
@@ -400,7 +401,9 @@ impl<R: Real> PairContext<'_, R> {
                 lane.sum[k] = sl.sum;
                 lane.r_eff[k] = sl.r_eff;
                 lane.m_eff[k] = sl.m_eff;
-                let spring = if self.keep_springs && sl.touching() {
+                // A pair that does not touch holds a zero spring (see the reset below), so the
+                // spring needs no test of whether the pair touched (a coin flip per entry).
+                let spring = if self.keep_springs {
                     sl.spring
                 } else {
                     V3::zero()
@@ -413,6 +416,7 @@ impl<R: Real> PairContext<'_, R> {
                 // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
                 if !touches & sl.touching() {
                     sl.h = -R::one();
+                    sl.spring = V3::zero();
                     if xrank[e] != NOT_CROSS {
                         react[(xrank[e] - x0) as usize] = Reaction::default();
                     }
