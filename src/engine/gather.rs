@@ -310,6 +310,7 @@ pub(super) struct PairContext<'a, R: Real> {
 
 /// Entries of the half list per pass of the distance test (see `PairContext::block`).
 const CHUNK: usize = 256;
+const _: () = assert!(CHUNK.is_power_of_two());
 
 /// A chunk's touching pairs, found by the distance test and evaluated `LANES` at a time.
 /// Kept by the engine per block so that its vectors grow once.
@@ -365,6 +366,14 @@ impl<R: Real> PairContext<'_, R> {
             }
             nc[l] = 0;
         }
+        // The scratch as slices of exactly CHUNK (groups: CHUNK / LANES + 1) places, indexed
+        // through a mask that changes nothing (the place is below CHUNK) but lets the compiler
+        // drop the bounds checks and the reloads of the vectors.
+        let s_entry = &mut scratch.entry[..CHUNK];
+        let s_owner = &mut scratch.owner[..CHUNK];
+        let s_partner = &mut scratch.partner[..CHUNK];
+        let s_groups = &mut scratch.groups[..groups];
+        const MASK: usize = CHUNK - 1;
         let image = self.periodic.image();
         let mut max_ov = R::zero();
         let mut out = LaneOutput::<R>::default();
@@ -388,7 +397,7 @@ impl<R: Real> PairContext<'_, R> {
                 let d = image.delta(kj.pos, ki.pos); // from j to i
                 let dist2 = d.norm2();
                 let touches = ki.is_live() & (dist2 < sl.sum * sl.sum) & kj.is_live();
-                let (lane, k) = (&mut scratch.groups[touching / LANES], touching % LANES);
+                let (lane, k) = (&mut s_groups[(touching & MASK) / LANES], touching % LANES);
                 put(&mut lane.d, k, d);
                 lane.dist2[k] = dist2;
                 put(&mut lane.vi, k, ki.vel);
@@ -409,9 +418,9 @@ impl<R: Real> PairContext<'_, R> {
                     V3::zero()
                 };
                 put(&mut lane.spring, k, spring);
-                scratch.entry[touching] = e as u32;
-                scratch.owner[touching] = (o - first) as u32;
-                scratch.partner[touching] = j as u32;
+                s_entry[touching & MASK] = e as u32;
+                s_owner[touching & MASK] = (o - first) as u32;
+                s_partner[touching & MASK] = j as u32;
                 touching += usize::from(touches);
                 // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
                 if !touches & sl.touching() {
@@ -424,11 +433,11 @@ impl<R: Real> PairContext<'_, R> {
             }
             // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
             // results are ignored); 3. their forces summed in entry order.
-            for g in 0..touching.div_ceil(LANES) {
-                pair_lanes::evaluate(self.law, self.dt, &scratch.groups[g], &mut out);
+            for (g, group) in s_groups[..touching.div_ceil(LANES)].iter().enumerate() {
+                pair_lanes::evaluate(self.law, self.dt, group, &mut out);
                 for k in 0..(touching - g * LANES).min(LANES) {
                     let c = g * LANES + k;
-                    let (e, l) = (scratch.entry[c] as usize, scratch.owner[c] as usize);
+                    let (e, l) = (s_entry[c & MASK] as usize, s_owner[c & MASK] as usize);
                     let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
                     let sl = &mut slots[e];
                     sl.spring = get(&out.spring);
@@ -442,7 +451,7 @@ impl<R: Real> PairContext<'_, R> {
                     // The partner's share: directly when it lies in this block (it comes after
                     // the owner, so every particle's sum keeps one fixed order), else for its
                     // pass.
-                    let jl = scratch.partner[c] as usize - first;
+                    let jl = s_partner[c & MASK] as usize - first;
                     if jl < count {
                         force[jl] -= fc;
                         if rot {
