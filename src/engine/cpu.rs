@@ -1,11 +1,15 @@
 //! The CPU backend: velocity Verlet over rayon, generic over the precision.
 //!
 //! Spheres: half Verlet lists with a skin (`grid::build_half`, rebuilt only when a particle has
-//! moved half the skin), each pair evaluated once (Newton's third law) with its tangential
-//! spring kept in the pair's entry. The pair pass runs over fixed blocks of particles and adds
-//! each pair's force to i, and to j when j lies in the same block; a partner in a later block
-//! gets its share in the entry, and a second pass adds, per particle, those shares in entry
-//! order, its walls, and the kick and drift. Every value is written by exactly one task and
+//! moved half the skin, which a displacement bound watches: `skin.rs`), each pair evaluated once
+//! (Newton's third law) with its tangential spring kept in the pair's entry. The pair pass runs
+//! over fixed blocks of particles and adds each pair's force to i, and to j when j lies in the
+//! same block; a partner in a later block gets its share in a compact array of handed-over
+//! reactions, and a second pass adds, per particle, those shares in entry order, the walls it
+//! may reach (picked at each list build), and the kick and drift. The hot loops avoid branches
+//! whose outcome is a coin flip (touching or not, same block or not): instruction counts and
+//! mispredicts are measured with cachegrind, which is deterministic where this VM's timings
+//! are not. Every value is written by exactly one task and
 //! summed in a fixed order, so results are bitwise identical for any thread count. While a chunk
 //! runs, the spheres' motion lives in packed records (`kinematics.rs`). The springs go back
 //! into the state's per-particle history table (keyed by partner id, the checkpoint and GPU
