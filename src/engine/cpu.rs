@@ -700,7 +700,7 @@ impl<R: Real> CpuEngine<R> {
             if !last && bound.drifted(v_max2.to_f64().sqrt(), dt) {
                 let (beyond, max_moved, scale) = self.measure_displacements();
                 m = beyond;
-                bound.measured(max_moved, scale + skin, R::EPSILON);
+                bound.measured(max_moved, scale + skin);
             }
             // The history table would not hold this step's contacts: fail now, at the step
             // where it happens (as the GPU does), not when the chunk writes the table back.

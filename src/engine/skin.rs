@@ -20,6 +20,11 @@ pub(super) struct DisplacementBound {
     /// Rounding a step can add to a displacement: half a unit in the last place of the largest
     /// coordinate for the drift's addition and for a periodic wrap, doubled for margin.
     slack: f64,
+    /// The largest coordinate magnitude the slack assumes, the skin, and the precision's
+    /// spacing of numbers just above one.
+    scale: f64,
+    skin: f64,
+    epsilon: f64,
 }
 
 impl DisplacementBound {
@@ -31,14 +36,20 @@ impl DisplacementBound {
             moved: 0.0,
             limit: 0.45 * skin,
             slack: 0.0,
+            scale: 0.0,
+            skin,
+            epsilon,
         };
-        b.measured(moved, scale + skin, epsilon);
+        b.measured(moved, scale + skin);
         b
     }
 
-    /// The lists were just rebuilt.
+    /// The lists were just rebuilt. Until the next exact measurement the particles may move up
+    /// to half the skin more, so the coordinates the slack assumes grow by the skin.
     pub(super) fn rebuilt(&mut self) {
         self.moved = 0.0;
+        self.scale += self.skin;
+        self.slack = 2.0 * self.scale * self.epsilon;
     }
 
     /// A drift by `dt` with fastest speed `v_max`. Returns whether the exact measurement is
@@ -52,8 +63,9 @@ impl DisplacementBound {
     /// The exact measurement found no particle beyond half the skin: `moved` is the largest
     /// displacement, `scale` the largest coordinate magnitude (plus the skin, which no particle
     /// leaves before the next rebuild).
-    pub(super) fn measured(&mut self, moved: f64, scale: f64, epsilon: f64) {
-        self.slack = 2.0 * scale * epsilon;
+    pub(super) fn measured(&mut self, moved: f64, scale: f64) {
+        self.scale = scale;
+        self.slack = 2.0 * scale * self.epsilon;
         self.moved = moved * (1.0 + 1e-6) + self.slack;
     }
 }
@@ -83,7 +95,7 @@ mod tests {
             f64::from(steps) > 0.95 * ideal,
             "{steps} steps of an ideal {ideal:.0}"
         );
-        b.measured(0.1 * skin, 0.1, f32::EPSILON as f64);
+        b.measured(0.1 * skin, 0.1);
         assert!(!b.drifted(v, dt));
         b.rebuilt();
         assert!(!b.drifted(v, dt));
