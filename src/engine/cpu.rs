@@ -410,14 +410,13 @@ impl<R: Real> CpuEngine<R> {
             keep_springs: self.slots > 0,
         };
         let (parts, entries) = block_bounds(&self.half.start, n);
-        let xoff: Vec<usize> = self.half.xoff.iter().map(|&x| x as usize).collect();
         let nblocks = parts.len() - 1;
         if self.pair_scratch.len() < nblocks {
             self.pair_scratch.resize_with(nblocks, PairScratch::default);
         }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
-            .zip(split_blocks(&mut self.reactions, &xoff))
+            .zip(split_blocks(&mut self.reactions, &self.half.xoff))
             .zip(split_blocks(&mut s.force, &parts))
             .zip(split_blocks(&mut s.torque, &parts))
             .zip(split_blocks(&mut self.contacts, &parts))
@@ -438,7 +437,7 @@ impl<R: Real> CpuEngine<R> {
                     entries[b],
                     slots,
                     &xrank[entries[b]..entries[b + 1]],
-                    xoff[b] as u32,
+                    self.half.xoff[b] as u32,
                     react,
                     force,
                     torque,

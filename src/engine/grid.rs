@@ -17,23 +17,14 @@ pub struct Periodic<R: Real> {
 }
 
 impl<R: Real> Periodic<R> {
-    /// Minimum-image separation b − a. Positions are wrapped into the box, so |b − a| < L and one
-    /// conditional shift is the minimum image (a branch instead of `floor`, which is a libm call
-    /// on baseline x86-64 and sat in the innermost loop).
+    /// Minimum-image separation b − a (see `Image`); a hot loop takes `image()` once instead.
     #[inline(always)]
     pub fn delta(&self, a: V3<R>, b: V3<R>) -> V3<R> {
-        let mut d = b - a;
-        if let Some((lo, hi)) = self.x {
-            d.x = image(d.x, hi - lo);
-        }
-        if let Some((lo, hi)) = self.y {
-            d.y = image(d.y, hi - lo);
-        }
-        d
+        self.image().delta(a, b)
     }
 
     /// The lengths the minimum image needs, computed once for a hot loop.
-    #[inline]
+    #[inline(always)]
     pub fn image(&self) -> Image<R> {
         let len = |a: Option<(R, R)>| a.map_or(R::zero(), |(lo, hi)| hi - lo);
         let (lx, ly) = (len(self.x), len(self.y));
@@ -55,10 +46,12 @@ impl<R: Real> Periodic<R> {
     }
 }
 
-/// `Periodic::delta` for the innermost loops: the box lengths precomputed (zero along an axis
-/// that is not periodic, which leaves it untouched) and the shift chosen without branches (the
-/// options and the two comparisons of `delta` were 30 instructions per pair). The same bits as
-/// `delta`: d − (−l) is d + l, and d − 0 is d.
+/// The minimum image along the periodic axes. Positions are wrapped into the box, so |b − a| < L
+/// and one shift is the minimum image: no `floor` (a libm call on baseline x86-64). The box
+/// lengths are precomputed (zero along an axis that is not periodic, which leaves it untouched)
+/// and the shift is chosen by selects, not branches (the options and comparisons were 30
+/// instructions per pair in the innermost loop): d − (−l) is d + l and d − 0 is d, the same bits
+/// as a branch would give.
 #[derive(Clone, Copy, Debug)]
 pub struct Image<R: Real> {
     len: [R; 2],
@@ -77,19 +70,6 @@ impl<R: Real> Image<R> {
             d - (up - down)
         };
         V3::new(fold(d.x, 0), fold(d.y, 1), d.z)
-    }
-}
-
-/// The minimum image of a separation `d` with |d| < `l` along a periodic axis of length `l`.
-#[inline(always)]
-fn image<R: Real>(d: R, l: R) -> R {
-    let half = l * R::from_f64(0.5);
-    if d > half {
-        d - l
-    } else if d < -half {
-        d + l
-    } else {
-        d
     }
 }
 
@@ -388,7 +368,7 @@ pub struct HalfList<R: Real> {
     /// partners lie a roughly constant distance after their owners (a per-entry array read in
     /// partner order missed the cache on most reads).
     pub xrank: Vec<u32>,
-    pub xoff: Vec<u32>,
+    pub xoff: Vec<usize>,
     pub xstart: Vec<u32>,
     pub xslot: Vec<u32>,
     /// The partner j of each entry of `xslot` (the sum pass adds them in one flat loop).
@@ -504,23 +484,12 @@ pub fn build_half<R: Real>(
             fill[j] += 1;
         }
     }
-    list.xstart.reserve(n + 1);
-    list.xstart.push(0);
-    for j in 0..n {
-        let (a, b) = (list.rstart[j] as usize, list.rstart[j + 1] as usize);
-        for r in a..b {
-            if list.rowner[r] as usize / block != j / block {
-                list.xslot.push(list.rslot[r]);
-                list.xpartner.push(j as u32);
-            }
-        }
-        list.xstart.push(list.xslot.len() as u32);
-    }
+    // Cross entries numbered in entry order, block by block.
     list.xrank.resize(list.nbr.len(), NOT_CROSS);
     let mut next = 0u32;
     for i in 0..n {
         if i % block == 0 {
-            list.xoff.push(next);
+            list.xoff.push(next as usize);
         }
         for e in list.start[i] as usize..list.start[i + 1] as usize {
             if list.nbr[e] as usize / block != i / block {
@@ -529,9 +498,19 @@ pub fn build_half<R: Real>(
             }
         }
     }
-    list.xoff.push(next);
-    for x in &mut list.xslot {
-        *x = list.xrank[*x as usize];
+    list.xoff.push(next as usize);
+    // Each partner's cross entries, in entry order (the transpose's order).
+    list.xstart.reserve(n + 1);
+    list.xstart.push(0);
+    for j in 0..n {
+        for &e in &list.rslot[list.rstart[j] as usize..list.rstart[j + 1] as usize] {
+            let place = list.xrank[e as usize];
+            if place != NOT_CROSS {
+                list.xslot.push(place);
+                list.xpartner.push(j as u32);
+            }
+        }
+        list.xstart.push(list.xslot.len() as u32);
     }
     list.ref_pos.extend_from_slice(&state.pos);
 }
@@ -568,7 +547,7 @@ mod tests {
             if i % block == 0 {
                 assert_eq!(
                     list.xoff[i / block],
-                    next,
+                    next as usize,
                     "block {} starts at its place",
                     i / block
                 );
@@ -585,7 +564,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(*list.xoff.last().unwrap(), next);
+        assert_eq!(*list.xoff.last().unwrap(), next as usize);
         assert!(next > 0, "the test needs cross entries");
         for (j, places) in expected.iter().enumerate() {
             let (a, b) = (list.xstart[j] as usize, list.xstart[j + 1] as usize);
