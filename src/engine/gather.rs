@@ -10,7 +10,7 @@ use super::grid::{NeighbourList, Periodic, NOT_CROSS};
 use super::history::{wall_key, Rows};
 use super::kinematics::Kin;
 use super::oriented::OrientedContext;
-use super::pair_lanes::{self, LaneInput, LaneOutput, LANES};
+use super::pair_lanes::{self, LaneInput, LaneOutput, CHUNK, LANES};
 use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
@@ -308,10 +308,6 @@ pub(super) struct PairContext<'a, R: Real> {
     pub(super) keep_springs: bool,
 }
 
-/// Entries of the half list per pass of the distance test (see `PairContext::block`).
-const CHUNK: usize = 256;
-const _: () = assert!(CHUNK.is_power_of_two());
-
 /// A chunk's touching pairs, found by the distance test and evaluated `LANES` at a time.
 /// Kept by the engine per block so that its vectors grow once.
 #[derive(Default)]
@@ -320,8 +316,8 @@ pub(super) struct PairScratch<R: Real> {
     entry: Vec<u32>,
     owner: Vec<u32>,
     partner: Vec<u32>,
-    /// Their contact law's inputs: pair t is lane t % LANES of group t / LANES.
-    groups: Vec<LaneInput<R>>,
+    /// Their contact law's inputs.
+    lanes: Box<LaneInput<R>>,
 }
 
 impl<R: Real> PairContext<'_, R> {
@@ -352,12 +348,10 @@ impl<R: Real> PairContext<'_, R> {
         let rot = self.rotation;
         let count = force.len();
         let entries = slots.len();
-        let groups = CHUNK / LANES + 1;
-        if scratch.groups.len() < groups {
+        if scratch.entry.len() < CHUNK {
             scratch.entry.resize(CHUNK, 0);
             scratch.owner.resize(CHUNK, 0);
             scratch.partner.resize(CHUNK, 0);
-            scratch.groups.resize(groups, LaneInput::default());
         }
         for l in 0..count {
             force[l] = V3::zero();
@@ -366,13 +360,13 @@ impl<R: Real> PairContext<'_, R> {
             }
             nc[l] = 0;
         }
-        // The scratch as slices of exactly CHUNK (groups: CHUNK / LANES + 1) places, indexed
-        // through a mask that changes nothing (the place is below CHUNK) but lets the compiler
-        // drop the bounds checks and the reloads of the vectors.
+        // The scratch as slices of exactly CHUNK places, indexed through a mask that changes
+        // nothing (the place is below CHUNK) but lets the compiler drop the bounds checks and
+        // the reloads of the vectors.
         let s_entry = &mut scratch.entry[..CHUNK];
         let s_owner = &mut scratch.owner[..CHUNK];
         let s_partner = &mut scratch.partner[..CHUNK];
-        let s_groups = &mut scratch.groups[..groups];
+        let lanes = &mut *scratch.lanes;
         const MASK: usize = CHUNK - 1;
         let image = self.periodic.image();
         let mut max_ov = R::zero();
@@ -397,19 +391,9 @@ impl<R: Real> PairContext<'_, R> {
                 let d = image.delta(kj.pos, ki.pos); // from j to i
                 let dist2 = d.norm2();
                 let touches = ki.is_live() & (dist2 < sl.sum * sl.sum) & kj.is_live();
-                let (lane, k) = (&mut s_groups[(touching & MASK) / LANES], touching % LANES);
-                put(&mut lane.d, k, d);
-                lane.dist2[k] = dist2;
-                put(&mut lane.vi, k, ki.vel);
-                put(&mut lane.vj, k, kj.vel);
-                // Zero when rotation is off.
-                put(&mut lane.wi, k, ki.omega);
-                put(&mut lane.wj, k, kj.omega);
-                lane.ri[k] = sl.ri;
-                lane.rj[k] = sl.rj;
-                lane.sum[k] = sl.sum;
-                lane.r_eff[k] = sl.r_eff;
-                lane.m_eff[k] = sl.m_eff;
+                let mut lane = lanes.at(touching);
+                // Angular velocities are zero when rotation is off.
+                lane.kinematics(d, ki.vel, kj.vel, ki.omega, kj.omega);
                 // A pair that does not touch holds a zero spring (see the reset below), so the
                 // spring needs no test of whether the pair touched (a coin flip per entry).
                 let spring = if self.keep_springs {
@@ -417,7 +401,7 @@ impl<R: Real> PairContext<'_, R> {
                 } else {
                     V3::zero()
                 };
-                put(&mut lane.spring, k, spring);
+                lane.pair(sl.ri, sl.rj, sl.m_eff, spring);
                 s_entry[touching & MASK] = e as u32;
                 s_owner[touching & MASK] = (o - first) as u32;
                 s_partner[touching & MASK] = j as u32;
@@ -433,8 +417,8 @@ impl<R: Real> PairContext<'_, R> {
             }
             // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
             // results are ignored); 3. their forces summed in entry order.
-            for (g, group) in s_groups[..touching.div_ceil(LANES)].iter().enumerate() {
-                pair_lanes::evaluate(self.law, self.dt, group, &mut out);
+            for g in 0..touching.div_ceil(LANES) {
+                pair_lanes::evaluate(self.law, self.dt, lanes, g, &mut out);
                 for k in 0..(touching - g * LANES).min(LANES) {
                     let c = g * LANES + k;
                     let (e, l) = (s_entry[c & MASK] as usize, s_owner[c & MASK] as usize);
@@ -470,13 +454,6 @@ impl<R: Real> PairContext<'_, R> {
         }
         max_ov
     }
-}
-
-#[inline(always)]
-fn put<R: Real>(a: &mut [[R; LANES]; 3], k: usize, v: V3<R>) {
-    a[0][k] = v.x;
-    a[1][k] = v.y;
-    a[2][k] = v.z;
 }
 
 /// What the per-particle sum of particle k reads besides its own kinematics.

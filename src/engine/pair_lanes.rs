@@ -15,23 +15,83 @@ use super::real::{Real, V3};
 /// Pairs per group.
 pub(super) const LANES: usize = 8;
 
-/// The inputs of a group of pairs (i, j): one array per component.
+/// Pairs per chunk: the pair pass tests this many list entries, then evaluates the touching
+/// ones a group at a time.
+pub(super) const CHUNK: usize = 256;
+const _: () = assert!(CHUNK.is_power_of_two() && CHUNK % LANES == 0);
+
+/// Groups per chunk.
+pub(super) const GROUPS: usize = CHUNK / LANES;
+
+/// One input component of a chunk's pairs: pair t is lane t % LANES of group t / LANES, which
+/// is place t of the flattened array, so the pair pass writes it with no address arithmetic
+/// (`LaneInput::at`).
+pub(super) type Column<R> = [[R; LANES]; GROUPS];
+
+/// The inputs of a chunk's pairs (i, j): one array per component. Lanes past the chunk's last
+/// touching pair hold stale inputs.
 #[derive(Clone, Copy, Default)]
 pub(super) struct LaneInput<R: Real> {
-    /// Separation from j to i (minimum image) and its square.
-    pub d: [[R; LANES]; 3],
-    pub dist2: [R; LANES],
-    pub vi: [[R; LANES]; 3],
-    pub wi: [[R; LANES]; 3],
-    pub vj: [[R; LANES]; 3],
-    pub wj: [[R; LANES]; 3],
-    pub ri: [R; LANES],
-    pub rj: [R; LANES],
-    pub sum: [R; LANES],
-    pub r_eff: [R; LANES],
-    pub m_eff: [R; LANES],
+    /// Separation from j to i (minimum image).
+    pub d: [Column<R>; 3],
+    pub vi: [Column<R>; 3],
+    pub wi: [Column<R>; 3],
+    pub vj: [Column<R>; 3],
+    pub wj: [Column<R>; 3],
+    pub ri: Column<R>,
+    pub rj: Column<R>,
+    pub m_eff: Column<R>,
     /// The stored spring (zero for a new contact or when springs are not kept).
-    pub spring: [[R; LANES]; 3],
+    pub spring: [Column<R>; 3],
+}
+
+/// Writes into place t of a chunk's columns.
+pub(super) struct Place<'a, R: Real> {
+    inp: &'a mut LaneInput<R>,
+    t: usize,
+}
+
+impl<R: Real> LaneInput<R> {
+    /// Place `t` (below CHUNK: it is masked) of the chunk.
+    #[inline(always)]
+    pub(super) fn at(&mut self, t: usize) -> Place<'_, R> {
+        Place {
+            inp: self,
+            t: t & (CHUNK - 1),
+        }
+    }
+}
+
+impl<R: Real> Place<'_, R> {
+    #[inline(always)]
+    fn set(c: &mut Column<R>, t: usize, v: R) {
+        c.as_flattened_mut()[t] = v;
+    }
+    #[inline(always)]
+    fn set3(c: &mut [Column<R>; 3], t: usize, v: V3<R>) {
+        Self::set(&mut c[0], t, v.x);
+        Self::set(&mut c[1], t, v.y);
+        Self::set(&mut c[2], t, v.z);
+    }
+    /// The pair's kinematics: separation from j to i, velocities and angular velocities.
+    #[inline(always)]
+    pub(super) fn kinematics(&mut self, d: V3<R>, vi: V3<R>, vj: V3<R>, wi: V3<R>, wj: V3<R>) {
+        let (inp, t) = (&mut *self.inp, self.t);
+        Self::set3(&mut inp.d, t, d);
+        Self::set3(&mut inp.vi, t, vi);
+        Self::set3(&mut inp.vj, t, vj);
+        Self::set3(&mut inp.wi, t, wi);
+        Self::set3(&mut inp.wj, t, wj);
+    }
+    /// The pair's constants and its stored spring.
+    #[inline(always)]
+    pub(super) fn pair(&mut self, ri: R, rj: R, m_eff: R, spring: V3<R>) {
+        let (inp, t) = (&mut *self.inp, self.t);
+        Self::set(&mut inp.ri, t, ri);
+        Self::set(&mut inp.rj, t, rj);
+        Self::set(&mut inp.m_eff, t, m_eff);
+        Self::set3(&mut inp.spring, t, spring);
+    }
 }
 
 /// What a group of pairs gives.
@@ -49,8 +109,14 @@ pub(super) struct LaneOutput<R: Real> {
     pub overlap: [R; LANES],
 }
 
+/// Group g of a three-component column.
 #[inline(always)]
-fn get<R: Real>(a: &[[R; LANES]; 3], l: usize) -> V3<R> {
+fn col3<R: Real>(c: &[Column<R>; 3], g: usize) -> [&[R; LANES]; 3] {
+    [&c[0][g], &c[1][g], &c[2][g]]
+}
+
+#[inline(always)]
+fn get<R: Real>(a: [&[R; LANES]; 3], l: usize) -> V3<R> {
     V3::new(a[0][l], a[1][l], a[2][l])
 }
 
@@ -80,25 +146,35 @@ pub(super) fn evaluate<R: Real>(
     law: &LawKernel<R>,
     dt: R,
     inp: &LaneInput<R>,
+    g: usize,
     out: &mut LaneOutput<R>,
 ) {
     let half = R::from_f64(0.5);
     let three_halves = R::from_f64(1.5);
+    let (dd, vi, wi, vj, wj) = (
+        col3(&inp.d, g),
+        col3(&inp.vi, g),
+        col3(&inp.wi, g),
+        col3(&inp.vj, g),
+        col3(&inp.wj, g),
+    );
+    let (ri, rj, m_eff, stored) = (&inp.ri[g], &inp.rj[g], &inp.m_eff[g], col3(&inp.spring, g));
     for l in 0..LANES {
-        let d = get(&inp.d, l);
-        let dist = inp.dist2[l].sqrt();
+        let d = get(dd, l);
+        // What the list build stored for the pair (`PairSlot::between`), the same operations.
+        let sum = ri[l] + rj[l];
+        let dist = d.norm2().sqrt();
         let n = d * (R::one() / dist);
-        let overlap = inp.sum[l] - dist;
+        let overlap = sum - dist;
         let h = overlap * half;
-        let (li, lj) = (inp.ri[l] - h, inp.rj[l] - h);
+        let (li, lj) = (ri[l] - h, rj[l] - h);
         let bi = -(n * li);
         let bj = n * lj;
-        let v_rel = (get(&inp.vi, l) + get(&inp.wi, l).cross(bi))
-            - (get(&inp.vj, l) + get(&inp.wj, l).cross(bj));
+        let v_rel = (get(vi, l) + get(wi, l).cross(bi)) - (get(vj, l) + get(wj, l).cross(bj));
         // contact_force (contact/force.rs), with its branches as selects.
         let vn = v_rel.dot(n);
         let sq = if law.hertz {
-            (inp.r_eff[l] * overlap).sqrt()
+            (ri[l] * rj[l] / sum * overlap).sqrt()
         } else {
             R::one()
         };
@@ -108,13 +184,13 @@ pub(super) fn evaluate<R: Real>(
         } else {
             (law.kn_coef, law.kn_coef)
         };
-        let gamma_n = law.damp_n * (sn * inp.m_eff[l]).sqrt();
+        let gamma_n = law.damp_n * (sn * m_eff[l]).sqrt();
         let fn_mag = kn * overlap - gamma_n * vn;
         let mut f = n * fn_mag;
-        let mut spring = get(&inp.spring, l);
+        let mut spring = get(stored, l);
         if law.tangential {
             let kt = law.kt_coef * sq;
-            let gamma_t = law.damp_t * (kt * inp.m_eff[l]).sqrt();
+            let gamma_t = law.damp_t * (kt * m_eff[l]).sqrt();
             let vt = v_rel - n * vn;
             let old = spring;
             let old2 = old.norm2();
@@ -157,36 +233,51 @@ mod tests {
         contact_force, ContactInput, ContactLaw, Elasticity, NormalModel,
     };
 
+    /// Pair `l` of group `g` as the scalar code sees it: (separation, velocities, angular
+    /// velocities, r_i, r_j, m*, spring).
+    fn pair<R: Real>(inp: &LaneInput<R>, g: usize, l: usize) -> ([V3<R>; 5], [R; 3], V3<R>) {
+        let c = |a: &[Column<R>; 3]| V3::new(a[0][g][l], a[1][g][l], a[2][g][l]);
+        (
+            [c(&inp.d), c(&inp.vi), c(&inp.wi), c(&inp.vj), c(&inp.wj)],
+            [inp.ri[g][l], inp.rj[g][l], inp.m_eff[g][l]],
+            c(&inp.spring),
+        )
+    }
+
     /// The scalar pair evaluation the lanes replaced: (force, (n × f)(r_i − h), −(n × f)(r_j − h),
-    /// spring, h).
-    fn scalar<R: Real>(law: &LawKernel<R>, dt: R, inp: &LaneInput<R>, l: usize) -> [V3<R>; 4] {
-        let d = get(&inp.d, l);
-        let dist = inp.dist2[l].sqrt();
+    /// spring).
+    fn scalar<R: Real>(
+        law: &LawKernel<R>,
+        dt: R,
+        inp: &LaneInput<R>,
+        g: usize,
+        l: usize,
+    ) -> [V3<R>; 4] {
+        let ([d, vi, wi, vj, wj], [ri, rj, m_eff], mut spring) = pair(inp, g, l);
+        let sum = ri + rj;
+        let dist = d.norm2().sqrt();
         let n = d * (R::one() / dist);
-        let overlap = inp.sum[l] - dist;
+        let overlap = sum - dist;
         let h = overlap * R::from_f64(0.5);
-        let (li, lj) = (inp.ri[l] - h, inp.rj[l] - h);
+        let (li, lj) = (ri - h, rj - h);
         let (bi, bj) = (-(n * li), n * lj);
-        let v_rel = (get(&inp.vi, l) + get(&inp.wi, l).cross(bi))
-            - (get(&inp.vj, l) + get(&inp.wj, l).cross(bj));
+        let v_rel = (vi + wi.cross(bi)) - (vj + wj.cross(bj));
         let c = ContactInput {
             overlap,
             normal: n,
             v_rel,
-            r_eff: inp.r_eff[l],
-            m_eff: inp.m_eff[l],
+            r_eff: ri * rj / sum,
+            m_eff,
         };
-        let mut spring = get(&inp.spring, l);
         let f = contact_force(law, &c, &mut spring, dt);
         let nf = n.cross(f);
         [f, nf * li, -(nf * lj), spring]
     }
 
-    /// Random touching pairs: overlaps up to 5 % of d, velocities up to 1 m/s, spins up to
-    /// 100 rad/s, springs up to 0.1 mm (many beyond the Coulomb limit: the sliding branch), some
-    /// zero (the new-contact branch).
-    fn random_group<R: Real>(rng: &mut ChaCha8Rng) -> LaneInput<R> {
-        let mut inp = LaneInput::<R>::default();
+    /// Random touching pairs in group `g`: overlaps up to 5 % of d, velocities up to 1 m/s, spins
+    /// up to 100 rad/s, springs up to 0.1 mm (many beyond the Coulomb limit: the sliding
+    /// branch), some zero (the new-contact branch).
+    fn random_group<R: Real>(rng: &mut ChaCha8Rng, inp: &mut LaneInput<R>, g: usize) {
         let mut u = |s: f64| R::from_f64(s * (2.0 * rng.random::<f64>() - 1.0));
         for l in 0..LANES {
             let (ri, rj) = (0.0029 * (1.0 + 0.04 * u(1.0).to_f64()), 0.0029);
@@ -194,22 +285,28 @@ mod tests {
             let dir = [u(1.0), u(1.0), u(1.0)];
             let dn = (dir.iter().map(|x| x.to_f64().powi(2)).sum::<f64>()).sqrt();
             let dist = sum * (1.0 - 0.05 * (0.5 + 0.5 * u(1.0).to_f64()));
-            for (k, dk) in dir.iter().enumerate() {
-                inp.d[k][l] = R::from_f64(dk.to_f64() / dn * dist);
-                inp.vi[k][l] = u(1.0);
-                inp.vj[k][l] = u(1.0);
-                inp.wi[k][l] = u(100.0);
-                inp.wj[k][l] = u(100.0);
-                inp.spring[k][l] = if l % 3 == 0 { R::zero() } else { u(1e-4) };
-            }
-            inp.dist2[l] = get(&inp.d, l).norm2();
-            inp.ri[l] = R::from_f64(ri);
-            inp.rj[l] = R::from_f64(rj);
-            inp.sum[l] = inp.ri[l] + inp.rj[l];
-            inp.r_eff[l] = inp.ri[l] * inp.rj[l] / inp.sum[l];
-            inp.m_eff[l] = R::from_f64(1.4e-4);
+            let d = dir.map(|dk| R::from_f64(dk.to_f64() / dn * dist));
+            let v3 = |u: &mut dyn FnMut(f64) -> R, s: f64| V3::new(u(s), u(s), u(s));
+            let (vi, vj, wi, wj) = (
+                v3(&mut u, 1.0),
+                v3(&mut u, 1.0),
+                v3(&mut u, 100.0),
+                v3(&mut u, 100.0),
+            );
+            let spring = if l % 3 == 0 {
+                V3::zero()
+            } else {
+                v3(&mut u, 1e-4)
+            };
+            let mut at = inp.at(g * LANES + l);
+            at.kinematics(V3::new(d[0], d[1], d[2]), vi, vj, wi, wj);
+            at.pair(
+                R::from_f64(ri),
+                R::from_f64(rj),
+                R::from_f64(1.4e-4),
+                spring,
+            );
         }
-        inp
     }
 
     fn same_bits<R: Real>() {
@@ -239,19 +336,22 @@ mod tests {
         let (mut sliding, mut sticking) = (0, 0);
         for law in [hertz, linear, frictionless] {
             let k = law.kernel::<R>();
-            for _ in 0..200 {
-                let inp = random_group::<R>(&mut rng);
+            let mut inp = Box::<LaneInput<R>>::default();
+            for round in 0..200 {
+                let g = round % GROUPS;
+                random_group::<R>(&mut rng, &mut inp, g);
                 let mut out = LaneOutput::<R>::default();
-                evaluate(&k, dt, &inp, &mut out);
+                evaluate(&k, dt, &inp, g, &mut out);
                 for l in 0..LANES {
-                    let [f, ti, tj, s] = scalar(&k, dt, &inp, l);
+                    let [f, ti, tj, s] = scalar(&k, dt, &inp, g, l);
                     let bits = |v: V3<R>| [v.x, v.y, v.z].map(|x| x.to_f64().to_bits());
-                    assert_eq!(bits(get(&out.f, l)), bits(f), "force, lane {l}");
-                    assert_eq!(bits(get(&out.ti, l)), bits(ti), "torque on i, lane {l}");
-                    assert_eq!(bits(get(&out.tj, l)), bits(tj), "torque on j, lane {l}");
-                    assert_eq!(bits(get(&out.spring, l)), bits(s), "spring, lane {l}");
+                    let got = |a: &[[R; LANES]; 3]| get([&a[0], &a[1], &a[2]], l);
+                    assert_eq!(bits(got(&out.f)), bits(f), "force, lane {l}");
+                    assert_eq!(bits(got(&out.ti)), bits(ti), "torque on i, lane {l}");
+                    assert_eq!(bits(got(&out.tj)), bits(tj), "torque on j, lane {l}");
+                    assert_eq!(bits(got(&out.spring)), bits(s), "spring, lane {l}");
                     if law.friction > 0.0 {
-                        let n = V3::from_f64(get(&inp.d, l).to_f64());
+                        let n = V3::from_f64(pair(&inp, g, l).0[0].to_f64());
                         let n = n * (1.0 / n.norm());
                         let f = V3::<f64>::from_f64(f.to_f64());
                         let f_n = f.dot(n);
