@@ -136,13 +136,54 @@ fn select<R: Real>(c: bool, a: V3<R>, b: V3<R>) -> V3<R> {
     )
 }
 
-/// Evaluates `LANES` touching pairs (lanes past the group's end hold stale inputs, possibly of pairs
+/// Evaluates the `LANES` pairs of group `g` (lanes past the last touching pair hold stale inputs, possibly of pairs
 /// that do not touch; their results, NaN or not, are ignored).
 /// Compiled also for AVX2 and AVX-512 and chosen at run time: the baseline x86-64 target
 /// (SSE2, no blend instruction) leaves this loop scalar. Rust never fuses a multiply and an
 /// add, so every clone computes the same bits.
-#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
+#[inline]
 pub(super) fn evaluate<R: Real>(
+    law: &LawKernel<R>,
+    dt: R,
+    inp: &LaneInput<R>,
+    g: usize,
+    out: &mut LaneOutput<R>,
+) {
+    if law.hertz {
+        hertz(law, dt, inp, g, out);
+    } else {
+        linear(law, dt, inp, g, out);
+    }
+}
+
+/// `evaluate` for the Hertz law.
+#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
+fn hertz<R: Real>(
+    law: &LawKernel<R>,
+    dt: R,
+    inp: &LaneInput<R>,
+    g: usize,
+    out: &mut LaneOutput<R>,
+) {
+    lanes::<R, true>(law, dt, inp, g, out);
+}
+
+/// `evaluate` for the linear law: with the law known when compiling, its stiffnesses are
+/// constants (no per-lane products, and 1/k_t is one division per group, not per lane).
+#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
+fn linear<R: Real>(
+    law: &LawKernel<R>,
+    dt: R,
+    inp: &LaneInput<R>,
+    g: usize,
+    out: &mut LaneOutput<R>,
+) {
+    lanes::<R, false>(law, dt, inp, g, out);
+}
+
+/// The lanes of `evaluate`, with `HERTZ` for `law.hertz`.
+#[inline(always)]
+fn lanes<R: Real, const HERTZ: bool>(
     law: &LawKernel<R>,
     dt: R,
     inp: &LaneInput<R>,
@@ -173,12 +214,12 @@ pub(super) fn evaluate<R: Real>(
         let v_rel = (get(vi, l) + get(wi, l).cross(bi)) - (get(vj, l) + get(wj, l).cross(bj));
         // contact_force (contact/force.rs), with its branches as selects.
         let vn = v_rel.dot(n);
-        let sq = if law.hertz {
+        let sq = if HERTZ {
             (ri[l] * rj[l] / sum * overlap).sqrt()
         } else {
             R::one()
         };
-        let (kn, sn) = if law.hertz {
+        let (kn, sn) = if HERTZ {
             let kn = law.kn_coef * sq;
             (kn, kn * three_halves)
         } else {
