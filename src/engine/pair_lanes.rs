@@ -18,7 +18,7 @@ pub(super) const LANES: usize = 8;
 /// Pairs per chunk: the pair pass tests this many list entries, then evaluates the touching
 /// ones a group at a time.
 pub(super) const CHUNK: usize = 256;
-const _: () = assert!(CHUNK.is_power_of_two() && CHUNK % LANES == 0);
+const _: () = assert!(CHUNK.is_power_of_two() && CHUNK.is_multiple_of(LANES));
 
 /// Groups per chunk.
 pub(super) const GROUPS: usize = CHUNK / LANES;
