@@ -492,6 +492,10 @@ impl<R: Real> CpuEngine<R> {
                 let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
                 {
                     let mut out = (false, R::zero(), R::zero(), 0u32);
+                    // Copies of the captured constants, so that the loop keeps them in
+                    // registers instead of reloading them through the closure's references.
+                    let (dt, g, kick, periodic, rot) = (dt, g, kick, periodic, rot);
+                    let sink_z = sink.unwrap_or(R::from_f64(f64::NEG_INFINITY));
                     let first = parts[b];
                     ctx.reactions(first, force, torque, nc, rot);
                     // Every array cut to the block's length once, so that the loop's indexing
@@ -545,7 +549,7 @@ impl<R: Real> CpuEngine<R> {
                         }
                         kl.pos += kl.vel * dt;
                         periodic.wrap(&mut kl.pos);
-                        if matches!(sink, Some(zs) if kl.pos.z < zs) {
+                        if kl.pos.z < sink_z {
                             alive[l] = DYING;
                             kl.live = R::zero();
                             out.0 = true;
