@@ -312,10 +312,8 @@ pub(super) struct PairContext<'a, R: Real> {
 /// Kept by the engine per block so that its vectors grow once.
 #[derive(Default)]
 pub(super) struct PairScratch<R: Real> {
-    /// Block-local entry, block-local owner and partner of each touching pair, in entry order.
+    /// Block-local entry of each touching pair, in entry order.
     entry: Vec<u32>,
-    owner: Vec<u32>,
-    partner: Vec<u32>,
     /// Their contact law's inputs.
     lanes: Box<LaneInput<R>>,
 }
@@ -350,8 +348,6 @@ impl<R: Real> PairContext<'_, R> {
         let entries = slots.len();
         if scratch.entry.len() < CHUNK {
             scratch.entry.resize(CHUNK, 0);
-            scratch.owner.resize(CHUNK, 0);
-            scratch.partner.resize(CHUNK, 0);
         }
         for l in 0..count {
             force[l] = V3::zero();
@@ -364,8 +360,6 @@ impl<R: Real> PairContext<'_, R> {
         // nothing (the place is below CHUNK) but lets the compiler drop the bounds checks and
         // the reloads of the vectors.
         let s_entry = &mut scratch.entry[..CHUNK];
-        let s_owner = &mut scratch.owner[..CHUNK];
-        let s_partner = &mut scratch.partner[..CHUNK];
         let lanes = &mut *scratch.lanes;
         const MASK: usize = CHUNK - 1;
         let image = self.periodic.image();
@@ -403,8 +397,6 @@ impl<R: Real> PairContext<'_, R> {
                 };
                 lane.pair(sl.ri, sl.rj, sl.m_eff, spring);
                 s_entry[touching & MASK] = e as u32;
-                s_owner[touching & MASK] = (o - first) as u32;
-                s_partner[touching & MASK] = j as u32;
                 touching += usize::from(touches);
                 // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
                 if !touches & sl.touching() {
@@ -421,7 +413,8 @@ impl<R: Real> PairContext<'_, R> {
                 pair_lanes::evaluate(self.law, self.dt, lanes, g, &mut out);
                 for k in 0..(touching - g * LANES).min(LANES) {
                     let c = g * LANES + k;
-                    let (e, l) = (s_entry[c & MASK] as usize, s_owner[c & MASK] as usize);
+                    let e = s_entry[c & MASK] as usize;
+                    let l = owner[e] as usize - first;
                     let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
                     let sl = &mut slots[e];
                     sl.spring = get(&out.spring);
@@ -435,7 +428,7 @@ impl<R: Real> PairContext<'_, R> {
                     // The partner's share: directly when it lies in this block (it comes after
                     // the owner, so every particle's sum keeps one fixed order), else for its
                     // pass.
-                    let jl = s_partner[c & MASK] as usize - first;
+                    let jl = nbr[e0 + e] as usize - first;
                     if jl < count {
                         force[jl] -= fc;
                         if rot {
