@@ -224,7 +224,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
 /// One entry of the half list as the pair pass keeps it: the pair's tangential spring (i's view;
 /// j's is its negative), whether the pair touched at the last evaluation, and the pair's
 /// constants, computed once per list build so that the pass reads nothing of j but its
-/// kinematics (and divides only by the distance).
+/// kinematics (R* is computed in the lanes, where the Hertz law needs it: the same operations).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct PairSlot<R: Real> {
@@ -237,8 +237,6 @@ pub(super) struct PairSlot<R: Real> {
     /// r_i and r_j: the levers are r_i − h and r_j − h.
     pub(super) ri: R,
     pub(super) rj: R,
-    /// R* = r_i r_j / (r_i + r_j).
-    pub(super) r_eff: R,
     /// m* (a fixed partner acts as infinitely heavy).
     pub(super) m_eff: R,
     /// 1 / (2 min(r_i, r_j)): the overlap ratio the watchdog checks.
@@ -263,7 +261,6 @@ impl<R: Real> PairSlot<R> {
             sum,
             ri: i.r,
             rj: j.r,
-            r_eff: i.r * j.r / sum,
             m_eff,
             inv_d: i.inv_d.max(j.inv_d),
         }
