@@ -151,11 +151,11 @@ fn select<R: Real>(c: bool, a: V3<R>, b: V3<R>) -> V3<R> {
     )
 }
 
-/// Evaluates the `LANES` pairs of group `g` (lanes past the last touching pair hold stale inputs, possibly of pairs
-/// that do not touch; their results, NaN or not, are ignored).
-/// Compiled also for AVX2 and AVX-512 and chosen at run time: the baseline x86-64 target
-/// (SSE2, no blend instruction) leaves this loop scalar. Rust never fuses a multiply and an
-/// add, so every clone computes the same bits.
+/// Evaluates the `LANES` pairs of group `g` (lanes past the last touching pair hold stale
+/// inputs, possibly of pairs that do not touch; their results, NaN or not, are ignored).
+/// Compiled also for AVX2 and AVX-512, once per contact law, and chosen at run time: the
+/// baseline x86-64 target (SSE2, no blend instruction) leaves this loop scalar. Rust never fuses
+/// a multiply and an add, so every clone computes the same bits.
 #[inline]
 pub(super) fn evaluate<R: Real>(
     law: &LawKernel<R>,
