@@ -679,11 +679,11 @@ impl<R: Real> CpuEngine<R> {
         }
         let half = self.dt * R::from_f64(0.5);
         let mut live = self.mobile_count();
-        let (mut died, mut moved) = self.kick_drift(half);
+        let mut died = self.open_spheres(half);
         let alive = &self.alive;
         kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == ALIVE);
         let (skin, dt) = (self.skin.to_f64(), self.config.dt_s);
-        let (_, max_moved, scale) = self.measure_displacements();
+        let (mut moved, max_moved, scale) = self.measure_displacements();
         let mut bound = DisplacementBound::new(skin, max_moved, scale, R::EPSILON);
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
@@ -827,78 +827,73 @@ impl<R: Real> CpuEngine<R> {
         Ok(max_ov)
     }
 
-    /// Kick by `kick` (dt/2 at a chunk's first step, dt after: the previous step's closing
-    /// half kick and this step's opening one fused), then drift; flags particles that fell
-    /// through the sink. Returns (some particle died, the lists need a rebuild).
+    /// Oriented particles: kick by `kick` (dt/2 at a chunk's first step, dt after: the previous
+    /// step's closing half kick and this step's opening one fused), then drift; flags particles
+    /// that fell through the sink. Returns (some particle died, the lists need a rebuild).
     fn kick_drift(&mut self, kick: R) -> (bool, bool) {
-        let dt = self.dt;
-        let g = self.gravity;
-        let periodic = self.periodic;
-        let sink = self.sink_z;
-        let half2 = self.skin * self.skin * R::from_f64(0.25);
-        let s = &mut self.state;
-        let alive = &mut self.alive;
-        let refs = if s.oriented {
-            &self.list.ref_pos
-        } else {
-            &self.half.ref_pos
-        };
-        let stale = refs.len() != s.pos.len();
-        if s.oriented {
-            let ref_axis = &self.list.ref_axis;
-            let stale = stale || ref_axis.len() != s.pos.len();
-            let half_skin = self.skin * R::from_f64(0.5);
-            return self.pool.install(|| {
+        let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
+        let (s, alive) = (&mut self.state, &mut self.alive);
+        let refs = &self.list.ref_pos;
+        let ref_axis = &self.list.ref_axis;
+        let stale = refs.len() != s.pos.len() || ref_axis.len() != s.pos.len();
+        let half_skin = self.skin * R::from_f64(0.5);
+        self.pool.install(|| {
+            (
                 (
-                    (
-                        s.vel.par_iter_mut(),
-                        s.pos.par_iter_mut(),
-                        s.force.par_iter(),
-                        s.inv_mass.par_iter(),
-                        alive.par_iter_mut(),
-                    ),
-                    (
-                        s.orientation.par_iter_mut(),
-                        s.ang_mom.par_iter_mut(),
-                        s.omega.par_iter_mut(),
-                        s.torque.par_iter(),
-                        s.inv_inertia_body.par_iter(),
-                        s.half_length.par_iter(),
-                    ),
-                )
-                    .into_par_iter()
-                    .enumerate()
-                    .with_min_len(MIN_LEN)
-                    .map(|(i, ((v, x, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
-                        if im == R::zero() || *a != ALIVE {
-                            return (false, false);
-                        }
-                        *v += (f * im + g) * kick;
-                        *x += *v * dt;
-                        periodic.wrap(x);
-                        let turned = oriented::kick_rotate(
-                            q,
-                            l,
-                            w,
-                            t,
-                            ii,
-                            h,
-                            (!stale).then(|| ref_axis[i]),
-                            kick,
-                            dt,
-                        );
-                        let died = matches!(sink, Some(zs) if x.z < zs);
-                        if died {
-                            *a = DYING;
-                        }
-                        // The ends of a rod move by at most |Δc| + (l/2)|Δu|.
-                        let moved =
-                            stale || periodic.delta(refs[i], *x).norm() + turned > half_skin;
-                        (died, moved)
-                    })
-                    .reduce(|| (false, false), |p, q| (p.0 || q.0, p.1 || q.1))
-            });
-        }
+                    s.vel.par_iter_mut(),
+                    s.pos.par_iter_mut(),
+                    s.force.par_iter(),
+                    s.inv_mass.par_iter(),
+                    alive.par_iter_mut(),
+                ),
+                (
+                    s.orientation.par_iter_mut(),
+                    s.ang_mom.par_iter_mut(),
+                    s.omega.par_iter_mut(),
+                    s.torque.par_iter(),
+                    s.inv_inertia_body.par_iter(),
+                    s.half_length.par_iter(),
+                ),
+            )
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(MIN_LEN)
+                .map(|(i, ((v, x, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
+                    if im == R::zero() || *a != ALIVE {
+                        return (false, false);
+                    }
+                    *v += (f * im + g) * kick;
+                    *x += *v * dt;
+                    periodic.wrap(x);
+                    let turned = oriented::kick_rotate(
+                        q,
+                        l,
+                        w,
+                        t,
+                        ii,
+                        h,
+                        (!stale).then(|| ref_axis[i]),
+                        kick,
+                        dt,
+                    );
+                    let died = matches!(sink, Some(zs) if x.z < zs);
+                    if died {
+                        *a = DYING;
+                    }
+                    // The ends of a rod move by at most |Δc| + (l/2)|Δu|.
+                    let moved = stale || periodic.delta(refs[i], *x).norm() + turned > half_skin;
+                    (died, moved)
+                })
+                .reduce(|| (false, false), |p, q| (p.0 || q.0, p.1 || q.1))
+        })
+    }
+
+    /// Spheres, at a chunk's opening: kick by `kick`, then drift; flags particles that fell
+    /// through the sink and returns whether one did. The lists' skin test is then
+    /// `measure_displacements`, on the packed motion.
+    fn open_spheres(&mut self, kick: R) -> bool {
+        let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
+        let (s, alive) = (&mut self.state, &mut self.alive);
         self.pool.install(|| {
             if s.rotation {
                 (
@@ -920,11 +915,10 @@ impl<R: Real> CpuEngine<R> {
                 alive.par_iter_mut(),
             )
                 .into_par_iter()
-                .enumerate()
                 .with_min_len(MIN_LEN)
-                .map(|(i, (v, x, &f, &im, a))| {
+                .map(|(v, x, &f, &im, a)| {
                     if im == R::zero() || *a != ALIVE {
-                        return (false, false);
+                        return false;
                     }
                     *v += (f * im + g) * kick;
                     *x += *v * dt;
@@ -933,10 +927,9 @@ impl<R: Real> CpuEngine<R> {
                     if died {
                         *a = DYING;
                     }
-                    let moved = stale || periodic.delta(refs[i], *x).norm2() > half2;
-                    (died, moved)
+                    died
                 })
-                .reduce(|| (false, false), |p, q| (p.0 || q.0, p.1 || q.1))
+                .reduce(|| false, |p, q| p || q)
         })
     }
 

@@ -164,40 +164,17 @@ pub(super) fn evaluate<R: Real>(
     g: usize,
     out: &mut LaneOutput<R>,
 ) {
+    // With the law known when compiling, the linear law's stiffnesses are constants (no
+    // per-lane products, and 1/k_t is one division per group, not per lane).
     if law.hertz {
-        hertz(law, dt, inp, g, out);
+        lanes::<R, true>(law, dt, inp, g, out);
     } else {
-        linear(law, dt, inp, g, out);
+        lanes::<R, false>(law, dt, inp, g, out);
     }
 }
 
-/// `evaluate` for the Hertz law.
-#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
-fn hertz<R: Real>(
-    law: &LawKernel<R>,
-    dt: R,
-    inp: &LaneInput<R>,
-    g: usize,
-    out: &mut LaneOutput<R>,
-) {
-    lanes::<R, true>(law, dt, inp, g, out);
-}
-
-/// `evaluate` for the linear law: with the law known when compiling, its stiffnesses are
-/// constants (no per-lane products, and 1/k_t is one division per group, not per lane).
-#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
-fn linear<R: Real>(
-    law: &LawKernel<R>,
-    dt: R,
-    inp: &LaneInput<R>,
-    g: usize,
-    out: &mut LaneOutput<R>,
-) {
-    lanes::<R, false>(law, dt, inp, g, out);
-}
-
 /// The lanes of `evaluate`, with `HERTZ` for `law.hertz`.
-#[inline(always)]
+#[multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2+avx"))]
 fn lanes<R: Real, const HERTZ: bool>(
     law: &LawKernel<R>,
     dt: R,
