@@ -295,7 +295,7 @@ impl<R: Real> CpuEngine<R> {
         self.wall_springs.resize(n * nw, V3::zero());
         let hist = std::mem::take(&mut self.state.history);
         {
-            let (half, id, props) = (&self.half, &self.state.id, &self.props);
+            let (half, id) = (&self.half, &self.state.id);
             let bounds = block_bounds(&half.start, n);
             let blocks = split_blocks(&mut self.pair_slots, &bounds.1);
             let wblocks = split_blocks(&mut self.wall_springs, &scaled(&bounds.0, nw));
@@ -313,7 +313,7 @@ impl<R: Real> CpuEngine<R> {
                             for e in e0..e1 {
                                 let j = half.nbr[e] as usize;
                                 let sl = &mut slots[e - bounds.1[b]];
-                                *sl = PairSlot::between(&props[i], &props[j]);
+                                *sl = PairSlot::default();
                                 if hist.slots > 0 {
                                     let sp = hist.spring_of(i, id[j]);
                                     sl.spring = sp;

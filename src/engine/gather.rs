@@ -222,50 +222,29 @@ impl<'a, R: Real> ForceContext<'a, R> {
 }
 
 /// One entry of the half list as the pair pass keeps it: the pair's tangential spring (i's view;
-/// j's is its negative), whether the pair touched at the last evaluation, and the pair's
-/// constants, computed once per list build so that the pass reads nothing of j but its
-/// kinematics (R* is computed in the lanes, where the Hertz law needs it: the same operations).
+/// j's is its negative) and whether the pair touched at the last evaluation. The pair's
+/// constants (r_i, r_j, masses) come with the partner's motion record (`Kin`), which the pass
+/// reads anyway; m* and R* are computed in the lanes, with the operations the list build used.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub(super) struct PairSlot<R: Real> {
     /// Zero whenever the pair does not touch (`h` < 0).
     pub(super) spring: V3<R>,
     /// Half the overlap, or −1 when the pair does not touch.
     pub(super) h: R,
-    /// r_i + r_j: the contact distance.
-    pub(super) sum: R,
-    /// r_i and r_j: the levers are r_i − h and r_j − h.
-    pub(super) ri: R,
-    pub(super) rj: R,
-    /// m* (a fixed partner acts as infinitely heavy).
-    pub(super) m_eff: R,
-    /// 1 / (2 min(r_i, r_j)): the overlap ratio the watchdog checks.
-    pub(super) inv_d: R,
 }
 
-impl<R: Real> PairSlot<R> {
-    /// A new entry for the pair (i, j): no spring, not touching.
-    #[inline]
-    pub(super) fn between(i: &Props<R>, j: &Props<R>) -> Self {
-        let sum = i.r + j.r;
-        let m_eff = if j.inv_m == R::zero() {
-            i.m
-        } else if i.inv_m == R::zero() {
-            j.m
-        } else {
-            i.m * j.m / (i.m + j.m)
-        };
+impl<R: Real> Default for PairSlot<R> {
+    /// A new entry: no spring, not touching.
+    fn default() -> Self {
         Self {
             spring: V3::zero(),
             h: -R::one(),
-            sum,
-            ri: i.r,
-            rj: j.r,
-            m_eff,
-            inv_d: i.inv_d.max(j.inv_d),
         }
     }
+}
 
+impl<R: Real> PairSlot<R> {
     #[inline(always)]
     pub(super) fn touching(&self) -> bool {
         self.h >= R::zero()
@@ -381,7 +360,8 @@ impl<R: Real> PairContext<'_, R> {
                 let (ki, kj) = (&self.kin[o], &self.kin[j]);
                 let d = image.delta(kj.pos, ki.pos); // from j to i
                 let dist2 = d.norm2();
-                let touches = ki.is_live() & (dist2 < sl.sum * sl.sum) & kj.is_live();
+                let sum = ki.r + kj.r;
+                let touches = ki.is_live() & (dist2 < sum * sum) & kj.is_live();
                 let mut lane = lanes.at(touching);
                 // Angular velocities are zero when rotation is off.
                 lane.kinematics(d, ki.vel, kj.vel, ki.omega, kj.omega);
@@ -392,7 +372,7 @@ impl<R: Real> PairContext<'_, R> {
                 } else {
                     V3::zero()
                 };
-                lane.pair(sl.ri, sl.rj, sl.m_eff, spring);
+                lane.pair(ki.r, kj.r, ki.m, kj.m, spring);
                 s_entry[touching & MASK] = e as u32;
                 touching += usize::from(touches);
                 // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
@@ -438,7 +418,7 @@ impl<R: Real> PairContext<'_, R> {
                             t: get(&out.tj),
                         };
                     }
-                    max_ov = max_ov.max(out.overlap[k] * sl.inv_d);
+                    max_ov = max_ov.max(out.ratio[k]);
                 }
             }
         }

@@ -8,8 +8,11 @@
 use super::real::{Real, V3};
 use super::state::State;
 
-/// One sphere's motion. `live` is one for a particle that interacts and zero for one that fell
-/// through the sink (so the distance test reads no second array).
+/// One sphere's motion, and the two constants the pair pass needs of a partner. `live` is one
+/// for a particle that interacts and zero for one that fell through the sink (so the distance
+/// test reads no second array). Radius and mass fill what would be padding in f32 (48 bytes
+/// either way), so a list entry need not keep its pair's constants: the list's slots shrank
+/// from 36 to 16 bytes, which the pair pass reads and writes every step.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Kin<R: Real> {
@@ -17,6 +20,9 @@ pub(super) struct Kin<R: Real> {
     pub(super) live: R,
     pub(super) vel: V3<R>,
     pub(super) omega: V3<R>,
+    pub(super) r: R,
+    /// Zero for a fixed particle, which acts as infinitely heavy (see `pair_lanes`).
+    pub(super) m: R,
 }
 
 impl<R: Real> Kin<R> {
@@ -39,6 +45,12 @@ pub(super) fn gather_from<R: Real>(
         live: if live(i) { R::one() } else { R::zero() },
         vel: s.vel[i],
         omega: if s.rotation { s.omega[i] } else { V3::zero() },
+        r: s.radius[i],
+        m: if s.inv_mass[i] == R::zero() {
+            R::zero()
+        } else {
+            s.mass[i]
+        },
     }));
 }
 

@@ -30,7 +30,7 @@ pub(super) const GROUPS: usize = CHUNK / LANES;
 pub(super) struct Column<R: Real> {
     groups: [[R; LANES]; GROUPS],
     /// Unused. Without it the columns would start a power of two (1 or 2 KiB) apart, so that
-    /// place t of all 21 columns would fall into two to four sets of the 8-way first-level
+    /// place t of all 22 columns would fall into two to four sets of the 8-way first-level
     /// cache and evict each other (f64 ran 25–30 % slower).
     _pad: [R; LANES],
 }
@@ -55,7 +55,9 @@ pub(super) struct LaneInput<R: Real> {
     pub wj: [Column<R>; 3],
     pub ri: Column<R>,
     pub rj: Column<R>,
-    pub m_eff: Column<R>,
+    /// Masses, zero for a fixed particle (infinitely heavy).
+    pub mi: Column<R>,
+    pub mj: Column<R>,
     /// The stored spring (zero for a new contact or when springs are not kept).
     pub spring: [Column<R>; 3],
 }
@@ -98,13 +100,14 @@ impl<R: Real> Place<'_, R> {
         Self::set3(&mut inp.wi, t, wi);
         Self::set3(&mut inp.wj, t, wj);
     }
-    /// The pair's constants and its stored spring.
+    /// The pair's radii and masses (zero for a fixed particle) and its stored spring.
     #[inline(always)]
-    pub(super) fn pair(&mut self, ri: R, rj: R, m_eff: R, spring: V3<R>) {
+    pub(super) fn pair(&mut self, ri: R, rj: R, mi: R, mj: R, spring: V3<R>) {
         let (inp, t) = (&mut *self.inp, self.t);
         Self::set(&mut inp.ri, t, ri);
         Self::set(&mut inp.rj, t, rj);
-        Self::set(&mut inp.m_eff, t, m_eff);
+        Self::set(&mut inp.mi, t, mi);
+        Self::set(&mut inp.mj, t, mj);
         Self::set3(&mut inp.spring, t, spring);
     }
 }
@@ -119,9 +122,10 @@ pub(super) struct LaneOutput<R: Real> {
     /// −(n × f) (r_j − h): j's torque.
     pub tj: [[R; LANES]; 3],
     pub spring: [[R; LANES]; 3],
-    /// Half the overlap, and the overlap.
+    /// Half the overlap.
     pub h: [R; LANES],
-    pub overlap: [R; LANES],
+    /// The overlap over the smaller diameter (what the watchdog checks).
+    pub ratio: [R; LANES],
 }
 
 /// Group g of a three-component column.
@@ -191,11 +195,23 @@ fn lanes<R: Real, const HERTZ: bool>(
         col3(&inp.vj, g),
         col3(&inp.wj, g),
     );
-    let (ri, rj, m_eff, stored) = (&inp.ri[g], &inp.rj[g], &inp.m_eff[g], col3(&inp.spring, g));
+    let (ri, rj, stored) = (&inp.ri[g], &inp.rj[g], col3(&inp.spring, g));
+    let (mi, mj) = (&inp.mi[g], &inp.mj[g]);
     for l in 0..LANES {
         let d = get(dd, l);
-        // What the list build stored for the pair (`PairSlot::between`), the same operations.
         let sum = ri[l] + rj[l];
+        // m*, a fixed partner acting as infinitely heavy (as selects).
+        let m_both = mi[l] * mj[l] / (mi[l] + mj[l]);
+        let m_eff = if mj[l] == R::zero() {
+            mi[l]
+        } else if mi[l] == R::zero() {
+            mj[l]
+        } else {
+            m_both
+        };
+        // 1 / (2 min(r_i, r_j)) is the larger of the two 1 / (2 r) (division rounds
+        // monotonically): the bits of the per-particle constant the walls use.
+        let inv_d = R::one() / (ri[l].min(rj[l]) * R::from_f64(2.0));
         let dist = d.norm2().sqrt();
         let n = d * (R::one() / dist);
         let overlap = sum - dist;
@@ -217,13 +233,13 @@ fn lanes<R: Real, const HERTZ: bool>(
         } else {
             (law.kn_coef, law.kn_coef)
         };
-        let gamma_n = law.damp_n * (sn * m_eff[l]).sqrt();
+        let gamma_n = law.damp_n * (sn * m_eff).sqrt();
         let fn_mag = kn * overlap - gamma_n * vn;
         let mut f = n * fn_mag;
         let mut spring = get(stored, l);
         if law.tangential {
             let kt = law.kt_coef * sq;
-            let gamma_t = law.damp_t * (kt * m_eff[l]).sqrt();
+            let gamma_t = law.damp_t * (kt * m_eff).sqrt();
             let vt = v_rel - n * vn;
             let old = spring;
             let old2 = old.norm2();
@@ -252,7 +268,7 @@ fn lanes<R: Real, const HERTZ: bool>(
         put(&mut out.tj, l, -(nf * lj));
         put(&mut out.spring, l, spring);
         out.h[l] = h;
-        out.overlap[l] = overlap;
+        out.ratio[l] = overlap * inv_d;
     }
 }
 
@@ -266,13 +282,26 @@ mod tests {
         contact_force, ContactInput, ContactLaw, Elasticity, NormalModel,
     };
 
+    /// m* of two masses, zero for a fixed particle (infinitely heavy): the other's mass when one is
+    /// fixed, as the list build computed it before the lanes took it over.
+    fn reduced_mass<R: Real>(mi: R, mj: R) -> R {
+        if mj == R::zero() {
+            mi
+        } else if mi == R::zero() {
+            mj
+        } else {
+            mi * mj / (mi + mj)
+        }
+    }
+
     /// Pair `l` of group `g` as the scalar code sees it: (separation, velocities, angular
     /// velocities, r_i, r_j, m*, spring).
     fn pair<R: Real>(inp: &LaneInput<R>, g: usize, l: usize) -> ([V3<R>; 5], [R; 3], V3<R>) {
         let c = |a: &[Column<R>; 3]| V3::new(a[0][g][l], a[1][g][l], a[2][g][l]);
+        let m_eff = reduced_mass(inp.mi[g][l], inp.mj[g][l]);
         (
             [c(&inp.d), c(&inp.vi), c(&inp.wi), c(&inp.vj), c(&inp.wj)],
-            [inp.ri[g][l], inp.rj[g][l], inp.m_eff[g][l]],
+            [inp.ri[g][l], inp.rj[g][l], m_eff],
             c(&inp.spring),
         )
     }
@@ -333,12 +362,16 @@ mod tests {
             };
             let mut at = inp.at(g * LANES + l);
             at.kinematics(V3::new(d[0], d[1], d[2]), vi, vj, wi, wj);
-            at.pair(
-                R::from_f64(ri),
-                R::from_f64(rj),
-                R::from_f64(1.4e-4),
-                spring,
-            );
+            // Now and then a fixed particle (mass zero) on either side.
+            let mut m = |fixed: bool| {
+                R::from_f64(if fixed {
+                    0.0
+                } else {
+                    1.4e-4 * (1.0 + 0.1 * u(1.0).to_f64())
+                })
+            };
+            let (mi, mj) = (m(l % 5 == 3), m(l % 5 == 4));
+            at.pair(R::from_f64(ri), R::from_f64(rj), mi, mj, spring);
         }
     }
 
@@ -383,6 +416,10 @@ mod tests {
                     assert_eq!(bits(got(&out.ti)), bits(ti), "torque on i, lane {l}");
                     assert_eq!(bits(got(&out.tj)), bits(tj), "torque on j, lane {l}");
                     assert_eq!(bits(got(&out.spring)), bits(s), "spring, lane {l}");
+                    let inv_d = |r: R| R::one() / (r * R::from_f64(2.0));
+                    let ([d, ..], [ri, rj, _], _) = pair(&inp, g, l);
+                    let ratio = (ri + rj - d.norm2().sqrt()) * inv_d(ri).max(inv_d(rj));
+                    assert_eq!(out.ratio[l].to_f64().to_bits(), ratio.to_f64().to_bits());
                     if law.friction > 0.0 {
                         let n = V3::from_f64(pair(&inp, g, l).0[0].to_f64());
                         let n = n * (1.0 / n.norm());
