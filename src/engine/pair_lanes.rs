@@ -186,8 +186,6 @@ fn lanes<R: Real, const HERTZ: bool>(
     g: usize,
     out: &mut LaneOutput<R>,
 ) {
-    let half = R::from_f64(0.5);
-    let three_halves = R::from_f64(1.5);
     let (dd, vi, wi, vj, wj) = (
         col3(&inp.d, g),
         col3(&inp.vi, g),
@@ -198,77 +196,117 @@ fn lanes<R: Real, const HERTZ: bool>(
     let (ri, rj, stored) = (&inp.ri[g], &inp.rj[g], col3(&inp.spring, g));
     let (mi, mj) = (&inp.mi[g], &inp.mj[g]);
     for l in 0..LANES {
-        let d = get(dd, l);
-        let sum = ri[l] + rj[l];
-        // m*, a fixed partner acting as infinitely heavy (as selects).
-        let m_both = mi[l] * mj[l] / (mi[l] + mj[l]);
-        let m_eff = if mj[l] == R::zero() {
-            mi[l]
-        } else if mi[l] == R::zero() {
-            mj[l]
-        } else {
-            m_both
-        };
-        // 1 / (2 min(r_i, r_j)) is the larger of the two 1 / (2 r) (division rounds
-        // monotonically): the bits of the per-particle constant the walls use.
-        let inv_d = R::one() / (ri[l].min(rj[l]) * R::from_f64(2.0));
-        let dist = d.norm2().sqrt();
-        let n = d * (R::one() / dist);
-        let overlap = sum - dist;
-        let h = overlap * half;
-        let (li, lj) = (ri[l] - h, rj[l] - h);
-        let bi = -(n * li);
-        let bj = n * lj;
-        let v_rel = (get(vi, l) + get(wi, l).cross(bi)) - (get(vj, l) + get(wj, l).cross(bj));
-        // contact_force (contact/force.rs), with its branches as selects.
-        let vn = v_rel.dot(n);
-        let sq = if HERTZ {
-            (ri[l] * rj[l] / sum * overlap).sqrt()
+        let c = contact::<R, HERTZ>(
+            law,
+            dt,
+            [get(dd, l), get(vi, l), get(wi, l), get(vj, l), get(wj, l)],
+            [ri[l], rj[l], mi[l], mj[l]],
+            get(stored, l),
+        );
+        put(&mut out.f, l, c.f);
+        put(&mut out.ti, l, c.ti);
+        put(&mut out.tj, l, c.tj);
+        put(&mut out.spring, l, c.spring);
+        out.h[l] = c.h;
+        out.ratio[l] = c.ratio;
+    }
+}
+
+/// What one touching pair gives (one lane of `LaneOutput`).
+struct PairContact<R: Real> {
+    f: V3<R>,
+    ti: V3<R>,
+    tj: V3<R>,
+    spring: V3<R>,
+    h: R,
+    ratio: R,
+}
+
+/// One pair's contact, branch-free: `kin` is [separation from j to i, v_i, ω_i, v_j, ω_j],
+/// `pair` is [r_i, r_j, m_i, m_j] (mass zero for a fixed particle), `stored` the spring.
+#[inline(always)]
+fn contact<R: Real, const HERTZ: bool>(
+    law: &LawKernel<R>,
+    dt: R,
+    kin: [V3<R>; 5],
+    pair: [R; 4],
+    stored: V3<R>,
+) -> PairContact<R> {
+    let half = R::from_f64(0.5);
+    let three_halves = R::from_f64(1.5);
+    let [d, vi, wi, vj, wj] = kin;
+    let [ri, rj, mi, mj] = pair;
+    let sum = ri + rj;
+    // m*, a fixed partner acting as infinitely heavy (as selects).
+    let m_both = mi * mj / (mi + mj);
+    let m_eff = if mj == R::zero() {
+        mi
+    } else if mi == R::zero() {
+        mj
+    } else {
+        m_both
+    };
+    // 1 / (2 min(r_i, r_j)) is the larger of the two 1 / (2 r) (division rounds
+    // monotonically): the bits of the per-particle constant the walls use.
+    let inv_d = R::one() / (ri.min(rj) * R::from_f64(2.0));
+    let dist = d.norm2().sqrt();
+    let n = d * (R::one() / dist);
+    let overlap = sum - dist;
+    let h = overlap * half;
+    let (li, lj) = (ri - h, rj - h);
+    let bi = -(n * li);
+    let bj = n * lj;
+    let v_rel = (vi + wi.cross(bi)) - (vj + wj.cross(bj));
+    // contact_force (contact/force.rs), with its branches as selects.
+    let vn = v_rel.dot(n);
+    let sq = if HERTZ {
+        (ri * rj / sum * overlap).sqrt()
+    } else {
+        R::one()
+    };
+    let (kn, sn) = if HERTZ {
+        let kn = law.kn_coef * sq;
+        (kn, kn * three_halves)
+    } else {
+        (law.kn_coef, law.kn_coef)
+    };
+    let gamma_n = law.damp_n * (sn * m_eff).sqrt();
+    let fn_mag = kn * overlap - gamma_n * vn;
+    let mut f = n * fn_mag;
+    let mut spring = stored;
+    if law.tangential {
+        let kt = law.kt_coef * sq;
+        let gamma_t = law.damp_t * (kt * m_eff).sqrt();
+        let vt = v_rel - n * vn;
+        let old = spring;
+        let old2 = old.norm2();
+        let mut s = old - n * old.dot(n);
+        let s2 = s.norm2();
+        // s · 1 is s exactly: the select keeps the scalar code's bits.
+        let keep_length = if s2 > R::zero() {
+            (old2 / s2).sqrt()
         } else {
             R::one()
         };
-        let (kn, sn) = if HERTZ {
-            let kn = law.kn_coef * sq;
-            (kn, kn * three_halves)
-        } else {
-            (law.kn_coef, law.kn_coef)
-        };
-        let gamma_n = law.damp_n * (sn * m_eff).sqrt();
-        let fn_mag = kn * overlap - gamma_n * vn;
-        let mut f = n * fn_mag;
-        let mut spring = get(stored, l);
-        if law.tangential {
-            let kt = law.kt_coef * sq;
-            let gamma_t = law.damp_t * (kt * m_eff).sqrt();
-            let vt = v_rel - n * vn;
-            let old = spring;
-            let old2 = old.norm2();
-            let mut s = old - n * old.dot(n);
-            let s2 = s.norm2();
-            // s · 1 is s exactly: the select keeps the scalar code's bits.
-            let keep_length = if s2 > R::zero() {
-                (old2 / s2).sqrt()
-            } else {
-                R::one()
-            };
-            s = s * keep_length;
-            s += vt * dt;
-            let ft = -(s * kt) - vt * gamma_t;
-            let limit = law.mu * fn_mag.abs();
-            let ft2 = ft.norm2();
-            let slides = ft2 > limit * limit;
-            let ft_slide = ft * (limit / ft2.sqrt());
-            let s_slide = -(ft_slide + vt * gamma_t) * (R::one() / kt);
-            spring = select(slides, s_slide, s);
-            f += select(slides, ft_slide, ft);
-        }
-        let nf = n.cross(f);
-        put(&mut out.f, l, f);
-        put(&mut out.ti, l, nf * li);
-        put(&mut out.tj, l, -(nf * lj));
-        put(&mut out.spring, l, spring);
-        out.h[l] = h;
-        out.ratio[l] = overlap * inv_d;
+        s = s * keep_length;
+        s += vt * dt;
+        let ft = -(s * kt) - vt * gamma_t;
+        let limit = law.mu * fn_mag.abs();
+        let ft2 = ft.norm2();
+        let slides = ft2 > limit * limit;
+        let ft_slide = ft * (limit / ft2.sqrt());
+        let s_slide = -(ft_slide + vt * gamma_t) * (R::one() / kt);
+        spring = select(slides, s_slide, s);
+        f += select(slides, ft_slide, ft);
+    }
+    let nf = n.cross(f);
+    PairContact {
+        f,
+        ti: nf * li,
+        tj: -(nf * lj),
+        spring,
+        h,
+        ratio: overlap * inv_d,
     }
 }
 
