@@ -302,3 +302,14 @@ pub fn checksum(s: &State<f64>) -> String {
         .map(|b| format!("{b:02x}"))
         .collect()
 }
+
+/// The kinetic energy below which a bed counts as settled: 10⁻⁴ m g d per mobile particle, the
+/// silo study's criterion (`SiloParams::settle_kinetic_energy_ratio`).
+pub fn rest_energy(s: &State<f64>, gravity: [f64; 3]) -> f64 {
+    let g = gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mgd: f64 = (0..s.len())
+        .filter(|&i| s.inv_mass[i] > 0.0)
+        .map(|i| s.mass[i] * g * 2.0 * s.radius[i])
+        .sum();
+    1e-4 * mgd
+}

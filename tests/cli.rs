@@ -968,3 +968,63 @@ fn bench_repeats_report_the_median_of_identical_runs() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
 }
+
+/// `bench --settle` times a settled bed: the lattice comes to rest (kinetic energy below
+/// 10⁻⁴ m g d per particle, more contacts than the lattice has when timed unsettled); the bed is
+/// kept beside the database and reused (the same timed state); a damaged bed file is refused
+/// and the bed settled again, to the same state.
+#[test]
+fn bench_settle_keeps_a_settled_bed_and_refuses_a_damaged_one() {
+    let dir = TempDir::new().unwrap();
+    let run = |settle: bool| {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "silo-bed",
+            "--particles",
+            "1000",
+            "--steps",
+            "20",
+            "--threads",
+            "2",
+            "--json",
+        ];
+        if settle {
+            args.push("--settle");
+        }
+        let out = sweep_cmd(dir.path()).args(&args).output().unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v, stderr(&out))
+    };
+    let (first, err) = run(true);
+    assert!(err.contains("settled in"), "{err}");
+    assert_eq!(first["scene"], "silo-bed/settled");
+    let bed = dir.path().join("bench-beds/silo-bed-1000.bin");
+    let bytes = std::fs::read(&bed).unwrap();
+    let (_, state, _) = sweep::checkpoint::decode(&bytes, "bed", None).unwrap();
+    let ke = state.kinetic_energy();
+    let rest = sweep::bench::rest_energy(&state, [0.0, 0.0, -9.81]);
+    assert!(ke < rest, "kinetic energy {ke:e} J, rest below {rest:e} J");
+    let (lattice, _) = run(false);
+    let (c_settled, c_lattice) = (
+        first["contacts_per_particle"].as_f64().unwrap(),
+        lattice["contacts_per_particle"].as_f64().unwrap(),
+    );
+    assert!(
+        c_settled > c_lattice + 0.5,
+        "settled {c_settled} contacts per particle, lattice {c_lattice}"
+    );
+    let (again, err) = run(true);
+    assert!(err.contains("settled bed from"), "{err}");
+    assert_eq!(again["state_checksum"], first["state_checksum"]);
+    // One flipped byte in the payload: refused, settled anew, the same bed.
+    let mut damaged = bytes.clone();
+    let k = damaged.len() / 2;
+    damaged[k] ^= 0x10;
+    std::fs::write(&bed, &damaged).unwrap();
+    let (redone, err) = run(true);
+    assert!(err.contains("not reusing the settled bed"), "{err}");
+    assert!(err.contains("settled in"), "{err}");
+    assert_eq!(redone["state_checksum"], first["state_checksum"]);
+}

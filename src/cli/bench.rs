@@ -30,6 +30,17 @@ pub struct Arguments {
     /// of per cent; every run must end in the same state (checked through the checksum).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
+    /// silo-bed only: time the runs from a settled random bed, into which the lattice collapses
+    /// under gravity (CPU f32, all cores, 1000 steps at a time until the kinetic energy is below
+    /// 10⁻⁴ m g d per particle: the silo study's criterion). About 4·10⁴ steps, a minute at
+    /// N = 3·10⁴ on two cores; the bed is kept in `bench-beds/` beside the database and reused
+    /// (so every backend and precision starts from the same bed). Stored as scene
+    /// `silo-bed/settled`.
+    #[arg(long)]
+    pub settle: bool,
+    /// The most steps `--settle` may take before giving up.
+    #[arg(long, default_value_t = 400_000)]
+    pub settle_max_steps: u64,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -46,8 +57,24 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         "f64" => Precision::F64,
         p => anyhow::bail!("--precision: expected f32 or f64, got {p:?}"),
     };
-    let sc = sweep::bench::scene(&a.scene, a.particles, 1)?;
+    let mut sc = sweep::bench::scene(&a.scene, a.particles, 1)?;
     let dt = sc.config.dt_s;
+    let mut settled = None;
+    if a.settle {
+        anyhow::ensure!(
+            a.scene == "silo-bed",
+            "--settle: only silo-bed comes to rest (chute-bed and chute-rods flow); got --scene {}",
+            a.scene
+        );
+        let (state, steps) = settled_bed(&sc, &a)?;
+        sc.state = state;
+        settled = Some(steps);
+    }
+    let scene_name = if a.settle {
+        format!("{}/settled", a.scene)
+    } else {
+        a.scene.clone()
+    };
     let mut rates = Vec::new();
     let mut last = None;
     for _ in 0..a.repeat {
@@ -90,7 +117,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!(
             "{}",
             serde_json::json!({
-                "scene": a.scene, "particles": mobile, "steps": a.steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
+                "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": a.steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
                 "precision": info.precision, "threads": info.threads, "particle_steps_per_s": rate,
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
                 "runs_particle_steps_per_s": runs, "best_particle_steps_per_s": best
@@ -99,7 +126,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         println!(
             "{}: N = {mobile}, {} steps, dt = {dt:.3e} s, {} {} ({}): {rate:.3e} particle-steps/s, {:.2} contacts/particle, {} list builds, {secs:.2} s, checksum {sum}",
-            a.scene, a.steps, info.kind, info.precision, info.adapter, r.contacts_per_particle, r.list_builds
+            scene_name, a.steps, info.kind, info.precision, info.adapter, r.contacts_per_particle, r.list_builds
         );
         if runs.len() > 1 {
             let all: Vec<String> = runs.iter().map(|x| format!("{x:.3e}")).collect();
@@ -115,8 +142,83 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         conn.execute(
             "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
              VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
-            rusqlite::params![a.scene, info.kind, info.precision, info.threads as i64, mobile as i64, a.steps as i64, dt, rate, r.contacts_per_particle, sum, machine],
+            rusqlite::params![scene_name, info.kind, info.precision, info.threads as i64, mobile as i64, a.steps as i64, dt, rate, r.contacts_per_particle, sum, machine],
         )?;
     }
     Ok(0)
+}
+
+/// The settled bed for `--settle`: read from `bench-beds/` beside the database when a valid one
+/// made from this very lattice is there, else settled and saved. Returns it and the steps it
+/// took to settle.
+fn settled_bed(
+    sc: &sweep::bench::BenchScene,
+    a: &Arguments,
+) -> anyhow::Result<(sweep::engine::State<f64>, u64)> {
+    use sweep::checkpoint::{self, Header};
+    let dir =
+        a.db.db
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join("bench-beds");
+    let path = dir.join(format!("{}-{}.bin", a.scene, a.particles));
+    // The key names the lattice (its checksum) and the engine that settles it: a changed scene
+    // or engine refuses the old file instead of timing a different bed.
+    let key = format!(
+        "{} settled from {} by cpu f32, format 1",
+        a.scene,
+        sweep::bench::checksum(&sc.state)
+    );
+    if let Ok(bytes) = std::fs::read(&path) {
+        match checkpoint::decode(&bytes, &path.display().to_string(), Some(&key)) {
+            Ok((h, state, _)) => {
+                eprintln!("settled bed from {} ({} steps)", path.display(), h.step);
+                return Ok((state, h.step));
+            }
+            Err(e) => eprintln!("not reusing the settled bed: {e}"),
+        }
+    }
+    let t0 = Instant::now();
+    let mut engine = backend::build(
+        BackendChoice::Cpu,
+        Precision::F32,
+        sc.config.clone(),
+        &sc.state,
+        0,
+    )?;
+    let rest = sweep::bench::rest_energy(&sc.state, sc.config.gravity);
+    let mut steps = 0;
+    loop {
+        engine
+            .advance(1000)
+            .map_err(|e| anyhow::anyhow!("settling, step {steps}: {e}"))?;
+        steps += 1000;
+        let ke = engine
+            .kinetic_energy()
+            .map_err(|e| anyhow::anyhow!("settling: {e}"))?;
+        if ke < rest {
+            break;
+        }
+        anyhow::ensure!(
+            steps < a.settle_max_steps,
+            "--settle: kinetic energy {ke:.3e} J after {steps} steps, still above {rest:.3e} J \
+             (10⁻⁴ m g d per particle); raise --settle-max-steps"
+        );
+    }
+    let state = engine.download();
+    eprintln!(
+        "settled in {steps} steps ({:.1} s); kept in {}",
+        t0.elapsed().as_secs_f64(),
+        path.display()
+    );
+    let header = Header {
+        job_hash: key,
+        step: steps,
+        time_s: steps as f64 * sc.config.dt_s,
+        backend: "cpu".into(),
+        precision: "f32".into(),
+    };
+    std::fs::create_dir_all(&dir)?;
+    checkpoint::write_atomic(&path, &checkpoint::encode(&header, &state, "{}"))?;
+    Ok((state, steps))
 }
