@@ -303,6 +303,31 @@ pub fn checksum(s: &State<f64>) -> String {
         .collect()
 }
 
+/// How `sweep bench --settle` brings a scene from its lattice start to a representative state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Settling {
+    /// silo-bed: until the kinetic energy is below this (J).
+    Rest(f64),
+    /// chute-bed: this many steps of flow.
+    Flow(u64),
+}
+
+/// The scene's settling: silo-bed comes to rest (`rest_energy`); chute-bed flows for 20 √(L/g)
+/// (the lattice dilates and mixes into a flowing random bed; a fully developed profile would
+/// take hundreds of √(L/g)). None for chute-rods.
+pub fn settling(name: &str, sc: &BenchScene) -> Option<Settling> {
+    match name {
+        "silo-bed" => Some(Settling::Rest(rest_energy(&sc.state, sc.config.gravity))),
+        "chute-bed" => {
+            let g = sc.config.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let l = 2.0 * sc.state.radius.last().copied().unwrap_or(0.0);
+            let tau = (l / g).sqrt();
+            Some(Settling::Flow((20.0 * tau / sc.config.dt_s).ceil() as u64))
+        }
+        _ => None,
+    }
+}
+
 /// The kinetic energy below which a bed counts as settled: 10⁻⁴ m g d per mobile particle, the
 /// silo study's criterion (`SiloParams::settle_kinetic_energy_ratio`).
 pub fn rest_energy(s: &State<f64>, gravity: [f64; 3]) -> f64 {

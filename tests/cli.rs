@@ -1028,3 +1028,56 @@ fn bench_settle_keeps_a_settled_bed_and_refuses_a_damaged_one() {
     assert!(err.contains("settled in"), "{err}");
     assert_eq!(redone["state_checksum"], first["state_checksum"]);
 }
+
+/// `bench --settle` on chute-bed times a flowing bed: 20 √(L/g) of flow from the lattice, after
+/// which the bed moves downslope and has dilated (fewer contacts than the lattice start);
+/// chute-rods has no settling and is refused by name.
+#[test]
+fn bench_settle_lets_the_chute_bed_flow() {
+    let dir = TempDir::new().unwrap();
+    let args = [
+        "bench",
+        "--scene",
+        "chute-bed",
+        "--particles",
+        "400",
+        "--steps",
+        "20",
+        "--threads",
+        "2",
+        "--json",
+    ];
+    let out = sweep_cmd(dir.path())
+        .args(args)
+        .arg("--settle")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let flowing: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(flowing["scene"], "chute-bed/flowing");
+    // L = d = 2/16 m, g = 1 m/s².
+    let (tau, dt) = ((0.125f64).sqrt(), flowing["dt_s"].as_f64().unwrap());
+    let steps = (20.0 * tau / dt).ceil();
+    assert_eq!(flowing["settle_steps"].as_f64().unwrap(), steps);
+    let bytes = std::fs::read(dir.path().join("bench-beds/chute-bed-400.bin")).unwrap();
+    let (_, state, _) = sweep::checkpoint::decode(&bytes, "bed", None).unwrap();
+    let mobile: Vec<usize> = (0..state.len())
+        .filter(|&i| state.inv_mass[i] > 0.0)
+        .collect();
+    let vx = mobile.iter().map(|&i| state.vel[i].x).sum::<f64>() / mobile.len() as f64;
+    assert!(vx > 0.1 * (0.125f64).sqrt(), "mean downslope velocity {vx} m/s");
+    let out = sweep_cmd(dir.path()).args(args).output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lattice: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (c_flow, c_lattice) = (
+        flowing["contacts_per_particle"].as_f64().unwrap(),
+        lattice["contacts_per_particle"].as_f64().unwrap(),
+    );
+    assert!(c_flow < c_lattice, "flowing {c_flow}, lattice {c_lattice}");
+    let out = sweep_cmd(dir.path())
+        .args(["bench", "--scene", "chute-rods", "--settle", "--no-store"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--settle"), "{}", stderr(&out));
+}

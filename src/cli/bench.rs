@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use sweep::bench::Settling;
 use sweep::campaign::Precision;
 use sweep::runner::backend::{self, BackendChoice};
 
@@ -30,12 +31,13 @@ pub struct Arguments {
     /// of per cent; every run must end in the same state (checked through the checksum).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
-    /// silo-bed only: time the runs from a settled random bed, into which the lattice collapses
-    /// under gravity (CPU f32, all cores, 1000 steps at a time until the kinetic energy is below
-    /// 10⁻⁴ m g d per particle: the silo study's criterion). About 4·10⁴ steps, a minute at
-    /// N = 3·10⁴ on two cores; the bed is kept in `bench-beds/` beside the database and reused
-    /// (so every backend and precision starts from the same bed). Stored as scene
-    /// `silo-bed/settled`.
+    /// Time the runs from a representative state instead of the lattice start, made on the CPU
+    /// in f32 (all cores) and kept in `bench-beds/` beside the database for reuse (so every
+    /// backend and precision starts from the same bed). silo-bed: the lattice collapses into a
+    /// random bed and comes to rest (kinetic energy below 10⁻⁴ m g d per particle, the silo
+    /// study's criterion; about 4·10⁴ steps, a minute at N = 3·10⁴ on two cores), stored as
+    /// scene `silo-bed/settled`. chute-bed: 20 √(L/g) of flow (about 2·10⁵ steps, a few minutes
+    /// at 3·10⁴), stored as `chute-bed/flowing`.
     #[arg(long)]
     pub settle: bool,
     /// The most steps `--settle` may take before giving up.
@@ -61,19 +63,20 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let dt = sc.config.dt_s;
     let mut settled = None;
     if a.settle {
-        anyhow::ensure!(
-            a.scene == "silo-bed",
-            "--settle: only silo-bed comes to rest (chute-bed and chute-rods flow); got --scene {}",
-            a.scene
-        );
-        let (state, steps) = settled_bed(&sc, &a)?;
+        let Some(how) = sweep::bench::settling(&a.scene, &sc) else {
+            anyhow::bail!(
+                "--settle: silo-bed and chute-bed only; got --scene {}",
+                a.scene
+            );
+        };
+        let (state, steps) = settled_bed(&sc, how, &a)?;
         sc.state = state;
         settled = Some(steps);
     }
-    let scene_name = if a.settle {
-        format!("{}/settled", a.scene)
-    } else {
-        a.scene.clone()
+    let scene_name = match (a.settle, a.scene.as_str()) {
+        (true, "chute-bed") => format!("{}/flowing", a.scene),
+        (true, _) => format!("{}/settled", a.scene),
+        _ => a.scene.clone(),
     };
     let mut rates = Vec::new();
     let mut last = None;
@@ -153,6 +156,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
 /// took to settle.
 fn settled_bed(
     sc: &sweep::bench::BenchScene,
+    how: Settling,
     a: &Arguments,
 ) -> anyhow::Result<(sweep::engine::State<f64>, u64)> {
     use sweep::checkpoint::{self, Header};
@@ -165,7 +169,7 @@ fn settled_bed(
     // The key names the lattice (its checksum) and the engine that settles it: a changed scene
     // or engine refuses the old file instead of timing a different bed.
     let key = format!(
-        "{} settled from {} by cpu f32, format 1",
+        "{} settled ({how:?}) from {} by cpu f32, format 1",
         a.scene,
         sweep::bench::checksum(&sc.state)
     );
@@ -186,24 +190,33 @@ fn settled_bed(
         &sc.state,
         0,
     )?;
-    let rest = sweep::bench::rest_energy(&sc.state, sc.config.gravity);
     let mut steps = 0;
     loop {
+        let chunk = match how {
+            Settling::Flow(total) => (total - steps).min(1000),
+            Settling::Rest(_) => 1000,
+        };
         engine
-            .advance(1000)
+            .advance(chunk)
             .map_err(|e| anyhow::anyhow!("settling, step {steps}: {e}"))?;
-        steps += 1000;
-        let ke = engine
-            .kinetic_energy()
-            .map_err(|e| anyhow::anyhow!("settling: {e}"))?;
-        if ke < rest {
-            break;
+        steps += chunk;
+        match how {
+            Settling::Flow(total) if steps >= total => break,
+            Settling::Flow(_) => {}
+            Settling::Rest(rest) => {
+                let ke = engine
+                    .kinetic_energy()
+                    .map_err(|e| anyhow::anyhow!("settling: {e}"))?;
+                if ke < rest {
+                    break;
+                }
+                anyhow::ensure!(
+                    steps < a.settle_max_steps,
+                    "--settle: kinetic energy {ke:.3e} J after {steps} steps, still above \
+                     {rest:.3e} J (10⁻⁴ m g d per particle); raise --settle-max-steps"
+                );
+            }
         }
-        anyhow::ensure!(
-            steps < a.settle_max_steps,
-            "--settle: kinetic energy {ke:.3e} J after {steps} steps, still above {rest:.3e} J \
-             (10⁻⁴ m g d per particle); raise --settle-max-steps"
-        );
     }
     let state = engine.download();
     eprintln!(
