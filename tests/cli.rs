@@ -1065,7 +1065,10 @@ fn bench_settle_lets_the_chute_bed_flow() {
         .filter(|&i| state.inv_mass[i] > 0.0)
         .collect();
     let vx = mobile.iter().map(|&i| state.vel[i].x).sum::<f64>() / mobile.len() as f64;
-    assert!(vx > 0.1 * (0.125f64).sqrt(), "mean downslope velocity {vx} m/s");
+    assert!(
+        vx > 0.1 * (0.125f64).sqrt(),
+        "mean downslope velocity {vx} m/s"
+    );
     let out = sweep_cmd(dir.path()).args(args).output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
     let lattice: Value = serde_json::from_slice(&out.stdout).unwrap();
