@@ -24,7 +24,7 @@ use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
 use super::contact::{elastic_energy, ContactRecord, LawKernel};
 use super::gather::{
-    ForceContext, PairContext, PairScratch, PairSlot, Props, Reaction, SumContext,
+    ForceContext, PairBlock, PairContext, PairScratch, PairSlot, Props, Reaction, SumContext,
 };
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
@@ -430,20 +430,20 @@ impl<R: Real> CpuEngine<R> {
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
                 let (((((slots, react), force), torque), nc), scratch) = &mut *guard;
-                ctx.block(
-                    parts[b],
-                    &owner[entries[b]..entries[b + 1]],
+                let block = PairBlock {
+                    first: parts[b],
+                    owner: &owner[entries[b]..entries[b + 1]],
                     nbr,
-                    entries[b],
+                    e0: entries[b],
                     slots,
-                    &xrank[entries[b]..entries[b + 1]],
-                    self.half.xoff[b] as u32,
+                    xrank: &xrank[entries[b]..entries[b + 1]],
+                    x0: self.half.xoff[b] as u32,
                     react,
                     force,
                     torque,
                     nc,
-                    scratch,
-                )
+                };
+                ctx.block(block, scratch)
             })
             .into_iter()
             .fold(R::zero(), |a, b| a.max(b))

@@ -302,69 +302,63 @@ pub(super) struct PairScratch<R: Real> {
 /// inputs, so the choice changes no result.
 const SPARSE_BELOW: f64 = 0.35;
 
+/// One block's share of the pair pass: the particles `first..first + force.len()`, their half
+/// list entries (`owner`, `slots`, `xrank`; the half list `nbr`, whose entries of this block begin
+/// at `e0`), the block's places in the compact array of cross reactions (`react`, which begin at
+/// place `x0`; see `HalfList::xrank`) and the block's force, torque and contact counts.
+pub(super) struct PairBlock<'a, R: Real> {
+    pub(super) first: usize,
+    pub(super) owner: &'a [u32],
+    pub(super) nbr: &'a [u32],
+    pub(super) e0: usize,
+    pub(super) slots: &'a mut [PairSlot<R>],
+    pub(super) xrank: &'a [u32],
+    pub(super) x0: u32,
+    pub(super) react: &'a mut [Reaction<R>],
+    pub(super) force: &'a mut [V3<R>],
+    pub(super) torque: &'a mut [V3<R>],
+    pub(super) nc: &'a mut [u32],
+}
+
 impl<R: Real> PairContext<'_, R> {
-    /// Evaluates every pair (i, j > i) of the particles `first..first + force.len()` once:
-    /// `nbr` is the half list, whose entries of this block begin at `e0`; `owner`, `slots` and
-    /// `xrank` are this block's entries, and `react` the block's places in the compact array of
-    /// cross reactions, which begin at place `x0` (see `HalfList::xrank`). Advances the springs
-    /// in place and writes into `force`, `torque` and `nc` (count of touching pairs) what the
+    /// Evaluates every pair (i, j > i) of the block's particles once: advances the springs in
+    /// place and writes into `force`, `torque` and `nc` (count of touching pairs) what the
     /// block's pairs do to its particles, in entry order; a partner in a later block gets its
     /// force and torque in `react` instead. Returns the largest overlap ratio. Every value
     /// belongs to one block, so any split over threads writes the same bits.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn block(
-        &self,
-        first: usize,
-        owner: &[u32],
-        nbr: &[u32],
-        e0: usize,
-        slots: &mut [PairSlot<R>],
-        xrank: &[u32],
-        x0: u32,
-        react: &mut [Reaction<R>],
-        force: &mut [V3<R>],
-        torque: &mut [V3<R>],
-        nc: &mut [u32],
-        scratch: &mut PairScratch<R>,
-    ) -> R {
+    pub(super) fn block(&self, b: PairBlock<'_, R>, scratch: &mut PairScratch<R>) -> R {
         // Without periodic axes the minimum image is the plain difference: the folds would be
         // a tenth of the distance test's instructions for nothing (the same bits). Each case
         // compiled apart, so that neither pays for the other's branch.
         let periodic = self.periodic.x.is_some() || self.periodic.y.is_some();
         match (periodic, scratch.sparse) {
-            (true, false) => self.block_in::<true, false>(
-                first, owner, nbr, e0, slots, xrank, x0, react, force, torque, nc, scratch,
-            ),
-            (true, true) => self.block_in::<true, true>(
-                first, owner, nbr, e0, slots, xrank, x0, react, force, torque, nc, scratch,
-            ),
-            (false, false) => self.block_in::<false, false>(
-                first, owner, nbr, e0, slots, xrank, x0, react, force, torque, nc, scratch,
-            ),
-            (false, true) => self.block_in::<false, true>(
-                first, owner, nbr, e0, slots, xrank, x0, react, force, torque, nc, scratch,
-            ),
+            (true, false) => self.block_in::<true, false>(b, scratch),
+            (true, true) => self.block_in::<true, true>(b, scratch),
+            (false, false) => self.block_in::<false, false>(b, scratch),
+            (false, true) => self.block_in::<false, true>(b, scratch),
         }
     }
 
     /// `block`, with `PERIODIC` for whether any axis is periodic and `SPARSE` for
     /// `scratch.sparse`.
-    #[allow(clippy::too_many_arguments)]
     fn block_in<const PERIODIC: bool, const SPARSE: bool>(
         &self,
-        first: usize,
-        owner: &[u32],
-        nbr: &[u32],
-        e0: usize,
-        slots: &mut [PairSlot<R>],
-        xrank: &[u32],
-        x0: u32,
-        react: &mut [Reaction<R>],
-        force: &mut [V3<R>],
-        torque: &mut [V3<R>],
-        nc: &mut [u32],
+        b: PairBlock<'_, R>,
         scratch: &mut PairScratch<R>,
     ) -> R {
+        let PairBlock {
+            first,
+            owner,
+            nbr,
+            e0,
+            slots,
+            xrank,
+            x0,
+            react,
+            force,
+            torque,
+            nc,
+        } = b;
         let rot = self.rotation;
         let count = force.len();
         let entries = slots.len();
