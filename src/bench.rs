@@ -320,7 +320,13 @@ pub fn settling(name: &str, sc: &BenchScene) -> Option<Settling> {
         "silo-bed" => Some(Settling::Rest(rest_energy(&sc.state, sc.config.gravity))),
         "chute-bed" => {
             let g = sc.config.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let l = 2.0 * sc.state.radius.last().copied().unwrap_or(0.0);
+            // L: the diameter of the flowing spheres (ξ = 1).
+            let s = &sc.state;
+            let l = 2.0
+                * (0..s.len())
+                    .filter(|&i| s.inv_mass[i] > 0.0)
+                    .map(|i| s.radius[i])
+                    .fold(0.0, f64::max);
             let tau = (l / g).sqrt();
             Some(Settling::Flow((20.0 * tau / sc.config.dt_s).ceil() as u64))
         }

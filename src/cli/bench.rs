@@ -40,7 +40,7 @@ pub struct Arguments {
     /// at 3·10⁴), stored as `chute-bed/flowing`.
     #[arg(long)]
     pub settle: bool,
-    /// The most steps `--settle` may take before giving up.
+    /// The most steps `--settle` may take to bring silo-bed to rest before giving up.
     #[arg(long, default_value_t = 400_000)]
     pub settle_max_steps: u64,
     /// Print one JSON object instead of text.
