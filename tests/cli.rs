@@ -925,31 +925,30 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     );
 }
 
+/// `sweep bench --json` on `scene` with `n` particles, 20 timed steps, 2 threads and `extra`
+/// flags: its JSON and its stderr (the run must succeed).
+fn bench_json(dir: &Path, scene: &str, n: &str, extra: &[&str]) -> (Value, String) {
+    let out = sweep_cmd(dir)
+        .args(["bench", "--scene", scene, "--particles", n, "--steps", "20"])
+        .args(["--threads", "2", "--json"])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    (serde_json::from_slice(&out.stdout).unwrap(), stderr(&out))
+}
+
 /// `sweep bench --repeat K` runs K times from the same start: each run must end in the same state
 /// (the bench refuses otherwise), and the reported rate is the median of the K.
 #[test]
 fn bench_repeats_report_the_median_of_identical_runs() {
     let dir = TempDir::new().unwrap();
-    let out = sweep_cmd(dir.path())
-        .args([
-            "bench",
-            "--scene",
-            "chute-bed",
-            "--particles",
-            "400",
-            "--steps",
-            "20",
-            "--threads",
-            "2",
-            "--repeat",
-            "3",
-            "--no-store",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (v, _) = bench_json(
+        dir.path(),
+        "chute-bed",
+        "400",
+        &["--repeat", "3", "--no-store"],
+    );
     let mut runs: Vec<f64> = v["runs_particle_steps_per_s"]
         .as_array()
         .unwrap()
@@ -977,25 +976,8 @@ fn bench_repeats_report_the_median_of_identical_runs() {
 fn bench_settle_keeps_a_settled_bed_and_refuses_a_damaged_one() {
     let dir = TempDir::new().unwrap();
     let run = |settle: bool| {
-        let mut args = vec![
-            "bench",
-            "--scene",
-            "silo-bed",
-            "--particles",
-            "1000",
-            "--steps",
-            "20",
-            "--threads",
-            "2",
-            "--json",
-        ];
-        if settle {
-            args.push("--settle");
-        }
-        let out = sweep_cmd(dir.path()).args(&args).output().unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-        (v, stderr(&out))
+        let extra: &[&str] = if settle { &["--settle"] } else { &[] };
+        bench_json(dir.path(), "silo-bed", "1000", extra)
     };
     let (first, err) = run(true);
     assert!(err.contains("settled in"), "{err}");
@@ -1035,25 +1017,7 @@ fn bench_settle_keeps_a_settled_bed_and_refuses_a_damaged_one() {
 #[test]
 fn bench_settle_lets_the_chute_bed_flow() {
     let dir = TempDir::new().unwrap();
-    let args = [
-        "bench",
-        "--scene",
-        "chute-bed",
-        "--particles",
-        "400",
-        "--steps",
-        "20",
-        "--threads",
-        "2",
-        "--json",
-    ];
-    let out = sweep_cmd(dir.path())
-        .args(args)
-        .arg("--settle")
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
-    let flowing: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (flowing, _) = bench_json(dir.path(), "chute-bed", "400", &["--settle"]);
     assert_eq!(flowing["scene"], "chute-bed/flowing");
     // L = d = 2/16 m, g = 1 m/s².
     let (tau, dt) = ((0.125f64).sqrt(), flowing["dt_s"].as_f64().unwrap());
@@ -1069,9 +1033,7 @@ fn bench_settle_lets_the_chute_bed_flow() {
         vx > 0.1 * (0.125f64).sqrt(),
         "mean downslope velocity {vx} m/s"
     );
-    let out = sweep_cmd(dir.path()).args(args).output().unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
-    let lattice: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (lattice, _) = bench_json(dir.path(), "chute-bed", "400", &[]);
     let (c_flow, c_lattice) = (
         flowing["contacts_per_particle"].as_f64().unwrap(),
         lattice["contacts_per_particle"].as_f64().unwrap(),

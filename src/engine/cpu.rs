@@ -274,8 +274,6 @@ impl<R: Real> CpuEngine<R> {
         let s = &self.state;
         self.props = (0..n)
             .map(|i| Props {
-                r: s.radius[i],
-                m: s.mass[i],
                 inv_m: s.inv_mass[i],
                 inv_i: if s.rotation {
                     s.inv_inertia[i]
@@ -526,8 +524,7 @@ impl<R: Real> CpuEngine<R> {
                         let (f, t) = if near[l] == 0 && nw <= 32 && pr.inv_m != R::zero() {
                             (force[l], t0)
                         } else {
-                            let (f, t, ov, c) = ctx
-                                .sum(force[l], t0, kl.pos, kl.vel, kl.omega, pr, wall_sp, near[l]);
+                            let (f, t, ov, c) = ctx.sum(force[l], t0, kl, pr, wall_sp, near[l]);
                             out.2 = out.2.max(ov);
                             force[l] = f;
                             nc[l] += c;
@@ -606,7 +603,7 @@ impl<R: Real> CpuEngine<R> {
                     if self.alive[i] != ALIVE {
                         return 0.0;
                     }
-                    let (pi, ri) = (s.pos[i], props[i].r);
+                    let (pi, ri) = (s.pos[i], s.radius[i]);
                     let mut e = 0.0;
                     let entries = half.start[i] as usize..half.start[i + 1] as usize;
                     for (&j, slot) in half.nbr[entries.clone()].iter().zip(&ps[entries]) {
@@ -614,7 +611,7 @@ impl<R: Real> CpuEngine<R> {
                         if self.alive[j] != ALIVE {
                             continue;
                         }
-                        let rj = props[j].r;
+                        let rj = s.radius[j];
                         let sum = ri + rj;
                         let dist2 = self.periodic.delta(s.pos[j], pi).norm2();
                         if dist2 >= sum * sum {

@@ -260,13 +260,11 @@ pub(super) struct Reaction<R: Real> {
     pub(super) t: V3<R>,
 }
 
-/// Per-particle constants the pair pass reads for a partner, packed so that one partner costs
-/// one cache line instead of several arrays.
+/// Per-particle constants the per-particle pass reads besides the motion record (`Kin`, which
+/// carries radius and mass), packed in one array.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Props<R: Real> {
-    pub(super) r: R,
-    pub(super) m: R,
     pub(super) inv_m: R,
     pub(super) inv_i: R,
     /// 1 / (2r): overlap ratios without a division per contact.
@@ -526,9 +524,7 @@ impl<R: Real> SumContext<'_, R> {
         &self,
         mut f: V3<R>,
         mut t: V3<R>,
-        pk: V3<R>,
-        vk: V3<R>,
-        wk: V3<R>,
+        k: &Kin<R>,
         pr: Props<R>,
         wall_springs: &mut [V3<R>],
         near: u32,
@@ -540,7 +536,7 @@ impl<R: Real> SumContext<'_, R> {
             wall_springs.fill(V3::zero());
             return (V3::zero(), V3::zero(), max_ov, nc);
         }
-        let rk = pr.r;
+        let (pk, vk, wk, rk) = (k.pos, k.vel, k.omega, k.r);
         // Only the walls the particle may reach before the next list build (the others give no
         // contact and hold a zero spring), in wall order: the set bits of `near`, then any
         // walls past the 32nd. Most particles reach none, and the test for that is one branch
@@ -561,7 +557,7 @@ impl<R: Real> SumContext<'_, R> {
                 *ws = V3::zero();
                 continue;
             };
-            let (bi, c) = wc.sphere_input(rk, pr.m, vk, wk);
+            let (bi, c) = wc.sphere_input(rk, k.m, vk, wk);
             let mut spring = if self.keep_springs { *ws } else { V3::zero() };
             let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
             *ws = spring;
