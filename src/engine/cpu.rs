@@ -4,9 +4,9 @@
 //! moved half the skin, which a displacement bound watches: `skin.rs`), each pair evaluated once
 //! (Newton's third law) with its tangential spring kept in the pair's entry. The pair pass runs
 //! over fixed blocks of particles and adds each pair's force to i, and to j when j lies in the
-//! same block; a partner in a later block gets its share in a compact array of handed-over
-//! reactions, and a second pass adds, per particle, those shares in entry order, the walls it
-//! may reach (picked at each list build), and the kick and drift. The hot loops avoid branches
+//! same block; a touching pair whose partner lies in a later block hands its reaction over in
+//! a list per destination block, and a second pass adds, per particle, those reactions in entry
+//! order, the walls it may reach (picked at each list build), and the kick and drift. The hot loops avoid branches
 //! whose outcome is a coin flip (touching or not, same block or not): instruction counts and
 //! mispredicts are measured with cachegrind, which is deterministic where this VM's timings
 //! are not. Every value is written by exactly one task and
@@ -24,7 +24,7 @@ use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
 use super::contact::{elastic_energy, ContactRecord, LawKernel};
 use super::gather::{
-    ForceContext, PairBlock, PairContext, PairScratch, PairSlot, Props, Reaction, SumContext,
+    ForceContext, PairBlock, PairContext, PairScratch, PairSlot, Props, SumContext,
 };
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
@@ -74,7 +74,6 @@ pub struct CpuEngine<R: Real> {
     pair_slots: Vec<PairSlot<R>>,
     /// Per block of the pair pass: its touching pairs (vectors reused from step to step).
     pair_scratch: Vec<PairScratch<R>>,
-    reactions: Vec<Reaction<R>>,
     wall_springs: Vec<V3<R>>,
     /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
     near_walls: Vec<u32>,
@@ -127,7 +126,6 @@ impl<R: Real> CpuEngine<R> {
             kin: Vec::new(),
             pair_slots: Vec::new(),
             pair_scratch: Vec::new(),
-            reactions: Vec::new(),
             wall_springs: Vec::new(),
             near_walls: Vec::new(),
             props: Vec::new(),
@@ -268,7 +266,7 @@ impl<R: Real> CpuEngine<R> {
         let state = &mut self.state;
         let half = &mut self.half;
         self.pool
-            .install(|| grid::build_half(state, &periodic, skin, BLOCK, half));
+            .install(|| grid::build_half(state, &periodic, skin, half));
         let n = self.state.len();
         self.alive = vec![ALIVE; n];
         let s = &self.state;
@@ -286,9 +284,6 @@ impl<R: Real> CpuEngine<R> {
         let nw = self.walls.len();
         self.pair_slots.clear();
         self.pair_slots.resize(self.half.len(), PairSlot::default());
-        self.reactions.clear();
-        self.reactions
-            .resize(self.half.xslot.len(), Reaction::default());
         self.wall_springs.clear();
         self.wall_springs.resize(n * nw, V3::zero());
         let hist = std::mem::take(&mut self.state.history);
@@ -414,29 +409,26 @@ impl<R: Real> CpuEngine<R> {
         }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
-            .zip(split_blocks(&mut self.reactions, &self.half.xoff))
             .zip(split_blocks(&mut s.force, &parts))
             .zip(split_blocks(&mut s.torque, &parts))
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
-        let (owner, nbr, xrank) = (&self.half.owner, &self.half.nbr, &self.half.xrank);
+        let (owner, nbr) = (&self.half.owner, &self.half.nbr);
         // One task per block, claimed by whichever team thread is free (the blocks' work
         // differs: walls, free surface); each block's slices behind an uncontended lock.
         let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
         self.team
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
-                let (((((slots, react), force), torque), nc), scratch) = &mut *guard;
+                let ((((slots, force), torque), nc), scratch) = &mut *guard;
                 let block = PairBlock {
                     first: parts[b],
+                    block: BLOCK,
                     owner: &owner[entries[b]..entries[b + 1]],
                     nbr,
                     e0: entries[b],
                     slots,
-                    xrank: &xrank[entries[b]..entries[b + 1]],
-                    x0: self.half.xoff[b] as u32,
-                    react,
                     force,
                     torque,
                     nc,
@@ -458,10 +450,14 @@ impl<R: Real> CpuEngine<R> {
         let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
         let law_pw = self.law_pw;
         let ctx = SumContext {
-            react: &self.reactions,
-            xstart: &self.half.xstart,
-            xslot: &self.half.xslot,
-            xpartner: &self.half.xpartner,
+            pairs: &self.pair_scratch,
+            block: BLOCK,
+            reach: self
+                .pair_scratch
+                .iter()
+                .map(PairScratch::reach)
+                .max()
+                .unwrap_or(0),
             law_pw: &law_pw,
             walls: &self.walls,
             dt,

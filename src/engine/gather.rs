@@ -6,7 +6,7 @@
 
 use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
 use super::cpu::ALIVE;
-use super::grid::{NeighbourList, Periodic, NOT_CROSS};
+use super::grid::{NeighbourList, Periodic};
 use super::history::{wall_key, Rows};
 use super::kinematics::Kin;
 use super::oriented::OrientedContext;
@@ -251,13 +251,15 @@ impl<R: Real> PairSlot<R> {
     }
 }
 
-/// What the pair (i, j) does to its partner j at the last evaluation: force and torque, zero
-/// when the pair does not touch. Read by j's sum; i adds its own share during the pair pass.
+/// What a touching pair (i, j) does to its partner j when j lies in a later block than i: force,
+/// torque and j. The pair pass of i's block hands it over; j's sum adds it. i adds its own share
+/// during the pair pass.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Reaction<R: Real> {
     pub(super) f: V3<R>,
     pub(super) t: V3<R>,
+    pub(super) j: u32,
 }
 
 /// Per-particle constants the per-particle pass reads besides the motion record (`Kin`, which
@@ -292,6 +294,26 @@ pub(super) struct PairScratch<R: Real> {
     lanes: Box<LaneInput<R>>,
     /// Whether fewer than `SPARSE_BELOW` of the block's entries touched at the last pass.
     sparse: bool,
+    /// The reactions this block hands over, by the partner's block: `handed[k]` goes to the
+    /// block k + 1 after this one, in entry order. Only touching pairs: in a dilute bed most
+    /// cross entries do not touch, and a partner then reads nothing for them.
+    handed: Vec<Vec<Reaction<R>>>,
+    /// How many of `handed` hold this pass's reactions (the rest are empty).
+    reach: usize,
+}
+
+impl<R: Real> PairScratch<R> {
+    /// The reactions handed over to the block `k + 1` after this one at the last pass, in entry
+    /// order.
+    pub(super) fn handed(&self, k: usize) -> &[Reaction<R>] {
+        self.handed.get(k).map_or(&[], |v| v.as_slice())
+    }
+
+    /// One more than the farthest block (counted after this one) handed a reaction at the last
+    /// pass.
+    pub(super) fn reach(&self) -> usize {
+        self.reach
+    }
 }
 
 /// Below this fraction of touching entries (a dilute, flowing bed: 0.16 in the flowing chute) a
@@ -300,19 +322,16 @@ pub(super) struct PairScratch<R: Real> {
 /// inputs, so the choice changes no result.
 const SPARSE_BELOW: f64 = 0.35;
 
-/// One block's share of the pair pass: the particles `first..first + force.len()`, their half
-/// list entries (`owner`, `slots`, `xrank`; the half list `nbr`, whose entries of this block begin
-/// at `e0`), the block's places in the compact array of cross reactions (`react`, which begin at
-/// place `x0`; see `HalfList::xrank`) and the block's force, torque and contact counts.
+/// One block's share of the pair pass: the particles `first..first + force.len()` (blocks of
+/// `block` particles), their half list entries (`owner`, `slots`; the half list `nbr`, whose
+/// entries of this block begin at `e0`) and the block's force, torque and contact counts.
 pub(super) struct PairBlock<'a, R: Real> {
     pub(super) first: usize,
+    pub(super) block: usize,
     pub(super) owner: &'a [u32],
     pub(super) nbr: &'a [u32],
     pub(super) e0: usize,
     pub(super) slots: &'a mut [PairSlot<R>],
-    pub(super) xrank: &'a [u32],
-    pub(super) x0: u32,
-    pub(super) react: &'a mut [Reaction<R>],
     pub(super) force: &'a mut [V3<R>],
     pub(super) torque: &'a mut [V3<R>],
     pub(super) nc: &'a mut [u32],
@@ -346,13 +365,11 @@ impl<R: Real> PairContext<'_, R> {
     ) -> R {
         let PairBlock {
             first,
+            block,
             owner,
             nbr,
             e0,
             slots,
-            xrank,
-            x0,
-            react,
             force,
             torque,
             nc,
@@ -374,6 +391,11 @@ impl<R: Real> PairContext<'_, R> {
         // nothing (the place is below CHUNK) but lets the compiler drop the bounds checks and
         // the reloads of the vectors.
         let mut touched = 0usize;
+        for h in &mut scratch.handed[..scratch.reach] {
+            h.clear();
+        }
+        let mut reach = 0usize;
+        let handed = &mut scratch.handed;
         let s_entry = &mut scratch.entry[..CHUNK];
         let lanes = &mut *scratch.lanes;
         const MASK: usize = CHUNK - 1;
@@ -426,9 +448,6 @@ impl<R: Real> PairContext<'_, R> {
                 if !touches & sl.touching() {
                     sl.h = -R::one();
                     sl.spring = V3::zero();
-                    if xrank[e] != NOT_CROSS {
-                        react[(xrank[e] - x0) as usize] = Reaction::default();
-                    }
                 }
             }
             // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
@@ -452,7 +471,8 @@ impl<R: Real> PairContext<'_, R> {
                     // The partner's share: directly when it lies in this block (it comes after
                     // the owner, so every particle's sum keeps one fixed order), else for its
                     // pass.
-                    let jl = nbr[e0 + e] as usize - first;
+                    let j = nbr[e0 + e];
+                    let jl = j as usize - first;
                     if jl < count {
                         force[jl] -= fc;
                         if rot {
@@ -460,10 +480,16 @@ impl<R: Real> PairContext<'_, R> {
                         }
                         nc[jl] += 1;
                     } else {
-                        react[(xrank[e] - x0) as usize] = Reaction {
+                        let k = jl / block - 1;
+                        if k >= handed.len() {
+                            handed.resize_with(k + 1, Vec::new);
+                        }
+                        reach = reach.max(k + 1);
+                        handed[k].push(Reaction {
                             f: -fc,
                             t: get(&out.tj),
-                        };
+                            j,
+                        });
                     }
                     max_ov = max_ov.max(out.ratio[k]);
                 }
@@ -471,18 +497,18 @@ impl<R: Real> PairContext<'_, R> {
             touched += touching;
         }
         scratch.sparse = (touched as f64) < SPARSE_BELOW * entries as f64;
+        scratch.reach = reach;
         max_ov
     }
 }
 
 /// What the per-particle sum of particle k reads besides its own kinematics.
 pub(super) struct SumContext<'a, R: Real> {
-    pub(super) react: &'a [Reaction<R>],
-    /// The places in `react` of the reactions a particle adds (their owner lies in an earlier
-    /// block), in partner then entry order, and their partners.
-    pub(super) xstart: &'a [u32],
-    pub(super) xslot: &'a [u32],
-    pub(super) xpartner: &'a [u32],
+    /// The pair pass's blocks (of `block` particles), with the reactions they handed over.
+    pub(super) pairs: &'a [PairScratch<R>],
+    pub(super) block: usize,
+    /// The largest `PairScratch::reach` of the blocks.
+    pub(super) reach: usize,
     pub(super) law_pw: &'a LawKernel<R>,
     pub(super) walls: &'a [WallKernel<R>],
     pub(super) dt: R,
@@ -490,10 +516,11 @@ pub(super) struct SumContext<'a, R: Real> {
 }
 
 impl<R: Real> SumContext<'_, R> {
-    /// Adds to the shares from the pair pass of the particles `first..first + force.len()` the
-    /// reactions of the pairs where they are the partner and the owner lies in an earlier block
-    /// (each particle's in entry order; one flat loop, not a short loop per particle), and
-    /// counts them in `nc`.
+    /// Adds to the shares from the pair pass of the particles `first..first + force.len()` (a
+    /// block) the reactions of the touching pairs where they are the partner and the owner lies
+    /// in an earlier block, and counts them in `nc`. Each particle adds its reactions in entry
+    /// order: the blocks in order, each block's in its order. The pairs that do not touch hand
+    /// over nothing, as a zero would add nothing (a sum that starts at +0 is never −0).
     pub(super) fn reactions(
         &self,
         first: usize,
@@ -502,15 +529,16 @@ impl<R: Real> SumContext<'_, R> {
         nc: &mut [u32],
         rot: bool,
     ) {
-        let range = self.xstart[first] as usize..self.xstart[first + force.len()] as usize;
-        let (xslot, xpartner) = (&self.xslot[range.clone()], &self.xpartner[range]);
-        for (x, &place) in xslot.iter().enumerate() {
-            let (r, l) = (&self.react[place as usize], xpartner[x] as usize - first);
-            force[l] += r.f;
-            if rot {
-                torque[l] += r.t;
+        let c = first / self.block;
+        for b in c.saturating_sub(self.reach)..c {
+            for r in self.pairs[b].handed(c - b - 1) {
+                let l = r.j as usize - first;
+                force[l] += r.f;
+                if rot {
+                    torque[l] += r.t;
+                }
+                nc[l] += 1;
             }
-            nc[l] += u32::from(r.f != V3::zero());
         }
     }
 

@@ -330,9 +330,6 @@ pub fn build<R: Real>(
     }
 }
 
-/// `HalfList::xrank` of an entry whose partner lies in its owner's block.
-pub const NOT_CROSS: u32 = u32::MAX;
-
 /// Particles per rayon task when building half lists (rows are gathered per block, then
 /// concatenated in block order: the list does not depend on the thread count).
 const HALF_BLOCK: usize = 2048;
@@ -343,9 +340,6 @@ const HALF_BLOCK: usize = 2048;
 /// transposed index (`rstart`, `rslot`: the entries in which a particle is the partner j, in
 /// entry order) lets each particle sum its forces in a fixed order without atomics.
 ///
-/// The pair pass runs over blocks of `block` particles and adds a pair's reaction to its
-/// partner directly when both lie in the same block; `xstart`/`xslot` index the rest (entries
-/// whose owner lies in an earlier block), which the partner adds in its own pass.
 #[derive(Clone, Debug, Default)]
 pub struct HalfList<R: Real> {
     /// Particle i's entries are start[i]..start[i + 1].
@@ -360,19 +354,6 @@ pub struct HalfList<R: Real> {
     pub rslot: Vec<u32>,
     /// The particle i owning each entry of `rslot`.
     pub rowner: Vec<u32>,
-    /// Entries whose partner j lies in a later block than their owner ("cross" entries) hand
-    /// their reaction over in a compact array, in entry order: `xrank[e]` is entry e's place
-    /// there (`NOT_CROSS` for a partner in the owner's block), and block b's cross entries are
-    /// places xoff[b]..xoff[b + 1]. The partner j reads its reactions at places
-    /// xslot[xstart[j]..xstart[j + 1]], in entry order: nearly in memory order, since a block's
-    /// partners lie a roughly constant distance after their owners (a per-entry array read in
-    /// partner order missed the cache on most reads).
-    pub xrank: Vec<u32>,
-    pub xoff: Vec<usize>,
-    pub xstart: Vec<u32>,
-    pub xslot: Vec<u32>,
-    /// The partner j of each entry of `xslot` (the sum pass adds them in one flat loop).
-    pub xpartner: Vec<u32>,
     /// Positions when the list was built (for the skin criterion).
     pub ref_pos: Vec<V3<R>>,
     pub builds: u64,
@@ -389,12 +370,11 @@ impl<R: Real> HalfList<R> {
 }
 
 /// Sorts `state` (spheres) by cell and rebuilds the half list `list`; `fixed` pairs (both
-/// inverse masses zero) are left out. `block`: particles per block of the pair pass.
+/// inverse masses zero) are left out.
 pub fn build_half<R: Real>(
     state: &mut State<R>,
     periodic: &Periodic<R>,
     skin: R,
-    block: usize,
     list: &mut HalfList<R>,
 ) {
     let n = state.len();
@@ -405,17 +385,10 @@ pub fn build_half<R: Real>(
     list.rstart.clear();
     list.rslot.clear();
     list.rowner.clear();
-    list.xstart.clear();
-    list.xslot.clear();
-    list.xpartner.clear();
-    list.xrank.clear();
-    list.xoff.clear();
     list.ref_pos.clear();
     if n == 0 {
         list.start.push(0);
         list.rstart.push(0);
-        list.xstart.push(0);
-        list.xoff.push(0);
         return;
     }
     let grid = sort_by_cell(state, periodic, skin);
@@ -484,34 +457,6 @@ pub fn build_half<R: Real>(
             fill[j] += 1;
         }
     }
-    // Cross entries numbered in entry order, block by block.
-    list.xrank.resize(list.nbr.len(), NOT_CROSS);
-    let mut next = 0u32;
-    for i in 0..n {
-        if i % block == 0 {
-            list.xoff.push(next as usize);
-        }
-        for e in list.start[i] as usize..list.start[i + 1] as usize {
-            if list.nbr[e] as usize / block != i / block {
-                list.xrank[e] = next;
-                next += 1;
-            }
-        }
-    }
-    list.xoff.push(next as usize);
-    // Each partner's cross entries, in entry order (the transpose's order).
-    list.xstart.reserve(n + 1);
-    list.xstart.push(0);
-    for j in 0..n {
-        for &e in &list.rslot[list.rstart[j] as usize..list.rstart[j + 1] as usize] {
-            let place = list.xrank[e as usize];
-            if place != NOT_CROSS {
-                list.xslot.push(place);
-                list.xpartner.push(j as u32);
-            }
-        }
-        list.xstart.push(list.xslot.len() as u32);
-    }
     list.ref_pos.extend_from_slice(&state.pos);
 }
 
@@ -520,13 +465,14 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use super::{build_half, HalfList, Periodic, NOT_CROSS};
+    use super::{build_half, HalfList, Periodic};
     use crate::engine::state::State;
 
-    /// The cross entries' compact places: numbered in entry order, block by block as `xoff`
-    /// says, and every partner finds exactly the places of its cross entries, in entry order.
+    /// Every pair within reach (r_i + r_j + skin, minimum image) is one entry, owned by the
+    /// earlier particle, each row ascending; the transpose lists each partner's entries in
+    /// entry order.
     #[test]
-    fn cross_reactions_have_compact_places_in_entry_order() {
+    fn half_list_holds_each_pair_within_reach_once() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut s = State::<f64>::new(true, 8);
         for id in 0..3000u32 {
@@ -537,39 +483,38 @@ mod tests {
             x: Some((0.0, 0.3)),
             y: None,
         };
-        let block = 256;
+        let skin = 0.004;
         let mut list = HalfList::default();
-        build_half(&mut s, &periodic, 0.004, block, &mut list);
+        build_half(&mut s, &periodic, skin, &mut list);
         let n = s.len();
-        let mut expected: Vec<Vec<u32>> = vec![Vec::new(); n];
-        let mut next = 0;
+        let mut expected = Vec::new();
         for i in 0..n {
-            if i % block == 0 {
-                assert_eq!(
-                    list.xoff[i / block],
-                    next as usize,
-                    "block {} starts at its place",
-                    i / block
-                );
-            }
-            for e in list.start[i] as usize..list.start[i + 1] as usize {
-                let j = list.nbr[e] as usize;
-                assert_eq!(list.owner[e] as usize, i);
-                if j / block == i / block {
-                    assert_eq!(list.xrank[e], NOT_CROSS);
-                } else {
-                    assert_eq!(list.xrank[e], next, "entry {e} ({i}, {j})");
-                    expected[j].push(next);
-                    next += 1;
+            for j in i + 1..n {
+                let cut = s.radius[i] + s.radius[j] + skin;
+                if periodic.delta(s.pos[i], s.pos[j]).norm2() < cut * cut {
+                    expected.push((i as u32, j as u32));
                 }
             }
         }
-        assert_eq!(*list.xoff.last().unwrap(), next as usize);
-        assert!(next > 0, "the test needs cross entries");
-        for (j, places) in expected.iter().enumerate() {
-            let (a, b) = (list.xstart[j] as usize, list.xstart[j + 1] as usize);
-            assert_eq!(&list.xslot[a..b], places.as_slice(), "partner {j}");
-            assert!(list.xpartner[a..b].iter().all(|&p| p as usize == j));
+        let entries: Vec<(u32, u32)> = list.owner.iter().copied().zip(list.nbr.clone()).collect();
+        assert_eq!(entries, expected);
+        assert!(
+            expected
+                .iter()
+                .any(|&(i, j)| s.pos[i as usize].x - s.pos[j as usize].x > 0.15),
+            "the test needs pairs across the periodic seam"
+        );
+        for j in 0..n {
+            let (a, b) = (list.rstart[j] as usize, list.rstart[j + 1] as usize);
+            let mut prev = None;
+            for r in a..b {
+                let e = list.rslot[r];
+                assert_eq!(list.nbr[e as usize] as usize, j);
+                assert_eq!(list.rowner[r], list.owner[e as usize]);
+                assert!(prev < Some(e), "partner {j}: entries in order");
+                prev = Some(e);
+            }
         }
+        assert_eq!(list.rstart[n] as usize, list.nbr.len());
     }
 }
