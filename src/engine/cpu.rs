@@ -484,74 +484,70 @@ impl<R: Real> CpuEngine<R> {
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
                 let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
-                {
-                    let mut out = (false, R::zero(), R::zero(), 0u32);
-                    // Copies of the captured constants, so that the loop keeps them in
-                    // registers instead of reloading them through the closure's references.
-                    let (dt, g, kick, periodic, rot) = (dt, g, kick, periodic, rot);
-                    let sink_z = sink.unwrap_or(R::from_f64(f64::NEG_INFINITY));
-                    let first = parts[b];
-                    ctx.reactions(first, force, torque, nc, rot);
-                    // Every array cut to the block's length once, so that the loop's indexing
-                    // needs no bounds checks (they were a fifth of its instructions).
-                    let count = kin.len();
-                    let (force, alive, nc) =
-                        (&mut force[..count], &mut alive[..count], &mut nc[..count]);
-                    let torque = &mut torque[..if rot { count } else { 0 }];
-                    let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
-                    let mut wall_rows = wsp[..count * nw].chunks_exact_mut(nw.max(1));
-                    for (l, kl) in kin.iter_mut().enumerate() {
-                        let wall_sp: &mut [V3<R>] = if nw == 0 {
-                            &mut []
-                        } else {
-                            wall_rows.next().unwrap()
-                        };
-                        if alive[l] != ALIVE {
-                            force[l] = V3::zero();
-                            if rot {
-                                torque[l] = V3::zero();
-                            }
-                            nc[l] = 0;
-                            continue;
-                        }
-                        let pr = props[l];
-                        let t0 = if rot { torque[l] } else { V3::zero() };
-                        // Most particles reach no wall and are mobile: their sums are complete.
-                        let (f, t) = if near[l] == 0 && nw <= 32 && pr.inv_m != R::zero() {
-                            (force[l], t0)
-                        } else {
-                            let (f, t, ov, c) = ctx.sum(force[l], t0, kl, pr, wall_sp, near[l]);
-                            out.2 = out.2.max(ov);
-                            force[l] = f;
-                            nc[l] += c;
-                            if rot {
-                                torque[l] = t;
-                            }
-                            (f, t)
-                        };
-                        out.3 = out.3.max(nc[l]);
-                        if pr.inv_m == R::zero() {
-                            continue;
-                        }
+                // Copies of the captured constants, so that the loop keeps them in registers
+                // instead of reloading them through the closure's references.
+                let (dt, g, kick, periodic, rot) = (dt, g, kick, periodic, rot);
+                let sink_z = sink.unwrap_or(R::from_f64(f64::NEG_INFINITY));
+                let first = parts[b];
+                ctx.reactions(first, force, torque, nc, rot);
+                // Every array cut to the block's length once, so that the loop's indexing needs
+                // no bounds checks (they were a fifth of its instructions).
+                let count = kin.len();
+                let (force, alive, nc) =
+                    (&mut force[..count], &mut alive[..count], &mut nc[..count]);
+                let torque = &mut torque[..if rot { count } else { 0 }];
+                let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
+                let wsp = &mut wsp[..count * nw];
+                // The results in locals (registers), not in a tuple the loop writes through.
+                let (mut died, mut v_max2, mut ov_max, mut fullest) =
+                    (false, R::zero(), R::zero(), 0u32);
+                for (l, kl) in kin.iter_mut().enumerate() {
+                    if alive[l] != ALIVE {
+                        force[l] = V3::zero();
                         if rot {
-                            kl.omega += t * (pr.inv_i * kick);
+                            torque[l] = V3::zero();
                         }
-                        kl.vel += (f * pr.inv_m + g) * kick;
-                        if !drift {
-                            continue;
-                        }
-                        kl.pos += kl.vel * dt;
-                        periodic.wrap(&mut kl.pos);
-                        if kl.pos.z < sink_z {
-                            alive[l] = DYING;
-                            kl.live = R::zero();
-                            out.0 = true;
-                        }
-                        // The lists' skin test (skin.rs) needs only the fastest particle.
-                        out.1 = out.1.max(kl.vel.norm2());
+                        nc[l] = 0;
+                        continue;
                     }
-                    out
+                    let pr = props[l];
+                    let (mut f, mut t) = (force[l], if rot { torque[l] } else { V3::zero() });
+                    // Most particles reach no wall and are mobile: their sums are complete. The
+                    // others call the wall sum out of line, which keeps this loop's values in
+                    // registers.
+                    if near[l] != 0 || nw > 32 || pr.inv_m == R::zero() {
+                        let (fw, tw, ov, c) =
+                            ctx.sum(f, t, kl, pr, &mut wsp[l * nw..(l + 1) * nw], near[l]);
+                        (f, t) = (fw, tw);
+                        ov_max = ov_max.max(ov);
+                        force[l] = f;
+                        nc[l] += c;
+                        if rot {
+                            torque[l] = t;
+                        }
+                    }
+                    fullest = fullest.max(nc[l]);
+                    if pr.inv_m == R::zero() {
+                        continue;
+                    }
+                    if rot {
+                        kl.omega += t * (pr.inv_i * kick);
+                    }
+                    kl.vel += (f * pr.inv_m + g) * kick;
+                    if !drift {
+                        continue;
+                    }
+                    kl.pos += kl.vel * dt;
+                    periodic.wrap(&mut kl.pos);
+                    if kl.pos.z < sink_z {
+                        alive[l] = DYING;
+                        kl.live = R::zero();
+                        died = true;
+                    }
+                    // The lists' skin test (skin.rs) needs only the fastest particle.
+                    v_max2 = v_max2.max(kl.vel.norm2());
                 }
+                (died, v_max2, ov_max, fullest)
             })
             .into_iter()
             .fold((false, R::zero(), R::zero(), 0), |p, q| {
