@@ -898,6 +898,27 @@ fn plan_estimates_each_job_from_its_engines_bench() {
         .unwrap();
     let text = stdout(&o);
     assert!(o.status.success(), "{text}\n{}", stderr(&o));
+    plan_assertions(&text, 1.0e6);
+    // A settled bed's bench (`--settle`) is preferred to the lattice start's, even an older one.
+    let conn = sweep::store::open(&db).unwrap();
+    conn.execute(
+        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
+         VALUES ('silo-bed/settled', 'cpu', 'f32', 1, 1000, 10, 1e-6, 2.0e6, 5.0, 'x', 'test'),
+                ('silo-bed', 'cpu', 'f32', 1, 1000, 10, 1e-6, 4.0e6, 5.0, 'x', 'test')",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let o = sweep_cmd(d)
+        .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+        .args(["--threads", "1"])
+        .output()
+        .unwrap();
+    plan_assertions(&stdout(&o), 2.0e6);
+}
+
+/// `sweep plan`'s output for a CPU job 1 estimated at `rate` and a GPU job 2 without a bench.
+fn plan_assertions(text: &str, rate: f64) {
     let job_line = |k: &str| -> Vec<String> {
         text.lines()
             .find(|l| l.split_whitespace().next() == Some(k))
@@ -911,8 +932,8 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     let ps: f64 = cpu[4].parse().unwrap();
     let wall: f64 = cpu[5].parse().unwrap();
     assert!(
-        (wall - ps / 1.0e6).abs() <= 0.5,
-        "CPU job: {wall} s for {ps} particle-steps at 1e6/s\n{text}"
+        (wall - ps / rate).abs() <= 0.5,
+        "CPU job: {wall} s for {ps} particle-steps at {rate}/s\n{text}"
     );
     assert_eq!(
         job_line("2")[5],

@@ -34,11 +34,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     };
-    // The bench scene that resembles the campaign's: a settled Hertz bed for the silo, flowing
+    // The bench scene that resembles the campaign's: a settled Hertz bed for the silo (the
+    // random bed of `--settle` where there is one, else the lattice start), flowing
     // spherocylinders over a rough base for the chute.
-    let bench_scene = match file.scene {
-        SceneKind::Silo => "silo-bed",
-        SceneKind::Chute => "chute-rods",
+    let (bench_scene, settled) = match file.scene {
+        SceneKind::Silo => ("silo-bed", Some("silo-bed/settled")),
+        SceneKind::Chute => ("chute-rods", None),
     };
     let conn = if a.db.db.exists() {
         Some(sweep::store::open(&a.db.db)?)
@@ -57,16 +58,29 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             .or_insert_with(|| {
                 conn.as_ref()?
                     .query_row(
-                        "SELECT particle_steps_per_s FROM bench_runs WHERE scene = ?1 AND backend = ?2 AND precision = ?3
-                         AND (backend = 'gpu' OR threads = ?4) ORDER BY id DESC LIMIT 1",
-                        rusqlite::params![bench_scene, backend, precision, threads as i64],
+                        "SELECT particle_steps_per_s FROM bench_runs WHERE scene IN (?1, ?5) AND backend = ?2
+                         AND precision = ?3 AND (backend = 'gpu' OR threads = ?4)
+                         ORDER BY scene = ?5 DESC, id DESC LIMIT 1",
+                        rusqlite::params![
+                            bench_scene,
+                            backend,
+                            precision,
+                            threads as i64,
+                            settled.unwrap_or(bench_scene)
+                        ],
                         |r| r.get(0),
                     )
                     .ok()
             })
     };
+    let source = match settled {
+        Some(_) => {
+            format!("`sweep bench --scene {bench_scene} --settle` (else `--scene {bench_scene}`)")
+        }
+        None => format!("`sweep bench --scene {bench_scene}`"),
+    };
     println!(
-        "campaign {}: {} job(s), {} thread(s) per CPU job; throughput from `sweep bench --scene {bench_scene}` results in {}",
+        "campaign {}: {} job(s), {} thread(s) per CPU job; throughput from {source} results in {}",
         file.name,
         jobs.len(),
         threads,
