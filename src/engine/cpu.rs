@@ -6,11 +6,11 @@
 //! over fixed blocks of particles and adds each pair's force to i, and to j when j lies in the
 //! same block; a touching pair whose partner lies in a later block hands its reaction over in
 //! a list per destination block, and a second pass adds, per particle, those reactions in entry
-//! order, the walls it may reach (picked at each list build), and the kick and drift. The hot loops avoid branches
-//! whose outcome is a coin flip (touching or not, same block or not): instruction counts and
-//! mispredicts are measured with cachegrind, which is deterministic where this VM's timings
-//! are not. Every value is written by exactly one task and
-//! summed in a fixed order, so results are bitwise identical for any thread count. While a chunk
+//! order, the walls it may reach (picked at each list build), and the kick and drift. The hot
+//! loops avoid branches whose outcome is a coin flip (touching or not, same block or not):
+//! instruction counts and mispredicts are measured with cachegrind, which is deterministic where
+//! this VM's timings are not. Every value is written by exactly one task and summed in a fixed
+//! order, so results are bitwise identical for any thread count. While a chunk
 //! runs, the spheres' motion lives in packed records (`kinematics.rs`). The springs go back
 //! into the state's per-particle history table (keyed by partner id, the checkpoint and GPU
 //! format) at the end of each `advance`, and come from it at the start of the next.

@@ -480,12 +480,14 @@ impl<R: Real> PairContext<'_, R> {
                         }
                         nc[jl] += 1;
                     } else {
-                        let k = jl / block - 1;
-                        if k >= handed.len() {
-                            handed.resize_with(k + 1, Vec::new);
+                        // j's block, counted from the one after this (blocks start at
+                        // multiples of `block`).
+                        let later = jl / block - 1;
+                        if later >= handed.len() {
+                            handed.resize_with(later + 1, Vec::new);
                         }
-                        reach = reach.max(k + 1);
-                        handed[k].push(Reaction {
+                        reach = reach.max(later + 1);
+                        handed[later].push(Reaction {
                             f: -fc,
                             t: get(&out.tj),
                             j,
