@@ -39,6 +39,9 @@ pub struct JandaFit {
     pub rms_residual_kg_per_s: f64,
     /// Number of points used.
     pub n: usize,
+    /// α2 ended at an end of its search range: the data do not pin it down, and the fit is
+    /// only a curve through the points.
+    pub alpha2_at_bound: bool,
 }
 
 impl JandaFit {
@@ -222,6 +225,7 @@ pub fn janda_fit(d_m: &[f64], q: &[f64], weights: Option<&[f64]>) -> Option<Jand
     let (lo, hi) = ((d_lo / 50.0).ln(), (d_hi * 100.0).ln());
     let ln_a = grid_then_golden(objective, lo, hi, 400)?;
     let alpha2_m = ln_a.exp();
+    let alpha2_at_bound = (ln_a - lo).min(hi - ln_a) < 1e-3 * (hi - lo);
     let (_, b0, b1) = janda_linear_part(d_m, q, &w, alpha2_m)?;
     if b0 == 0.0 {
         return None;
@@ -234,6 +238,7 @@ pub fn janda_fit(d_m: &[f64], q: &[f64], weights: Option<&[f64]>) -> Option<Jand
         d_min_m: (alpha1 > 0.0).then(|| alpha2_m * alpha1.ln()),
         rms_residual_kg_per_s: 0.0,
         n,
+        alpha2_at_bound,
     };
     let rms = rms_residual(d_m, q, |d| fit.predict(d));
     Some(JandaFit {
@@ -631,11 +636,27 @@ mod tests {
         assert!(rel(d_min, A2 * A1.ln()) < 1e-4, "{f:?}");
         assert!(f.rms_residual_kg_per_s < 1e-6 * q[q.len() - 1], "{f:?}");
         assert!(rel(f.predict(0.03), janda(0.03)) < 1e-6);
+        assert!(!f.alpha2_at_bound, "{f:?}");
 
         // Exactly three points still determine the three parameters.
         let three = janda_fit(&d[..3], &q[..3], None).expect("three points");
         assert!(rel(three.alpha2_m, A2) < 1e-3, "{three:?}");
         assert!(janda_fit(&d[..2], &q[..2], None).is_none());
+    }
+
+    /// Data made with α1 = 1 and α2 = 10 m, far beyond the search range (100 D_max = 4.8 m):
+    /// Q ≈ C D^{7/2} / α2, which any large enough α2 fits. The search ends at its bound and
+    /// says so.
+    #[test]
+    fn janda_fit_flags_an_alpha2_beyond_its_search_range() {
+        let d = orifices();
+        let q: Vec<f64> = d
+            .iter()
+            .map(|&d| C * (1.0 - (-d / 10.0).exp()) * d.powf(2.5))
+            .collect();
+        let f = janda_fit(&d, &q, None).expect("fit");
+        assert!(f.alpha2_at_bound, "{f:?}");
+        assert!(rel(f.alpha2_m, 100.0 * 0.048) < 1e-2, "{f:?}");
     }
 
     /// A zero weight must remove a corrupted point entirely; with equal weights it biases the fit.

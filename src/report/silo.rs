@@ -239,8 +239,18 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
             sci(fit.map(|f| f.rms_residual_kg_per_s), 2),
             match (fit, row.weighted) {
                 (None, _) => "no fit (< 3 D)".into(),
-                (Some(_), true) => "1/ci95^2".into(),
-                (Some(_), false) => "equal".into(),
+                (Some(f), weighted) => {
+                    let mut w = String::from(if weighted { "1/ci95^2" } else { "equal" });
+                    // Three parameters through three points test nothing of Eq. (1); an α2 at
+                    // the end of its search range is not determined by the data.
+                    if row.points.len() == 3 {
+                        w += "; 3 D for 3 parameters";
+                    }
+                    if f.alpha2_at_bound {
+                        w += "; alpha2 at its search bound";
+                    }
+                    w
+                }
             },
         ]);
         for p in &row.points {
