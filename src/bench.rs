@@ -319,7 +319,7 @@ pub fn settling(name: &str, sc: &BenchScene) -> Option<Settling> {
     match name {
         "silo-bed" => Some(Settling::Rest(rest_energy(&sc.state, sc.config.gravity))),
         "chute-bed" => {
-            let g = sc.config.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let g = magnitude(sc.config.gravity);
             // L: the diameter of the flowing spheres (ξ = 1).
             let s = &sc.state;
             let l = 2.0
@@ -334,10 +334,24 @@ pub fn settling(name: &str, sc: &BenchScene) -> Option<Settling> {
     }
 }
 
+/// The name results from `sweep bench --settle` are stored under (scenes that `settling`
+/// knows): silo-bed's settled bed, chute-bed's flowing one.
+pub fn settled_name(name: &str) -> Option<String> {
+    match name {
+        "silo-bed" => Some(format!("{name}/settled")),
+        "chute-bed" => Some(format!("{name}/flowing")),
+        _ => None,
+    }
+}
+
+fn magnitude(v: [f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
 /// The kinetic energy below which a bed counts as settled: 10⁻⁴ m g d per mobile particle, the
 /// silo study's criterion (`SiloParams::settle_kinetic_energy_ratio`).
 pub fn rest_energy(s: &State<f64>, gravity: [f64; 3]) -> f64 {
-    let g = gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let g = magnitude(gravity);
     let mgd: f64 = (0..s.len())
         .filter(|&i| s.inv_mass[i] > 0.0)
         .map(|i| s.mass[i] * g * 2.0 * s.radius[i])

@@ -885,20 +885,17 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     let mut c = campaign("plan", &[0.02], &[1.0], 0.1);
     c["zip"] = json!({ "backend": [null, "gpu"], "precision": ["f32", "f32"] });
     let file = write_campaign(d, "plan.json", &c);
-    let o = sweep_cmd(d)
-        .args([
-            "plan",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--threads",
-            "1",
-        ])
-        .output()
-        .unwrap();
-    let text = stdout(&o);
-    assert!(o.status.success(), "{text}\n{}", stderr(&o));
-    plan_assertions(&text, 1.0e6);
+    let plan = || {
+        let o = sweep_cmd(d)
+            .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+            .args(["--threads", "1"])
+            .output()
+            .unwrap();
+        let text = stdout(&o);
+        assert!(o.status.success(), "{text}\n{}", stderr(&o));
+        text
+    };
+    plan_assertions(&plan(), 1.0e6);
     // A settled bed's bench (`--settle`) is preferred to the lattice start's, even an older one.
     let conn = sweep::store::open(&db).unwrap();
     conn.execute(
@@ -909,12 +906,7 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     )
     .unwrap();
     drop(conn);
-    let o = sweep_cmd(d)
-        .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
-        .args(["--threads", "1"])
-        .output()
-        .unwrap();
-    plan_assertions(&stdout(&o), 2.0e6);
+    plan_assertions(&plan(), 2.0e6);
 }
 
 /// `sweep plan`'s output for a CPU job 1 estimated at `rate` and a GPU job 2 without a bench.

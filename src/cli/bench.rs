@@ -73,10 +73,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         sc.state = state;
         settled = Some(steps);
     }
-    let scene_name = match (a.settle, a.scene.as_str()) {
-        (true, "chute-bed") => format!("{}/flowing", a.scene),
-        (true, _) => format!("{}/settled", a.scene),
-        _ => a.scene.clone(),
+    let scene_name = match settled {
+        Some(_) => sweep::bench::settled_name(&a.scene).expect("a scene with a settling"),
+        None => a.scene.clone(),
     };
     let mut rates = Vec::new();
     let mut last = None;

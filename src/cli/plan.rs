@@ -38,7 +38,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     // random bed of `--settle` where there is one, else the lattice start), flowing
     // spherocylinders over a rough base for the chute.
     let (bench_scene, settled) = match file.scene {
-        SceneKind::Silo => ("silo-bed", Some("silo-bed/settled")),
+        SceneKind::Silo => ("silo-bed", sweep::bench::settled_name("silo-bed")),
         SceneKind::Chute => ("chute-rods", None),
     };
     let conn = if a.db.db.exists() {
@@ -66,7 +66,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                             backend,
                             precision,
                             threads as i64,
-                            settled.unwrap_or(bench_scene)
+                            settled.as_deref().unwrap_or(bench_scene)
                         ],
                         |r| r.get(0),
                     )

@@ -405,6 +405,7 @@ impl<R: Real> CpuEngine<R> {
             periodic: &self.periodic,
             dt: self.dt,
             keep_springs: self.slots > 0,
+            block: BLOCK,
         };
         let (parts, entries) = block_bounds(&self.half.start, n);
         let nblocks = parts.len() - 1;
@@ -428,7 +429,6 @@ impl<R: Real> CpuEngine<R> {
                 let ((((slots, force), torque), nc), scratch) = &mut *guard;
                 let block = PairBlock {
                     first: parts[b],
-                    block: BLOCK,
                     owner: &owner[entries[b]..entries[b + 1]],
                     nbr,
                     e0: entries[b],
@@ -453,15 +453,13 @@ impl<R: Real> CpuEngine<R> {
         let nw = self.walls.len();
         let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
         let law_pw = self.law_pw;
+        // This pass's blocks only: after the sink removed particles, the scratch of blocks past
+        // the end holds an old pass's reactions.
+        let pairs = &self.pair_scratch[..n.div_ceil(BLOCK).min(self.pair_scratch.len())];
         let ctx = SumContext {
-            pairs: &self.pair_scratch,
+            pairs,
             block: BLOCK,
-            reach: self
-                .pair_scratch
-                .iter()
-                .map(PairScratch::reach)
-                .max()
-                .unwrap_or(0),
+            reach: pairs.iter().map(PairScratch::reach).max().unwrap_or(0),
             law_pw: &law_pw,
             walls: &self.walls,
             dt,

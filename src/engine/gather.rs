@@ -282,6 +282,8 @@ pub(super) struct PairContext<'a, R: Real> {
     pub(super) dt: R,
     /// Whether springs are kept from step to step (history slots > 0).
     pub(super) keep_springs: bool,
+    /// Particles per block (blocks start at its multiples).
+    pub(super) block: usize,
 }
 
 /// A chunk's touching pairs, found by the distance test and evaluated `LANES` at a time.
@@ -322,12 +324,11 @@ impl<R: Real> PairScratch<R> {
 /// inputs, so the choice changes no result.
 const SPARSE_BELOW: f64 = 0.35;
 
-/// One block's share of the pair pass: the particles `first..first + force.len()` (blocks of
-/// `block` particles), their half list entries (`owner`, `slots`; the half list `nbr`, whose
+/// One block's share of the pair pass: the particles `first..first + force.len()`, their half
+/// list entries (`owner`, `slots`; the half list `nbr`, whose
 /// entries of this block begin at `e0`) and the block's force, torque and contact counts.
 pub(super) struct PairBlock<'a, R: Real> {
     pub(super) first: usize,
-    pub(super) block: usize,
     pub(super) owner: &'a [u32],
     pub(super) nbr: &'a [u32],
     pub(super) e0: usize,
@@ -340,8 +341,9 @@ pub(super) struct PairBlock<'a, R: Real> {
 impl<R: Real> PairContext<'_, R> {
     /// Evaluates every pair (i, j > i) of the block's particles once: advances the springs in
     /// place and writes into `force`, `torque` and `nc` (count of touching pairs) what the
-    /// block's pairs do to its particles, in entry order; a partner in a later block gets its
-    /// force and torque in `react` instead. Returns the largest overlap ratio. Every value
+    /// block's pairs do to its particles, in entry order; a touching pair whose partner lies in
+    /// a later block hands its reaction over instead (`PairScratch::handed`). Returns the
+    /// largest overlap ratio. Every value
     /// belongs to one block, so any split over threads writes the same bits.
     pub(super) fn block(&self, b: PairBlock<'_, R>, scratch: &mut PairScratch<R>) -> R {
         // Without periodic axes the minimum image is the plain difference: the folds would be
@@ -365,7 +367,6 @@ impl<R: Real> PairContext<'_, R> {
     ) -> R {
         let PairBlock {
             first,
-            block,
             owner,
             nbr,
             e0,
@@ -387,15 +388,14 @@ impl<R: Real> PairContext<'_, R> {
             }
             nc[l] = 0;
         }
-        // The scratch as slices of exactly CHUNK places, indexed through a mask that changes
-        // nothing (the place is below CHUNK) but lets the compiler drop the bounds checks and
-        // the reloads of the vectors.
-        let mut touched = 0usize;
         for h in &mut scratch.handed[..scratch.reach] {
             h.clear();
         }
-        let mut reach = 0usize;
+        let (mut touched, mut reach) = (0usize, 0usize);
         let handed = &mut scratch.handed;
+        // The scratch as slices of exactly CHUNK places, indexed through a mask that changes
+        // nothing (the place is below CHUNK) but lets the compiler drop the bounds checks and
+        // the reloads of the vectors.
         let s_entry = &mut scratch.entry[..CHUNK];
         let lanes = &mut *scratch.lanes;
         const MASK: usize = CHUNK - 1;
@@ -480,9 +480,8 @@ impl<R: Real> PairContext<'_, R> {
                         }
                         nc[jl] += 1;
                     } else {
-                        // j's block, counted from the one after this (blocks start at
-                        // multiples of `block`).
-                        let later = jl / block - 1;
+                        // j's block, counted from the one after this.
+                        let later = jl / self.block - 1;
                         if later >= handed.len() {
                             handed.resize_with(later + 1, Vec::new);
                         }
@@ -509,7 +508,7 @@ pub(super) struct SumContext<'a, R: Real> {
     /// The pair pass's blocks (of `block` particles), with the reactions they handed over.
     pub(super) pairs: &'a [PairScratch<R>],
     pub(super) block: usize,
-    /// The largest `PairScratch::reach` of the blocks.
+    /// The largest `PairScratch::reach` of `pairs`.
     pub(super) reach: usize,
     pub(super) law_pw: &'a LawKernel<R>,
     pub(super) walls: &'a [WallKernel<R>],
