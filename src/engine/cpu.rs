@@ -396,6 +396,8 @@ impl<R: Real> CpuEngine<R> {
     /// touching pairs into `contacts`). Returns the largest overlap ratio.
     fn pair_pass(&mut self) -> R {
         let n = self.state.len();
+        // The pair pass reads the records at the half list's indices unchecked (gather.rs).
+        assert!(self.kin.len() == n && self.half.start.len() == n + 1);
         self.contacts.resize(n, 0);
         let s = &mut self.state;
         let ctx = PairContext {
@@ -543,7 +545,7 @@ impl<R: Real> CpuEngine<R> {
                     periodic.wrap(&mut kl.pos);
                     if kl.pos.z < sink_z {
                         alive[l] = DYING;
-                        kl.live = R::zero();
+                        kl.bury();
                         died = true;
                     }
                     // The lists' skin test (skin.rs) needs only the fastest particle.

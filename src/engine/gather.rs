@@ -418,7 +418,13 @@ impl<R: Real> PairContext<'_, R> {
                 .zip(&mut slots[c0..c1]);
             for (e, ((&o, &j), sl)) in (c0..c1).zip(chunk) {
                 let (o, j) = (o as usize, j as usize);
-                let (ki, kj) = (&self.kin[o], &self.kin[j]);
+                debug_assert!(o < self.kin.len() && j < self.kin.len());
+                // SAFETY: every owner and partner of the half list is below the particle count
+                // (`grid::build_half` indexes a vector of that length by each partner when it
+                // builds the transpose, so a larger one would have panicked there), and
+                // `CpuEngine::pair_pass` asserts that `kin` holds that many records. The bounds
+                // checks were 4 of the test's ~60 instructions per entry.
+                let (ki, kj) = unsafe { (self.kin.get_unchecked(o), self.kin.get_unchecked(j)) };
                 // From j to i.
                 let d = if PERIODIC {
                     image.delta(kj.pos, ki.pos)
@@ -427,7 +433,8 @@ impl<R: Real> PairContext<'_, R> {
                 };
                 let dist2 = d.norm2();
                 let sum = ki.r + kj.r;
-                let touches = ki.is_live() & (dist2 < sum * sum) & kj.is_live();
+                // False for a particle that no longer interacts: its radius is NaN (`Kin::bury`).
+                let touches = dist2 < sum * sum;
                 if !SPARSE || touches {
                     let mut lane = lanes.at(touching);
                     // Angular velocities are zero when rotation is off.
@@ -444,11 +451,16 @@ impl<R: Real> PairContext<'_, R> {
                     s_entry[touching & MASK] = e as u32;
                 }
                 touching += usize::from(touches);
-                // `&`, not `&&`: whether a pair touches is the coin flip; that one ends is rare.
-                if !touches & sl.touching() {
-                    sl.h = -R::one();
-                    sl.spring = V3::zero();
+                // Whether a pair touches is the coin flip; that one ends is rare. Dense: reset
+                // below, since LLVM split this test there into a branch on the coin flip.
+                if SPARSE && !touches & sl.touching() {
+                    *sl = PairSlot::default();
                 }
+            }
+            if !SPARSE {
+                // A pair that does not touch holds no spring and `h` < 0: every slot of the
+                // chunk reset (one sweep of stores); the touching pairs' are written below.
+                slots[c0..c1].fill(PairSlot::default());
             }
             // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
             // results are ignored); 3. their forces summed in entry order.

@@ -8,27 +8,31 @@
 use super::real::{Real, V3};
 use super::state::State;
 
-/// One sphere's motion, and the two constants the pair pass needs of a partner. `live` is one
-/// for a particle that interacts and zero for one that fell through the sink (so the distance
-/// test reads no second array). Radius and mass fill what would be padding in f32 (48 bytes
-/// either way), so a list entry need not keep its pair's constants: the list's slots shrank
-/// from 36 to 16 bytes, which the pair pass reads and writes every step.
+/// One sphere's motion, and the two constants the pair pass needs of a partner. Radius and
+/// mass fill what would be padding in f32 (48 bytes either way), so a list entry need not keep
+/// its pair's constants: the list's slots shrank from 36 to 16 bytes, which the pair pass reads
+/// and writes every step. A particle that no longer interacts (it fell through the sink) has a
+/// NaN radius: every distance test with it is false (a comparison with NaN is), so the test
+/// reads no flag and takes no branch on one.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Kin<R: Real> {
     pub(super) pos: V3<R>,
-    pub(super) live: R,
+    /// Unused: keeps `vel` on a 16-byte boundary.
+    _pad: R,
     pub(super) vel: V3<R>,
     pub(super) omega: V3<R>,
+    /// NaN for a particle that does not interact.
     pub(super) r: R,
     /// Zero for a fixed particle, which acts as infinitely heavy (see `pair_lanes`).
     pub(super) m: R,
 }
 
 impl<R: Real> Kin<R> {
+    /// Takes the particle out of every distance test (it fell through the sink).
     #[inline(always)]
-    pub(super) fn is_live(&self) -> bool {
-        self.live > R::zero()
+    pub(super) fn bury(&mut self) {
+        self.r = R::from_f64(f64::NAN);
     }
 }
 
@@ -42,10 +46,14 @@ pub(super) fn gather_from<R: Real>(
     kin.clear();
     kin.extend((0..s.len()).map(|i| Kin {
         pos: s.pos[i],
-        live: if live(i) { R::one() } else { R::zero() },
+        _pad: R::zero(),
         vel: s.vel[i],
         omega: if s.rotation { s.omega[i] } else { V3::zero() },
-        r: s.radius[i],
+        r: if live(i) {
+            s.radius[i]
+        } else {
+            R::from_f64(f64::NAN)
+        },
         m: if s.inv_mass[i] == R::zero() {
             R::zero()
         } else {
