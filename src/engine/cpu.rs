@@ -24,7 +24,7 @@ use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
 use super::contact::{elastic_energy, ContactRecord, LawKernel};
 use super::gather::{
-    ForceContext, PairBlock, PairContext, PairScratch, PairSlot, Props, SumContext,
+    ForceContext, PairBlock, PairContext, PairScratch, PairSlot, Props, SumContext, BLOCK,
 };
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
@@ -41,13 +41,6 @@ use std::sync::Mutex;
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
-/// Particles per task of the sphere passes. Fixed, not derived from the thread count: which
-/// pairs hand their reaction over to a later block, and so the order of each particle's force
-/// sum, depends on it. 2048 rather than 1024: fewer pairs cross blocks (a same-block or
-/// cross-block partner is a branch the predictor often loses), measured on the settled silo-bed
-/// at 3·10⁴, two threads: 1.60 → 1.84·10⁷ particle-steps/s (4096: 1.90·10⁷, but too few blocks
-/// to share out at 10⁴).
-const BLOCK: usize = 2048;
 pub(super) const ALIVE: u8 = 1;
 const DYING: u8 = 2;
 const DEAD: u8 = 0;
@@ -407,7 +400,6 @@ impl<R: Real> CpuEngine<R> {
             periodic: &self.periodic,
             dt: self.dt,
             keep_springs: self.slots > 0,
-            block: BLOCK,
         };
         let (parts, entries) = block_bounds(&self.half.start, n);
         let nblocks = parts.len() - 1;
@@ -460,7 +452,6 @@ impl<R: Real> CpuEngine<R> {
         let pairs = &self.pair_scratch[..n.div_ceil(BLOCK).min(self.pair_scratch.len())];
         let ctx = SumContext {
             pairs,
-            block: BLOCK,
             reach: pairs.iter().map(PairScratch::reach).max().unwrap_or(0),
             law_pw: &law_pw,
             walls: &self.walls,
