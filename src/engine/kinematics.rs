@@ -44,21 +44,23 @@ pub(super) fn gather_from<R: Real>(
     live: impl Fn(usize) -> bool,
 ) {
     kin.clear();
-    kin.extend((0..s.len()).map(|i| Kin {
-        pos: s.pos[i],
-        _pad: R::zero(),
-        vel: s.vel[i],
-        omega: if s.rotation { s.omega[i] } else { V3::zero() },
-        r: if live(i) {
-            s.radius[i]
-        } else {
-            R::from_f64(f64::NAN)
-        },
-        m: if s.inv_mass[i] == R::zero() {
-            R::zero()
-        } else {
-            s.mass[i]
-        },
+    kin.extend((0..s.len()).map(|i| {
+        let mut k = Kin {
+            pos: s.pos[i],
+            _pad: R::zero(),
+            vel: s.vel[i],
+            omega: if s.rotation { s.omega[i] } else { V3::zero() },
+            r: s.radius[i],
+            m: if s.inv_mass[i] == R::zero() {
+                R::zero()
+            } else {
+                s.mass[i]
+            },
+        };
+        if !live(i) {
+            k.bury();
+        }
+        k
     }));
 }
 
