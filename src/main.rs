@@ -3,6 +3,8 @@
 mod cli;
 
 fn main() {
+    // First, while the process has one thread (it sets an environment variable).
+    sweep::engine::gpu::quiet_headless_device_select();
     let code = match cli::run() {
         Ok(code) => code,
         Err(e) => {

@@ -40,6 +40,21 @@ pub struct GpuDevice {
     errors: Arc<Mutex<Option<String>>>,
 }
 
+/// Keeps Mesa's Vulkan device-select layer quiet where there is no display session. The layer
+/// orders the GPUs by the display's, and without one (a headless node, a batch job, a root shell:
+/// no `XDG_RUNTIME_DIR`) it prints "error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment." twice per wgpu instance, which users take for a failure. Sweep picks its
+/// adapter itself, so there is nothing for the layer to select by; `NODEVICE_SELECT` is Mesa's
+/// switch for it, left alone when the user set it. Call before any thread starts: it sets an
+/// environment variable.
+pub fn quiet_headless_device_select() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("NODEVICE_SELECT").is_none()
+    {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
 /// The wgpu instance, configured from the environment.
 pub fn instance() -> wgpu::Instance {
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())

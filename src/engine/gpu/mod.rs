@@ -11,7 +11,8 @@ mod status;
 
 pub use buffers::{pack, unpack, Packed};
 pub use device::{
-    instance, is_hardware, list_adapters, required_limits, AdapterPolicy, AdapterReport, GpuDevice,
+    instance, is_hardware, list_adapters, quiet_headless_device_select, required_limits,
+    AdapterPolicy, AdapterReport, GpuDevice,
 };
 pub use engine::{GpuEngine, GpuOptions};
 pub use grid::{list_capacity, plan_grid, GridSpec};
