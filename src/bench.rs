@@ -15,6 +15,7 @@ use rand_chacha::ChaCha8Rng;
 use sha2::{Digest, Sha256};
 
 use crate::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
+use crate::engine::real::V3;
 use crate::engine::walls::{Wall, WallShape};
 use crate::engine::{EngineConfig, State};
 
@@ -319,7 +320,7 @@ pub fn settling(name: &str, sc: &BenchScene) -> Option<Settling> {
     match name {
         "silo-bed" => Some(Settling::Rest(rest_energy(&sc.state, sc.config.gravity))),
         "chute-bed" => {
-            let g = magnitude(sc.config.gravity);
+            let g = V3::<f64>::from_f64(sc.config.gravity).norm();
             // L: the diameter of the flowing spheres (ξ = 1).
             let s = &sc.state;
             let l = 2.0
@@ -344,14 +345,10 @@ pub fn settled_name(name: &str) -> Option<String> {
     }
 }
 
-fn magnitude(v: [f64; 3]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
 /// The kinetic energy below which a bed counts as settled: 10⁻⁴ m g d per mobile particle, the
 /// silo study's criterion (`SiloParams::settle_kinetic_energy_ratio`).
 pub fn rest_energy(s: &State<f64>, gravity: [f64; 3]) -> f64 {
-    let g = magnitude(gravity);
+    let g = V3::<f64>::from_f64(gravity).norm();
     let mgd: f64 = (0..s.len())
         .filter(|&i| s.inv_mass[i] > 0.0)
         .map(|i| s.mass[i] * g * 2.0 * s.radius[i])
