@@ -496,6 +496,31 @@ impl<R: Real> CpuEngine<R> {
                 // The results in locals (registers), not in a tuple the loop writes through.
                 let (mut died, mut v_max2, mut ov_max, mut fullest) =
                     (false, R::zero(), R::zero(), 0u32);
+                // First the walls, for the few particles that may reach one (or are fixed: they
+                // get zero), in their own loop: inlined into the kick below, the wall sum's
+                // values pushed that loop's out of registers (a third of its instructions were
+                // stack loads and stores). Same order of each particle's sum: pairs, reactions,
+                // walls.
+                for l in 0..count {
+                    if alive[l] == ALIVE && (near[l] != 0 || nw > 32 || props[l].inv_m == R::zero())
+                    {
+                        let t = if rot { torque[l] } else { V3::zero() };
+                        let (fw, tw, ov, c) = ctx.sum(
+                            force[l],
+                            t,
+                            &kin[l],
+                            props[l],
+                            &mut wsp[l * nw..(l + 1) * nw],
+                            near[l],
+                        );
+                        ov_max = ov_max.max(ov);
+                        force[l] = fw;
+                        nc[l] += c;
+                        if rot {
+                            torque[l] = tw;
+                        }
+                    }
+                }
                 for (l, kl) in kin.iter_mut().enumerate() {
                     if alive[l] != ALIVE {
                         force[l] = V3::zero();
@@ -505,30 +530,15 @@ impl<R: Real> CpuEngine<R> {
                         nc[l] = 0;
                         continue;
                     }
-                    let pr = props[l];
-                    let (mut f, mut t) = (force[l], if rot { torque[l] } else { V3::zero() });
-                    // Most particles reach no wall and are mobile: their sums are complete. The
-                    // others call the wall sum out of line, which keeps this loop's values in
-                    // registers.
-                    if near[l] != 0 || nw > 32 || pr.inv_m == R::zero() {
-                        let (fw, tw, ov, c) =
-                            ctx.sum(f, t, kl, pr, &mut wsp[l * nw..(l + 1) * nw], near[l]);
-                        (f, t) = (fw, tw);
-                        ov_max = ov_max.max(ov);
-                        force[l] = f;
-                        nc[l] += c;
-                        if rot {
-                            torque[l] = t;
-                        }
-                    }
                     fullest = fullest.max(nc[l]);
+                    let pr = props[l];
                     if pr.inv_m == R::zero() {
                         continue;
                     }
                     if rot {
-                        kl.omega += t * (pr.inv_i * kick);
+                        kl.omega += torque[l] * (pr.inv_i * kick);
                     }
-                    kl.vel += (f * pr.inv_m + g) * kick;
+                    kl.vel += (force[l] * pr.inv_m + g) * kick;
                     if !drift {
                         continue;
                     }
