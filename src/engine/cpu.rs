@@ -47,6 +47,16 @@ const DEAD: u8 = 0;
 
 /// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
 pub const HISTORY_SLOTS: usize = 16;
+/// The near margin, as a fraction of the skin: the pair pass tests only the half-list entries
+/// whose pair was within this margin of touching at the last pick (`pick_pairs`). Measured
+/// (cachegrind, N = 3·10⁴, 100 + 100 steps; instructions against testing every entry): 0.1
+/// gives the settled silo-bed −10 % and the flowing chute-bed +0.2 % (it picks every ~16 steps
+/// and measures displacements in between); 0.25 gives −7 % and −2 %. The flowing chute keeps
+/// 69 % of its entries even at 0.25: a dense flow's first neighbour shell lies within 1.05 d.
+const NEAR: f64 = 0.25;
+/// The pick is renewed once a particle has moved this fraction of the near margin (a little
+/// under half, so that rounding in the exact measurement cannot let a pair through).
+const NEAR_LIMIT: f64 = 0.45;
 const _: () = assert!(HISTORY_SLOTS <= MAX_SLOTS);
 
 /// The CPU engine in precision `R`.
@@ -71,6 +81,8 @@ pub struct CpuEngine<R: Real> {
     pair_slots: Vec<PairSlot<R>>,
     /// Per block of the pair pass: its touching pairs (vectors reused from step to step).
     pair_scratch: Vec<PairScratch<R>>,
+    /// Positions at the last pick of the entries the pair pass tests (`pick_pairs`).
+    near_ref: Vec<V3<R>>,
     wall_springs: Vec<V3<R>>,
     /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
     near_walls: Vec<u32>,
@@ -123,6 +135,7 @@ impl<R: Real> CpuEngine<R> {
             kin: Vec::new(),
             pair_slots: Vec::new(),
             pair_scratch: Vec::new(),
+            near_ref: Vec::new(),
             wall_springs: Vec::new(),
             near_walls: Vec::new(),
             props: Vec::new(),
@@ -400,6 +413,7 @@ impl<R: Real> CpuEngine<R> {
             periodic: &self.periodic,
             dt: self.dt,
             keep_springs: self.slots > 0,
+            list_build: self.half.builds,
         };
         let (parts, entries) = block_bounds(&self.half.start, n);
         let nblocks = parts.len() - 1;
@@ -435,6 +449,43 @@ impl<R: Real> CpuEngine<R> {
             })
             .into_iter()
             .fold(R::zero(), |a, b| a.max(b))
+    }
+
+    /// Picks in each block the half-list entries within the near margin (`NEAR` of the skin)
+    /// of touching, the only ones the pair pass tests until the next pick
+    /// (`PairContext::pick`), and notes where the particles are.
+    fn pick_pairs(&mut self) {
+        let n = self.state.len();
+        assert!(self.kin.len() == n && self.half.start.len() == n + 1);
+        let ctx = PairContext {
+            kin: &self.kin,
+            rotation: self.state.rotation,
+            law: &self.law_pp,
+            periodic: &self.periodic,
+            dt: self.dt,
+            keep_springs: self.slots > 0,
+            list_build: self.half.builds,
+        };
+        let margin = self.skin * R::from_f64(NEAR);
+        let (parts, entries) = block_bounds(&self.half.start, n);
+        let nblocks = parts.len() - 1;
+        if self.pair_scratch.len() < nblocks {
+            self.pair_scratch.resize_with(nblocks, PairScratch::default);
+        }
+        let blocks = split_blocks(&mut self.pair_slots, &entries)
+            .into_iter()
+            .zip(self.pair_scratch.iter_mut())
+            .collect::<Vec<_>>();
+        let (owner, nbr) = (&self.half.owner, &self.half.nbr);
+        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
+        self.team.run(cells.len(), |b| {
+            let mut guard = cells[b].lock().unwrap();
+            let (slots, scratch) = &mut *guard;
+            let owner = &owner[entries[b]..entries[b + 1]];
+            ctx.pick(owner, nbr, entries[b], slots, margin, scratch);
+        });
+        self.near_ref.clear();
+        self.near_ref.extend(self.kin.iter().map(|k| k.pos));
     }
 
     /// Completes each particle's force and torque (own share from the pair pass, then the
@@ -561,29 +612,47 @@ impl<R: Real> CpuEngine<R> {
     }
 
     /// The exact skin test on the packed motion: whether a particle that drifted this step
-    /// (alive, or fallen through the sink this step; not fixed) lies more than half the skin
-    /// from where the lists were built, the largest such displacement and the largest
-    /// coordinate magnitude (for `DisplacementBound`).
-    fn measure_displacements(&self) -> (bool, f64, f64) {
+    /// (alive, or fallen through the sink this step; not fixed) lies more than `limit` from
+    /// `refs` (where the lists were built: half the skin; or the last pick), the largest such
+    /// displacement and the largest coordinate magnitude (for `DisplacementBound`).
+    fn measure_displacements(&mut self, from_pick: bool, limit: R) -> (bool, f64, f64) {
         let image = self.periodic.image();
-        let half2 = self.skin * self.skin * R::from_f64(0.25);
-        let (kin, refs, alive, props) = (&self.kin, &self.half.ref_pos, &self.alive, &self.props);
-        self.pool.install(|| {
-            (0..kin.len())
-                .into_par_iter()
-                .with_min_len(MIN_LEN)
-                .filter(|&i| matches!(alive[i], ALIVE | DYING) && props[i].inv_m != R::zero())
-                .map(|i| {
-                    let p = kin[i].pos;
-                    let d2 = image.delta(refs[i], p).norm2();
-                    let scale = p.x.abs().max(p.y.abs()).max(p.z.abs()).to_f64();
-                    (d2 > half2, d2.to_f64().sqrt(), scale)
-                })
-                .reduce(
-                    || (false, 0.0, 0.0),
-                    |a, b| (a.0 || b.0, a.1.max(b.1), a.2.max(b.2)),
-                )
-        })
+        let half2 = limit * limit;
+        let refs = if from_pick {
+            &self.near_ref
+        } else {
+            &self.half.ref_pos
+        };
+        let (kin, alive, props) = (&self.kin, &self.alive, &self.props);
+        let n = kin.len();
+        // A plain loop per block on the team: with the pick's margin this runs every few steps,
+        // and the rayon filter-map-reduce it replaces cost a quarter more (cachegrind).
+        let (beyond, d2_max, scale) = self
+            .team
+            .run(n.div_ceil(BLOCK), |b| {
+                let range = b * BLOCK..((b + 1) * BLOCK).min(n);
+                let (mut beyond, mut d2_max, mut scale) = (false, 0.0f64, 0.0f64);
+                for ((k, r), (&a, pr)) in kin[range.clone()]
+                    .iter()
+                    .zip(&refs[range.clone()])
+                    .zip(alive[range.clone()].iter().zip(&props[range]))
+                {
+                    if !matches!(a, ALIVE | DYING) || pr.inv_m == R::zero() {
+                        continue;
+                    }
+                    let p = k.pos;
+                    let d2 = image.delta(*r, p).norm2();
+                    beyond |= d2 > half2;
+                    d2_max = d2_max.max(d2.to_f64());
+                    scale = scale.max(p.x.abs().max(p.y.abs()).max(p.z.abs()).to_f64());
+                }
+                (beyond, d2_max, scale)
+            })
+            .into_iter()
+            .fold((false, 0.0f64, 0.0f64), |a, b| {
+                (a.0 || b.0, a.1.max(b.1), a.2.max(b.2))
+            });
+        (beyond, d2_max.sqrt(), scale)
     }
 
     /// Elastic energy of the contacts from the half lists and slots (each pair once), summed in
@@ -677,8 +746,18 @@ impl<R: Real> CpuEngine<R> {
         let alive = &self.alive;
         kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == ALIVE);
         let (skin, dt) = (self.skin.to_f64(), self.config.dt_s);
-        let (mut moved, max_moved, scale) = self.measure_displacements();
+        let half_skin = self.skin * R::from_f64(0.5);
+        let (mut moved, max_moved, scale) = self.measure_displacements(false, half_skin);
         let mut bound = DisplacementBound::new(skin, max_moved, scale, R::EPSILON);
+        // The pair pass tests only the entries picked within the near margin; they are picked
+        // again before a particle has moved `NEAR_LIMIT` of that margin since the last pick.
+        let near = skin * NEAR;
+        let near_limit = self.skin * R::from_f64(NEAR * NEAR_LIMIT);
+        // Its exact measurement is taken from 0.9 of that (`DisplacementBound` measures at 0.45
+        // of the skin it is given), not at it: otherwise every later step would measure.
+        let mut near_bound =
+            DisplacementBound::new(near * NEAR_LIMIT * 2.0 * 0.9, 0.0, scale, R::EPSILON);
+        let mut repick = true;
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
             if died {
@@ -687,6 +766,12 @@ impl<R: Real> CpuEngine<R> {
             if moved {
                 self.rebuild_half(true);
                 bound.rebuilt();
+                repick = true;
+            }
+            if repick {
+                self.pick_pairs();
+                near_bound.rebuilt();
+                repick = false;
             }
             let ov_pairs = self.pair_pass();
             let step = self.state.step;
@@ -701,9 +786,14 @@ impl<R: Real> CpuEngine<R> {
             // The exact skin test only when the bound nears half the skin (skin.rs).
             let mut m = false;
             if !last && bound.drifted(v_max2.to_f64().sqrt(), dt) {
-                let (beyond, max_moved, scale) = self.measure_displacements();
+                let (beyond, max_moved, scale) = self.measure_displacements(false, half_skin);
                 m = beyond;
                 bound.measured(max_moved, scale + skin);
+            }
+            if !last && !m && near_bound.drifted(v_max2.to_f64().sqrt(), dt) {
+                let (beyond, max_moved, scale) = self.measure_displacements(true, near_limit);
+                repick = beyond;
+                near_bound.measured(max_moved, scale + near);
             }
             // The history table would not hold this step's contacts: fail now, at the step
             // where it happens (as the GPU does), not when the chunk writes the table back.

@@ -293,6 +293,8 @@ pub(super) struct PairContext<'a, R: Real> {
     pub(super) dt: R,
     /// Whether springs are kept from step to step (history slots > 0).
     pub(super) keep_springs: bool,
+    /// The half list's build count (`HalfList::builds`): a pick belongs to one build.
+    pub(super) list_build: u64,
 }
 
 /// A chunk's touching pairs, found by the distance test and evaluated `LANES` at a time.
@@ -311,6 +313,11 @@ pub(super) struct PairScratch<R: Real> {
     handed: Vec<Vec<Reaction<R>>>,
     /// How many of `handed` hold this pass's reactions (the rest are empty).
     reach: usize,
+    /// The block's entries (block-local, ascending) within the near margin at the last
+    /// `PairContext::pick`: the only ones the pass tests.
+    pick: Vec<u32>,
+    /// The half list's build count at that pick.
+    picked_in: u64,
 }
 
 impl<R: Real> PairScratch<R> {
@@ -348,7 +355,38 @@ pub(super) struct PairBlock<'a, R: Real> {
 }
 
 impl<R: Real> PairContext<'_, R> {
-    /// Evaluates every pair (i, j > i) of the block's particles once: advances the springs in
+    /// Picks the block's entries (`owner`, the half list `nbr` from `e0`, `slots`) whose pair
+    /// lies within `margin` of touching, in entry order: the only ones `block` tests until the
+    /// next pick. The engine picks again before any particle has moved half the margin, so no
+    /// other pair can touch meanwhile, and the pass evaluates the same touching pairs in the same
+    /// order as over the whole list (the same bits). The others' slots are reset, as the pass
+    /// would: they do not touch.
+    pub(super) fn pick(
+        &self,
+        owner: &[u32],
+        nbr: &[u32],
+        e0: usize,
+        slots: &mut [PairSlot<R>],
+        margin: R,
+        scratch: &mut PairScratch<R>,
+    ) {
+        let image = self.periodic.image();
+        scratch.pick.clear();
+        scratch.picked_in = self.list_build;
+        for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
+            let (ki, kj) = (&self.kin[o as usize], &self.kin[nbr[e0 + e] as usize]);
+            // False for a particle that no longer interacts (NaN radius): it is left out.
+            let cut = ki.r + kj.r + margin;
+            if image.delta(kj.pos, ki.pos).norm2() < cut * cut {
+                scratch.pick.push(e as u32);
+            } else {
+                *sl = PairSlot::default();
+            }
+        }
+    }
+
+    /// Evaluates every picked pair (i, j > i) of the block's particles once (`pick`: every pair
+    /// that can touch): advances the springs in
     /// place and writes into `force`, `torque` and `nc` (count of touching pairs) what the
     /// block's pairs do to its particles, in entry order; a touching pair whose partner lies in
     /// a later block hands its reaction over instead (`PairScratch::handed`). Returns the
@@ -392,7 +430,18 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
     } = b;
     let rot = ctx.rotation;
     let count = force.len();
-    let entries = slots.len();
+    // The picked entries only (`PairContext::pick`).
+    let pick = &scratch.pick[..];
+    let entries = pick.len();
+    // The picks are ascending (`PairContext::pick`), so the last bounds them all: the entries'
+    // owners, partners and slots below are read without a bounds check each.
+    let slots_len = slots.len();
+    assert!(
+        scratch.picked_in == ctx.list_build
+            && pick.last().is_none_or(|&e| (e as usize) < slots_len)
+            && owner.len() == slots_len
+            && nbr.len() >= e0 + slots_len
+    );
     if scratch.entry.len() < CHUNK {
         scratch.entry.resize(CHUNK, 0);
     }
@@ -427,12 +476,17 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
         // the place advances only for a touching pair (whether a pair touches is a coin
         // flip the branch predictor loses), unless few pairs touch (`SPARSE_BELOW`).
         let mut touching = 0usize;
-        let chunk = owner[c0..c1]
-            .iter()
-            .zip(&nbr[e0 + c0..e0 + c1])
-            .zip(&mut slots[c0..c1]);
-        for (e, ((&o, &j), sl)) in (c0..c1).zip(chunk) {
-            let (o, j) = (o as usize, j as usize);
+        for &e in &pick[c0..c1] {
+            let e = e as usize;
+            debug_assert!(e < slots_len);
+            // SAFETY: e < slots_len = owner.len() ≤ nbr.len() − e0 (the assertion above).
+            let (o, j, sl) = unsafe {
+                (
+                    *owner.get_unchecked(e) as usize,
+                    *nbr.get_unchecked(e0 + e) as usize,
+                    slots.get_unchecked_mut(e),
+                )
+            };
             debug_assert!(o < ctx.kin.len() && j < ctx.kin.len());
             // SAFETY: every owner and partner of the half list is below the particle count
             // (`grid::build_half` indexes a vector of that length by each partner when it
@@ -473,9 +527,11 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             }
         }
         if !SPARSE {
-            // A pair that does not touch holds no spring and `h` < 0: every slot of the
-            // chunk reset (one sweep of stores); the touching pairs' are written below.
-            slots[c0..c1].fill(PairSlot::default());
+            // A pair that does not touch holds no spring and `h` < 0: every picked slot of the
+            // chunk reset; the touching pairs' are written below.
+            for &e in &pick[c0..c1] {
+                slots[e as usize] = PairSlot::default();
+            }
         }
         // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
         // results are ignored); 3. their forces summed in entry order.
