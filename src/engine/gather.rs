@@ -314,8 +314,9 @@ pub(super) struct PairScratch<R: Real> {
     /// How many of `handed` hold this pass's reactions (the rest are empty).
     reach: usize,
     /// The block's entries (block-local, ascending) within the near margin at the last
-    /// `PairContext::pick`: the only ones the pass tests.
-    pick: Vec<u32>,
+    /// `PairContext::pick`: the only ones the pass tests, each as [entry, owner, partner] (the
+    /// pass then reads the particles' records straight from the pick, not through the list).
+    pick: Vec<[u32; 3]>,
     /// The half list's build count at that pick.
     picked_in: u64,
 }
@@ -378,7 +379,7 @@ impl<R: Real> PairContext<'_, R> {
             // False for a particle that no longer interacts (NaN radius): it is left out.
             let cut = ki.r + kj.r + margin;
             if image.delta(kj.pos, ki.pos).norm2() < cut * cut {
-                scratch.pick.push(e as u32);
+                scratch.pick.push([e as u32, o, nbr[e0 + e]]);
             } else {
                 *sl = PairSlot::default();
             }
@@ -433,14 +434,12 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
     // The picked entries only (`PairContext::pick`).
     let pick = &scratch.pick[..];
     let entries = pick.len();
-    // The picks are ascending (`PairContext::pick`), so the last bounds them all: the entries'
-    // owners, partners and slots below are read without a bounds check each.
+    // The picks are ascending (`PairContext::pick`), so the last bounds them all: the slots
+    // below are read without a bounds check each.
     let slots_len = slots.len();
     assert!(
         scratch.picked_in == ctx.list_build
-            && pick.last().is_none_or(|&e| (e as usize) < slots_len)
-            && owner.len() == slots_len
-            && nbr.len() >= e0 + slots_len
+            && pick.last().is_none_or(|&[e, ..]| (e as usize) < slots_len)
     );
     if scratch.entry.len() < CHUNK {
         scratch.entry.resize(CHUNK, 0);
@@ -476,19 +475,14 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
         // the place advances only for a touching pair (whether a pair touches is a coin
         // flip the branch predictor loses), unless few pairs touch (`SPARSE_BELOW`).
         let mut touching = 0usize;
-        for &e in &pick[c0..c1] {
-            let e = e as usize;
+        for &[e, o, j] in &pick[c0..c1] {
+            let (e, o, j) = (e as usize, o as usize, j as usize);
             debug_assert!(e < slots_len);
-            // SAFETY: e < slots_len = owner.len() ≤ nbr.len() − e0 (the assertion above).
-            let (o, j, sl) = unsafe {
-                (
-                    *owner.get_unchecked(e) as usize,
-                    *nbr.get_unchecked(e0 + e) as usize,
-                    slots.get_unchecked_mut(e),
-                )
-            };
+            // SAFETY: e < slots_len (the assertion above).
+            let sl = unsafe { slots.get_unchecked_mut(e) };
             debug_assert!(o < ctx.kin.len() && j < ctx.kin.len());
-            // SAFETY: every owner and partner of the half list is below the particle count
+            // SAFETY: every owner and partner of the half list (the pick holds this build's,
+            // asserted above) is below the particle count
             // (`grid::build_half` indexes a vector of that length by each partner when it
             // builds the transpose, so a larger one would have panicked there), and
             // `CpuEngine::pair_pass` asserts that `kin` holds that many records. The bounds
@@ -529,7 +523,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
         if !SPARSE {
             // A pair that does not touch holds no spring and `h` < 0: every picked slot of the
             // chunk reset; the touching pairs' are written below.
-            for &e in &pick[c0..c1] {
+            for &[e, ..] in &pick[c0..c1] {
                 slots[e as usize] = PairSlot::default();
             }
         }
