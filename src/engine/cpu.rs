@@ -405,6 +405,7 @@ impl<R: Real> CpuEngine<R> {
         // The pair pass reads the records at the half list's indices unchecked (gather.rs).
         assert!(self.kin.len() == n && self.half.start.len() == n + 1);
         self.contacts.resize(n, 0);
+        let (parts, entries) = self.pair_blocks();
         let s = &mut self.state;
         let ctx = PairContext {
             kin: &self.kin,
@@ -415,11 +416,6 @@ impl<R: Real> CpuEngine<R> {
             keep_springs: self.slots > 0,
             list_build: self.half.builds,
         };
-        let (parts, entries) = block_bounds(&self.half.start, n);
-        let nblocks = parts.len() - 1;
-        if self.pair_scratch.len() < nblocks {
-            self.pair_scratch.resize_with(nblocks, PairScratch::default);
-        }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
             .zip(split_blocks(&mut s.force, &parts))
@@ -451,12 +447,24 @@ impl<R: Real> CpuEngine<R> {
             .fold(R::zero(), |a, b| a.max(b))
     }
 
+    /// The sphere passes' blocks for the current half list (particles, entries: `block_bounds`),
+    /// each with its pair-pass scratch.
+    fn pair_blocks(&mut self) -> (Vec<usize>, Vec<usize>) {
+        let (parts, entries) = block_bounds(&self.half.start, self.state.len());
+        let nblocks = parts.len() - 1;
+        if self.pair_scratch.len() < nblocks {
+            self.pair_scratch.resize_with(nblocks, PairScratch::default);
+        }
+        (parts, entries)
+    }
+
     /// Picks in each block the half-list entries within the near margin (`NEAR` of the skin)
     /// of touching, the only ones the pair pass tests until the next pick
     /// (`PairContext::pick`), and notes where the particles are.
     fn pick_pairs(&mut self) {
         let n = self.state.len();
         assert!(self.kin.len() == n && self.half.start.len() == n + 1);
+        let (_, entries) = self.pair_blocks();
         let ctx = PairContext {
             kin: &self.kin,
             rotation: self.state.rotation,
@@ -467,11 +475,6 @@ impl<R: Real> CpuEngine<R> {
             list_build: self.half.builds,
         };
         let margin = self.skin * R::from_f64(NEAR);
-        let (parts, entries) = block_bounds(&self.half.start, n);
-        let nblocks = parts.len() - 1;
-        if self.pair_scratch.len() < nblocks {
-            self.pair_scratch.resize_with(nblocks, PairScratch::default);
-        }
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
             .zip(self.pair_scratch.iter_mut())
