@@ -423,7 +423,6 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
-        let (owner, nbr) = (&self.half.owner, &self.half.nbr);
         // One task per block, claimed by whichever team thread is free (the blocks' work
         // differs: walls, free surface); each block's slices behind an uncontended lock.
         let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
@@ -433,9 +432,6 @@ impl<R: Real> CpuEngine<R> {
                 let ((((slots, force), torque), nc), scratch) = &mut *guard;
                 let block = PairBlock {
                     first: parts[b],
-                    owner: &owner[entries[b]..entries[b + 1]],
-                    nbr,
-                    e0: entries[b],
                     slots,
                     force,
                     torque,

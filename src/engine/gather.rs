@@ -301,7 +301,7 @@ pub(super) struct PairContext<'a, R: Real> {
 /// Kept by the engine per block so that its vectors grow once.
 #[derive(Default)]
 pub(super) struct PairScratch<R: Real> {
-    /// Block-local entry of each touching pair, in entry order.
+    /// Place in `pick` of each of a chunk's touching pairs, in entry order.
     entry: Vec<u32>,
     /// Their contact law's inputs.
     lanes: Box<LaneInput<R>>,
@@ -342,13 +342,10 @@ impl<R: Real> PairScratch<R> {
 const SPARSE_BELOW: f64 = 0.35;
 
 /// One block's share of the pair pass: the particles `first..first + force.len()`, their half
-/// list entries (`owner`, `slots`; the half list `nbr`, whose
-/// entries of this block begin at `e0`) and the block's force, torque and contact counts.
+/// list entries' slots (the pairs themselves come from the block's pick, `PairContext::pick`)
+/// and the block's force, torque and contact counts.
 pub(super) struct PairBlock<'a, R: Real> {
     pub(super) first: usize,
-    pub(super) owner: &'a [u32],
-    pub(super) nbr: &'a [u32],
-    pub(super) e0: usize,
     pub(super) slots: &'a mut [PairSlot<R>],
     pub(super) force: &'a mut [V3<R>],
     pub(super) torque: &'a mut [V3<R>],
@@ -375,11 +372,12 @@ impl<R: Real> PairContext<'_, R> {
         scratch.pick.clear();
         scratch.picked_in = self.list_build;
         for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
-            let (ki, kj) = (&self.kin[o as usize], &self.kin[nbr[e0 + e] as usize]);
+            let j = nbr[e0 + e];
+            let (ki, kj) = (&self.kin[o as usize], &self.kin[j as usize]);
             // False for a particle that no longer interacts (NaN radius): it is left out.
             let cut = ki.r + kj.r + margin;
             if image.delta(kj.pos, ki.pos).norm2() < cut * cut {
-                scratch.pick.push([e as u32, o, nbr[e0 + e]]);
+                scratch.pick.push([e as u32, o, j]);
             } else {
                 *sl = PairSlot::default();
             }
@@ -421,9 +419,6 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
 ) -> R {
     let PairBlock {
         first,
-        owner,
-        nbr,
-        e0,
         slots,
         force,
         torque,
@@ -475,7 +470,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
         // the place advances only for a touching pair (whether a pair touches is a coin
         // flip the branch predictor loses), unless few pairs touch (`SPARSE_BELOW`).
         let mut touching = 0usize;
-        for &[e, o, j] in &pick[c0..c1] {
+        for (p, &[e, o, j]) in (c0..c1).zip(&pick[c0..c1]) {
             let (e, o, j) = (e as usize, o as usize, j as usize);
             debug_assert!(e < slots_len);
             // SAFETY: e < slots_len (the assertion above).
@@ -511,7 +506,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
                     V3::zero()
                 };
                 lane.pair(ki.r, kj.r, ki.m, kj.m, spring);
-                s_entry[touching & MASK] = e as u32;
+                s_entry[touching & MASK] = p as u32;
             }
             touching += usize::from(touches);
             // Whether a pair touches is the coin flip; that one ends is rare. Dense: reset
@@ -533,8 +528,8 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             pair_lanes::evaluate(ctx.law, ctx.dt, lanes, g, &mut out);
             for k in 0..(touching - g * LANES).min(LANES) {
                 let c = g * LANES + k;
-                let e = s_entry[c & MASK] as usize;
-                let l = owner[e] as usize - first;
+                let [e, o, j] = pick[s_entry[c & MASK] as usize];
+                let (e, l) = (e as usize, o as usize - first);
                 let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
                 let sl = &mut slots[e];
                 sl.spring = get(&out.spring);
@@ -548,7 +543,6 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
                 // The partner's share: directly when it lies in this block (it comes after
                 // the owner, so every particle's sum keeps one fixed order), else for its
                 // pass.
-                let j = nbr[e0 + e];
                 let jl = j as usize - first;
                 if jl < count {
                     force[jl] -= fc;
