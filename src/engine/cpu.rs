@@ -28,6 +28,7 @@ use super::gather::{
 };
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::{wall_key, History, Rows, EMPTY, MAX_SLOTS};
+use super::kick::{Kick, KickBlock};
 use super::kinematics::{self, Kin};
 use super::oriented;
 use super::real::{Real, V3};
@@ -42,7 +43,7 @@ use std::sync::Mutex;
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
 pub(super) const ALIVE: u8 = 1;
-const DYING: u8 = 2;
+pub(super) const DYING: u8 = 2;
 const DEAD: u8 = 0;
 
 /// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
@@ -524,32 +525,32 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.wall_springs, &scaled(&parts, nw)))
             .collect::<Vec<_>>();
         let near_walls = &self.near_walls;
+        let step = Kick {
+            kick,
+            dt,
+            g,
+            drift,
+            rotation: rot,
+            periodic,
+            sink_z: sink.unwrap_or(R::from_f64(f64::NEG_INFINITY)),
+        };
         let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
         self.team
             .run(cells.len(), |b| {
                 let mut guard = cells[b].lock().unwrap();
                 let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
-                // Copies of the captured constants, so that the loop keeps them in registers
-                // instead of reloading them through the closure's references.
-                let (dt, g, kick, periodic, rot) = (dt, g, kick, periodic, rot);
-                let sink_z = sink.unwrap_or(R::from_f64(f64::NEG_INFINITY));
                 let first = parts[b];
                 ctx.reactions(first, force, torque, nc, rot);
                 // Every array cut to the block's length once, so that the loop's indexing needs
                 // no bounds checks (they were a fifth of its instructions).
                 let count = kin.len();
-                let (force, alive, nc) =
-                    (&mut force[..count], &mut alive[..count], &mut nc[..count]);
-                let torque = &mut torque[..if rot { count } else { 0 }];
                 let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
                 let wsp = &mut wsp[..count * nw];
-                // The results in locals (registers), not in a tuple the loop writes through.
-                let (mut died, mut v_max2, mut ov_max, mut fullest) =
-                    (false, R::zero(), R::zero(), 0u32);
+                let mut ov_max = R::zero();
                 // First the walls, for the few particles that may reach one (or are fixed: they
-                // get zero), in their own loop: inlined into the kick below, the wall sum's
-                // values pushed that loop's out of registers (a third of its instructions were
-                // stack loads and stores). Same order of each particle's sum: pairs, reactions,
+                // get zero), in their own loop: inlined into the kick, the wall sum's values
+                // pushed the kick's out of registers (a third of its instructions were stack
+                // loads and stores). Same order of each particle's sum: pairs, reactions,
                 // walls.
                 for l in 0..count {
                     if alive[l] == ALIVE && (near[l] != 0 || nw > 32 || props[l].inv_m == R::zero())
@@ -571,38 +572,15 @@ impl<R: Real> CpuEngine<R> {
                         }
                     }
                 }
-                for (l, kl) in kin.iter_mut().enumerate() {
-                    if alive[l] != ALIVE {
-                        force[l] = V3::zero();
-                        if rot {
-                            torque[l] = V3::zero();
-                        }
-                        nc[l] = 0;
-                        continue;
-                    }
-                    fullest = fullest.max(nc[l]);
-                    let pr = props[l];
-                    if pr.inv_m == R::zero() {
-                        continue;
-                    }
-                    if rot {
-                        kl.omega += torque[l] * (pr.inv_i * kick);
-                    }
-                    kl.vel += (force[l] * pr.inv_m + g) * kick;
-                    if !drift {
-                        continue;
-                    }
-                    kl.pos += kl.vel * dt;
-                    periodic.wrap(&mut kl.pos);
-                    if kl.pos.z < sink_z {
-                        alive[l] = DYING;
-                        kl.bury();
-                        died = true;
-                    }
-                    // The lists' skin test (skin.rs) needs only the fastest particle.
-                    v_max2 = v_max2.max(kl.vel.norm2());
-                }
-                (died, v_max2, ov_max, fullest)
+                let k = step.block(KickBlock {
+                    kin,
+                    force,
+                    torque,
+                    alive,
+                    nc,
+                    props,
+                });
+                (k.died, k.v_max2, ov_max, k.fullest)
             })
             .into_iter()
             .fold((false, R::zero(), R::zero(), 0), |p, q| {

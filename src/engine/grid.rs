@@ -75,10 +75,21 @@ impl<R: Real> Image<R> {
 
 #[inline(always)]
 fn wrap1<R: Real>(x: R, lo: R, hi: R) -> R {
-    let l = hi - lo;
+    // Inside the box, by far the common case, needs only the box's ends in registers; the
+    // crossing is out of line (the per-particle kick had spilled the crossing's constants).
     if x >= lo && x < hi {
         x
-    } else if x >= hi && x < hi + l {
+    } else {
+        cross1(x, lo, hi)
+    }
+}
+
+/// `wrap1` for a coordinate outside the box.
+#[cold]
+#[inline(never)]
+fn cross1<R: Real>(x: R, lo: R, hi: R) -> R {
+    let l = hi - lo;
+    if x >= hi && x < hi + l {
         x - l
     } else if x < lo && x >= lo - l {
         x + l

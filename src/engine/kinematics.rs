@@ -8,24 +8,26 @@
 use super::real::{Real, V3};
 use super::state::State;
 
-/// One sphere's motion, and the two constants the pair pass needs of a partner. Radius and
-/// mass fill what would be padding in f32 (48 bytes either way), so a list entry need not keep
-/// its pair's constants: the list's slots shrank from 36 to 16 bytes, which the pair pass reads
-/// and writes every step. A particle that no longer interacts (it fell through the sink) has a
+/// One sphere's motion, and the two constants the pair pass needs of a partner. Radius, mass
+/// and a pad fill the fourth place of the three 4-vectors (48 bytes in f32), so that a list
+/// entry need not keep its pair's constants (the list's slots shrank from 36 to 16 bytes, which
+/// the pair pass reads and writes every step), the distance test finds position and radius in
+/// one 16-byte piece, and the kick updates each vector with its fourth place in one 4-wide
+/// operation (`kick.rs`). A particle that no longer interacts (it fell through the sink) has a
 /// NaN radius: every distance test with it is false (a comparison with NaN is), so the test
 /// reads no flag and takes no branch on one.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Kin<R: Real> {
     pub(super) pos: V3<R>,
-    /// Unused: keeps `vel` on a 16-byte boundary.
-    _pad: R,
-    pub(super) vel: V3<R>,
-    pub(super) omega: V3<R>,
     /// NaN for a particle that does not interact.
     pub(super) r: R,
+    pub(super) vel: V3<R>,
     /// Zero for a fixed particle, which acts as infinitely heavy (see `pair_lanes`).
     pub(super) m: R,
+    pub(super) omega: V3<R>,
+    /// Unused: the fourth place of `omega`'s 4-vector.
+    _pad: R,
 }
 
 impl<R: Real> Kin<R> {

@@ -10,6 +10,7 @@ mod gather;
 pub mod gpu;
 pub mod grid;
 pub mod history;
+mod kick;
 mod kinematics;
 mod oriented;
 mod pair_lanes;
