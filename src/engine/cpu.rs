@@ -87,6 +87,10 @@ pub struct CpuEngine<R: Real> {
     wall_springs: Vec<V3<R>>,
     /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
     near_walls: Vec<u32>,
+    /// The spheres whose wall sum runs (ascending): those that may touch a wall (`near_walls`
+    /// nonzero, or any sphere past 32 walls) and the fixed ones (their sum zeroes their wall
+    /// springs). The rest, most of a bed, are not scanned each step.
+    wall_list: Vec<u32>,
     props: Vec<Props<R>>,
     /// History slots per particle of the state's table.
     slots: usize,
@@ -139,6 +143,7 @@ impl<R: Real> CpuEngine<R> {
             near_ref: Vec::new(),
             wall_springs: Vec::new(),
             near_walls: Vec::new(),
+            wall_list: Vec::new(),
             props: Vec::new(),
             slots: state.history.slots,
             alive: Vec::new(),
@@ -358,6 +363,13 @@ impl<R: Real> CpuEngine<R> {
                 })
                 .collect()
         });
+        let (near, props) = (&self.near_walls, &self.props);
+        self.wall_list.clear();
+        self.wall_list.extend(
+            (0..n as u32).filter(|&i| {
+                near[i as usize] != 0 || nw > 32 || props[i as usize].inv_m == R::zero()
+            }),
+        );
     }
 
     /// Puts the history back into the state in its format (`slots` per particle).
@@ -524,7 +536,7 @@ impl<R: Real> CpuEngine<R> {
             .zip(split_blocks(&mut self.contacts, &parts))
             .zip(split_blocks(&mut self.wall_springs, &scaled(&parts, nw)))
             .collect::<Vec<_>>();
-        let near_walls = &self.near_walls;
+        let (near_walls, wall_list) = (&self.near_walls, &self.wall_list);
         let step = Kick {
             kick,
             dt,
@@ -547,29 +559,31 @@ impl<R: Real> CpuEngine<R> {
                 let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
                 let wsp = &mut wsp[..count * nw];
                 let mut ov_max = R::zero();
-                // First the walls, for the few particles that may reach one (or are fixed: they
-                // get zero), in their own loop: inlined into the kick, the wall sum's values
-                // pushed the kick's out of registers (a third of its instructions were stack
-                // loads and stores). Same order of each particle's sum: pairs, reactions,
-                // walls.
-                for l in 0..count {
-                    if alive[l] == ALIVE && (near[l] != 0 || nw > 32 || props[l].inv_m == R::zero())
-                    {
-                        let t = if rot { torque[l] } else { V3::zero() };
-                        let (fw, tw, ov, c) = ctx.sum(
-                            force[l],
-                            t,
-                            &kin[l],
-                            props[l],
-                            &mut wsp[l * nw..(l + 1) * nw],
-                            near[l],
-                        );
-                        ov_max = ov_max.max(ov);
-                        force[l] = fw;
-                        nc[l] += c;
-                        if rot {
-                            torque[l] = tw;
-                        }
+                // First the walls, for the block's spheres in `wall_list`, in their own loop:
+                // inlined into the kick, the wall sum's values pushed the kick's out of
+                // registers (a third of its instructions were stack loads and stores). Same
+                // order of each particle's sum: pairs, reactions, walls.
+                let a = wall_list.partition_point(|&i| (i as usize) < first);
+                let z = a + wall_list[a..].partition_point(|&i| (i as usize) < first + count);
+                for &i in &wall_list[a..z] {
+                    let l = i as usize - first;
+                    if alive[l] != ALIVE {
+                        continue;
+                    }
+                    let t = if rot { torque[l] } else { V3::zero() };
+                    let (fw, tw, ov, c) = ctx.sum(
+                        force[l],
+                        t,
+                        &kin[l],
+                        props[l],
+                        &mut wsp[l * nw..(l + 1) * nw],
+                        near[l],
+                    );
+                    ov_max = ov_max.max(ov);
+                    force[l] = fw;
+                    nc[l] += c;
+                    if rot {
+                        torque[l] = tw;
                     }
                 }
                 let k = step.block(KickBlock {
