@@ -8,7 +8,7 @@ use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord,
 use super::cpu::ALIVE;
 use super::grid::{NeighbourList, Periodic};
 use super::history::{wall_key, Rows};
-use super::kinematics::Kin;
+use super::kinematics::{Kin, Separation};
 use super::oriented::OrientedContext;
 use super::pair_lanes::{self, LaneInput, LaneOutput, CHUNK, LANES};
 use super::real::{Real, V3};
@@ -457,7 +457,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
     let s_entry = &mut scratch.entry[..CHUNK];
     let lanes = &mut *scratch.lanes;
     const MASK: usize = CHUNK - 1;
-    let image = ctx.periodic.image();
+    let sep = Separation::new(ctx.periodic.image());
     let mut max_ov = R::zero();
     let mut out = LaneOutput::<R>::default();
     // CHUNK entries at a time, so that their lane inputs stay in the first-level cache
@@ -484,12 +484,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             // checks were 4 of the test's ~60 instructions per entry.
             let (ki, kj) = unsafe { (ctx.kin.get_unchecked(o), ctx.kin.get_unchecked(j)) };
             // From j to i.
-            let d = if PERIODIC {
-                image.delta(kj.pos, ki.pos)
-            } else {
-                ki.pos - kj.pos
-            };
-            let dist2 = d.norm2();
+            let (d, dist2) = sep.of::<PERIODIC>(ki, kj);
             let sum = ki.r + kj.r;
             // False for a particle that no longer interacts: its radius is NaN (`Kin::bury`).
             let touches = dist2 < sum * sum;

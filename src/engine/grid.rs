@@ -59,6 +59,13 @@ pub struct Image<R: Real> {
 }
 
 impl<R: Real> Image<R> {
+    /// Box lengths and half lengths along x and y (zero along an axis that is not periodic).
+    pub(crate) fn lengths(&self) -> ([R; 2], [R; 2]) {
+        (self.len, self.half)
+    }
+}
+
+impl<R: Real> Image<R> {
     /// Minimum-image separation b − a (positions wrapped into the box).
     #[inline(always)]
     pub fn delta(&self, a: V3<R>, b: V3<R>) -> V3<R> {

@@ -5,6 +5,9 @@
 //! the state's arrays are stale; `CpuEngine` copies them back before anything else reads the
 //! state (a re-sort, the chunk's end, an error report).
 
+use std::any::TypeId;
+
+use super::grid::Image;
 use super::real::{Real, V3};
 use super::state::State;
 
@@ -35,6 +38,91 @@ impl<R: Real> Kin<R> {
     #[inline(always)]
     pub(super) fn bury(&mut self) {
         self.r = R::from_f64(f64::NAN);
+    }
+}
+
+/// The distance test's geometry, prepared once per pass: the minimum image as 4-vectors for
+/// `separation` (the fourth place and z never folded).
+#[derive(Clone, Copy)]
+pub(super) struct Separation<R: Real> {
+    image: Image<R>,
+    half: [R; 4],
+    neg_half: [R; 4],
+    len: [R; 4],
+}
+
+impl<R: Real> Separation<R> {
+    pub(super) fn new(image: Image<R>) -> Self {
+        let (len, half) = image.lengths();
+        let inf = R::from_f64(f64::INFINITY);
+        Self {
+            image,
+            half: [half[0], half[1], inf, inf],
+            neg_half: [-half[0], -half[1], -inf, -inf],
+            len: [len[0], len[1], R::zero(), R::zero()],
+        }
+    }
+
+    /// The separation d from j to i (minimum image when `PERIODIC`) and |d|², each component
+    /// and the sum as `Image::delta` and `V3::norm2` compute them (the same bits). In f32 on
+    /// x86-64 from the records' first 4-vectors (position and r) in 4-wide SSE operations.
+    #[inline(always)]
+    pub(super) fn of<const PERIODIC: bool>(&self, ki: &Kin<R>, kj: &Kin<R>) -> (V3<R>, R) {
+        #[cfg(target_arch = "x86_64")]
+        if TypeId::of::<R>() == TypeId::of::<f32>() {
+            // SAFETY: R is f32.
+            let (s, ki, kj) = unsafe {
+                (
+                    &*(self as *const Self).cast::<Separation<f32>>(),
+                    &*(ki as *const Kin<R>).cast::<Kin<f32>>(),
+                    &*(kj as *const Kin<R>).cast::<Kin<f32>>(),
+                )
+            };
+            let (d, d2) = s.of_f32::<PERIODIC>(ki, kj);
+            // SAFETY: R is f32.
+            return unsafe { (std::mem::transmute_copy(&d), std::mem::transmute_copy(&d2)) };
+        }
+        let d = if PERIODIC {
+            self.image.delta(kj.pos, ki.pos)
+        } else {
+            ki.pos - kj.pos
+        };
+        (d, d.norm2())
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Separation<f32> {
+    #[inline(always)]
+    fn of_f32<const PERIODIC: bool>(&self, ki: &Kin<f32>, kj: &Kin<f32>) -> (V3<f32>, f32) {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE is part of the x86-64 baseline; a `Kin<f32>` is 16-byte aligned and
+        // starts with its position and r (16 bytes); `half`, `neg_half` and `len` are [f32; 4].
+        unsafe {
+            let pi = _mm_load_ps((ki as *const Kin<f32>).cast::<f32>());
+            let pj = _mm_load_ps((kj as *const Kin<f32>).cast::<f32>());
+            let mut d = _mm_sub_ps(pi, pj);
+            if PERIODIC {
+                // As `Image::delta`: d − (up − down), up = l where d > l/2, down = l where
+                // d < −l/2 (z and the fourth place: never, d − 0 is d).
+                let len = _mm_loadu_ps(self.len.as_ptr());
+                let up = _mm_and_ps(_mm_cmpgt_ps(d, _mm_loadu_ps(self.half.as_ptr())), len);
+                let down = _mm_and_ps(_mm_cmplt_ps(d, _mm_loadu_ps(self.neg_half.as_ptr())), len);
+                d = _mm_sub_ps(d, _mm_sub_ps(up, down));
+            }
+            let dd = _mm_mul_ps(d, d);
+            // (x² + y²) + z², as `V3::norm2`.
+            let d2 = _mm_cvtss_f32(_mm_add_ss(
+                _mm_add_ss(dd, _mm_shuffle_ps::<0b01>(dd, dd)),
+                _mm_movehl_ps(dd, dd),
+            ));
+            let v = V3::new(
+                _mm_cvtss_f32(d),
+                _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(d, d)),
+                _mm_cvtss_f32(_mm_movehl_ps(d, d)),
+            );
+            (v, d2)
+        }
     }
 }
 
