@@ -491,7 +491,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             if !SPARSE || touches {
                 let mut lane = lanes.at(touching);
                 // Angular velocities are zero when rotation is off.
-                lane.kinematics(d, ki.vel, kj.vel, ki.omega, kj.omega);
+                lane.motion(d, ki, kj);
                 // A pair that does not touch holds a zero spring (see the reset below), so
                 // the spring needs no test of whether the pair touched (a coin flip per
                 // entry).

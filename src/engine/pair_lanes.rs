@@ -9,7 +9,10 @@
 
 use multiversion::multiversion;
 
+use std::any::TypeId;
+
 use super::contact::LawKernel;
+use super::kinematics::Kin;
 use super::real::{Real, V3};
 
 /// Pairs per group.
@@ -100,6 +103,48 @@ impl<R: Real> Place<'_, R> {
         Self::set3(&mut inp.wi, t, wi);
         Self::set3(&mut inp.wj, t, wj);
     }
+    /// `kinematics` from the pair's motion records. In f32 on x86-64 each velocity and angular
+    /// velocity is read as the record's 4-vector (one load, not three; `Kin`), and its three
+    /// places written into the columns from the register.
+    #[inline(always)]
+    pub(super) fn motion(&mut self, d: V3<R>, ki: &Kin<R>, kj: &Kin<R>) {
+        #[cfg(target_arch = "x86_64")]
+        if TypeId::of::<R>() == TypeId::of::<f32>() {
+            use std::arch::x86_64::*;
+            Self::set3(&mut self.inp.d, self.t, d);
+            let t = self.t;
+            // SAFETY: R is f32.
+            let (inp, ki, kj) = unsafe {
+                (
+                    &mut *(self.inp as *mut LaneInput<R>).cast::<LaneInput<f32>>(),
+                    (ki as *const Kin<R>).cast::<f32>(),
+                    (kj as *const Kin<R>).cast::<f32>(),
+                )
+            };
+            let put = |c: &mut [Column<f32>; 3], q: __m128| {
+                // SAFETY: SSE is part of the x86-64 baseline.
+                let (x, y, z) = unsafe {
+                    (
+                        _mm_cvtss_f32(q),
+                        _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(q, q)),
+                        _mm_cvtss_f32(_mm_movehl_ps(q, q)),
+                    )
+                };
+                Place::set3(c, t, V3::new(x, y, z));
+            };
+            // SAFETY: SSE is part of the x86-64 baseline; a `Kin<f32>` is 16-byte aligned with
+            // its velocity at place 4 and its angular velocity at place 8.
+            unsafe {
+                put(&mut inp.vi, _mm_load_ps(ki.add(4)));
+                put(&mut inp.vj, _mm_load_ps(kj.add(4)));
+                put(&mut inp.wi, _mm_load_ps(ki.add(8)));
+                put(&mut inp.wj, _mm_load_ps(kj.add(8)));
+            }
+            return;
+        }
+        self.kinematics(d, ki.vel, kj.vel, ki.omega, kj.omega);
+    }
+
     /// The pair's radii and masses (zero for a fixed particle) and its stored spring.
     #[inline(always)]
     pub(super) fn pair(&mut self, ri: R, rj: R, mi: R, mj: R, spring: V3<R>) {
