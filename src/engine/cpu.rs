@@ -553,8 +553,7 @@ impl<R: Real> CpuEngine<R> {
                 let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
                 let first = parts[b];
                 ctx.reactions(first, force, torque, nc, rot);
-                // Every array cut to the block's length once, so that the loop's indexing needs
-                // no bounds checks (they were a fifth of its instructions).
+                // The whole-particle arrays cut to the block (the kick cuts its own).
                 let count = kin.len();
                 let (props, near) = (&props[first..][..count], &near_walls[first..][..count]);
                 let wsp = &mut wsp[..count * nw];

@@ -63,9 +63,7 @@ impl<R: Real> Image<R> {
     pub(crate) fn lengths(&self) -> ([R; 2], [R; 2]) {
         (self.len, self.half)
     }
-}
 
-impl<R: Real> Image<R> {
     /// Minimum-image separation b − a (positions wrapped into the box).
     #[inline(always)]
     pub fn delta(&self, a: V3<R>, b: V3<R>) -> V3<R> {

@@ -102,25 +102,42 @@ fn kick_in<R: Real, const ROT: bool, const DRIFT: bool>(
     k: &Kick<R>,
     b: KickBlock<'_, R>,
 ) -> Kicked<R> {
-    let KickBlock {
-        kin,
-        force,
-        torque,
-        alive,
-        nc,
-        props,
-    } = b;
-    // Every array cut to the block's length once: the loop's indexing needs no bounds checks.
-    let count = kin.len();
-    let (force, alive, nc, props) = (
-        &mut force[..count],
-        &mut alive[..count],
-        &mut nc[..count],
-        &props[..count],
-    );
-    let torque = &mut torque[..if ROT { count } else { 0 }];
     // The constants in locals (registers), not read through `k` in the loop.
-    let (kick, dt, g, periodic, sink_z) = (k.kick, k.dt, k.g, k.periodic, k.sink_z);
+    let (kick, dt, g, periodic) = (k.kick, k.dt, k.g, k.periodic);
+    each::<R, ROT, DRIFT>(b, k.sink_z, |kl, f, t, pr| {
+        if ROT {
+            kl.omega += t * (pr.inv_i * kick);
+        }
+        kl.vel += (f * pr.inv_m + g) * kick;
+        if DRIFT {
+            kl.pos += kl.vel * dt;
+            periodic.wrap(&mut kl.pos);
+        }
+        kl.vel.norm2()
+    })
+}
+
+/// The loop both kicks share, over a block's particles: a particle no longer alive gets zero
+/// force, torque and contact count; a fixed one is skipped; `step` kicks (and with `DRIFT`
+/// drifts and wraps) each live, mobile one, given its force, torque (zero without rotation)
+/// and constants, and returns its squared speed. After the drift a particle below `sink_z`
+/// becomes DYING and stops interacting (`Kin::bury`).
+#[inline(always)]
+fn each<R: Real, const ROT: bool, const DRIFT: bool>(
+    b: KickBlock<'_, R>,
+    sink_z: R,
+    mut step: impl FnMut(&mut Kin<R>, V3<R>, V3<R>, Props<R>) -> R,
+) -> Kicked<R> {
+    // Every array cut to the block's length once: the loop's indexing needs no bounds checks.
+    let count = b.kin.len();
+    let kin = b.kin;
+    let (force, alive, nc, props) = (
+        &mut b.force[..count],
+        &mut b.alive[..count],
+        &mut b.nc[..count],
+        &b.props[..count],
+    );
+    let torque = &mut b.torque[..if ROT { count } else { 0 }];
     let (mut died, mut v_max2, mut fullest) = (false, R::zero(), 0u32);
     for (l, kl) in kin.iter_mut().enumerate() {
         if alive[l] != ALIVE {
@@ -136,21 +153,17 @@ fn kick_in<R: Real, const ROT: bool, const DRIFT: bool>(
         if pr.inv_m == R::zero() {
             continue;
         }
-        if ROT {
-            kl.omega += torque[l] * (pr.inv_i * kick);
-        }
-        kl.vel += (force[l] * pr.inv_m + g) * kick;
+        let t = if ROT { torque[l] } else { V3::zero() };
+        let v2 = step(kl, force[l], t, pr);
         if !DRIFT {
             continue;
         }
-        kl.pos += kl.vel * dt;
-        periodic.wrap(&mut kl.pos);
         if kl.pos.z < sink_z {
             alive[l] = DYING;
             kl.bury();
             died = true;
         }
-        v_max2 = v_max2.max(kl.vel.norm2());
+        v_max2 = v_max2.max(v2);
     }
     Kicked {
         died,
@@ -171,9 +184,9 @@ mod quads {
 
     use multiversion::multiversion;
 
-    use super::{Kick, KickBlock, Kicked, ALIVE, DYING};
+    use super::{Kick, KickBlock, Kicked};
     use crate::engine::grid::Periodic;
-    use crate::engine::real::{Real, V3};
+    use crate::engine::real::V3;
 
     /// A particle that left the box: out of line, so that the loop keeps its registers.
     #[cold]
@@ -201,22 +214,6 @@ mod quads {
         k: &Kick<f32>,
         b: KickBlock<'_, f32>,
     ) -> Kicked<f32> {
-        let KickBlock {
-            kin,
-            force,
-            torque,
-            alive,
-            nc,
-            props,
-        } = b;
-        let count = kin.len();
-        let (force, alive, nc, props) = (
-            &mut force[..count],
-            &mut alive[..count],
-            &mut nc[..count],
-            &props[..count],
-        );
-        let torque = &mut torque[..if ROT { count } else { 0 }];
         // The fourth places get + 0 (zero gravity, force and torque components, a zero time
         // step), which leaves r, m and the pad as they were.
         let g = quad(&k.g);
@@ -236,21 +233,7 @@ mod quads {
                 _mm_setr_ps(xb.1, yb.1, inf, inf),
             )
         };
-        let (mut died, mut v_max2, mut fullest) = (false, 0.0f32, 0u32);
-        for (l, kl) in kin.iter_mut().enumerate() {
-            if alive[l] != ALIVE {
-                force[l] = V3::zero();
-                if ROT {
-                    torque[l] = V3::zero();
-                }
-                nc[l] = 0;
-                continue;
-            }
-            fullest = fullest.max(nc[l]);
-            let pr = props[l];
-            if pr.inv_m == 0.0 {
-                continue;
-            }
+        super::each::<f32, ROT, DRIFT>(b, k.sink_z, |kl, f, t, pr| {
             let rec = (kl as *mut super::Kin<f32>).cast::<f32>();
             // SAFETY: SSE is part of the x86-64 baseline; `Kin<f32>` is repr(C, align(16)) of
             // three 16-byte 4-vectors at offsets 0, 16 and 32 (`Kin`), so each load and
@@ -258,39 +241,27 @@ mod quads {
             unsafe {
                 if ROT {
                     let s = _mm_set1_ps(pr.inv_i * k.kick);
-                    let w = _mm_add_ps(_mm_load_ps(rec.add(8)), _mm_mul_ps(quad(&torque[l]), s));
+                    let w = _mm_add_ps(_mm_load_ps(rec.add(8)), _mm_mul_ps(quad(&t), s));
                     _mm_store_ps(rec.add(8), w);
                 }
-                let a = _mm_add_ps(_mm_mul_ps(quad(&force[l]), _mm_set1_ps(pr.inv_m)), g);
+                let a = _mm_add_ps(_mm_mul_ps(quad(&f), _mm_set1_ps(pr.inv_m)), g);
                 let v = _mm_add_ps(_mm_load_ps(rec.add(4)), _mm_mul_ps(a, kick));
                 _mm_store_ps(rec.add(4), v);
-                if !DRIFT {
-                    continue;
-                }
-                let p = _mm_add_ps(_mm_load_ps(rec), _mm_mul_ps(v, dt));
-                _mm_store_ps(rec, p);
-                let inside = _mm_and_ps(_mm_cmpge_ps(p, lo), _mm_cmplt_ps(p, hi));
-                if _mm_movemask_ps(inside) != 0b1111 {
-                    wrap(&k.periodic, &mut kl.pos);
+                if DRIFT {
+                    let p = _mm_add_ps(_mm_load_ps(rec), _mm_mul_ps(v, dt));
+                    _mm_store_ps(rec, p);
+                    let inside = _mm_and_ps(_mm_cmpge_ps(p, lo), _mm_cmplt_ps(p, hi));
+                    if _mm_movemask_ps(inside) != 0b1111 {
+                        wrap(&k.periodic, &mut kl.pos);
+                    }
                 }
                 // |v|² as `V3::norm2` sums it: (x² + y²) + z².
                 let vv = _mm_mul_ps(v, v);
                 let x2 = _mm_cvtss_f32(vv);
                 let y2 = _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(vv, vv));
                 let z2 = _mm_cvtss_f32(_mm_movehl_ps(vv, vv));
-                // `Real::max`, as the generic loop (a NaN speed is kept, not dropped).
-                v_max2 = Real::max(v_max2, x2 + y2 + z2);
+                x2 + y2 + z2
             }
-            if kl.pos.z < k.sink_z {
-                alive[l] = DYING;
-                kl.bury();
-                died = true;
-            }
-        }
-        Kicked {
-            died,
-            v_max2,
-            fullest,
-        }
+        })
     }
 }
