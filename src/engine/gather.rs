@@ -368,7 +368,9 @@ impl<R: Real> PairContext<'_, R> {
         margin: R,
         scratch: &mut PairScratch<R>,
     ) {
-        let image = self.periodic.image();
+        // The pass's own separation (minimum image on every axis: a length of zero leaves an
+        // axis that is not periodic as it is).
+        let sep = Separation::new(self.periodic.image());
         scratch.pick.clear();
         scratch.picked_in = self.list_build;
         for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
@@ -376,7 +378,7 @@ impl<R: Real> PairContext<'_, R> {
             let (ki, kj) = (&self.kin[o as usize], &self.kin[j as usize]);
             // False for a particle that no longer interacts (NaN radius): it is left out.
             let cut = ki.r + kj.r + margin;
-            if image.delta(kj.pos, ki.pos).norm2() < cut * cut {
+            if sep.of::<true>(ki, kj).1 < cut * cut {
                 scratch.pick.push([e as u32, o, j]);
             } else {
                 *sl = PairSlot::default();
