@@ -10,6 +10,7 @@ pub mod campaign;
 pub mod checkpoint;
 pub mod engine;
 pub mod export;
+pub mod lammps;
 pub mod observe;
 pub mod report;
 pub mod runner;

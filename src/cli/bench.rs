@@ -43,6 +43,12 @@ pub struct Arguments {
     /// The most steps `--settle` may take to bring silo-bed to rest before giving up.
     #[arg(long, default_value_t = 400_000)]
     pub settle_max_steps: u64,
+    /// Also write the scene as it is timed (settled with `--settle`) for LAMMPS into this
+    /// directory: `data.SCENE` and `in.SCENE` (same spheres, law constants, walls, gravity,
+    /// periodic axes, skin, dt and steps), to measure LAMMPS beside sweep on this machine with
+    /// `mpirun -np 2 lmp -in in.SCENE`.
+    #[arg(long, value_name = "DIR")]
+    pub lammps: Option<std::path::PathBuf>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -77,6 +83,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         Some(_) => sweep::bench::settled_name(&a.scene).expect("a scene with a settling"),
         None => a.scene.clone(),
     };
+    if let Some(dir) = &a.lammps {
+        let input = sweep::lammps::export(&scene_name, &sc, a.steps, dir)?;
+        eprintln!("LAMMPS input: {}", input.display());
+    }
     let mut rates = Vec::new();
     let mut last = None;
     for _ in 0..a.repeat {

@@ -8,5 +8,5 @@ mod record;
 
 pub use duration::{contact_time, ContactPair};
 pub use force::{contact_force, elastic_energy, ContactInput};
-pub use law::{ContactLaw, Elasticity, LawKernel, NormalModel};
+pub use law::{beta, ContactLaw, Elasticity, LawKernel, NormalModel};
 pub use record::ContactRecord;
