@@ -473,7 +473,7 @@ impl<R: Real> CpuEngine<R> {
     fn pick_pairs(&mut self) {
         let n = self.state.len();
         assert!(self.kin.len() == n && self.half.start.len() == n + 1);
-        let (_, entries) = self.pair_blocks();
+        let (parts, entries) = self.pair_blocks();
         let ctx = PairContext {
             kin: &self.kin,
             rotation: self.state.rotation,
@@ -494,7 +494,15 @@ impl<R: Real> CpuEngine<R> {
             let mut guard = cells[b].lock().unwrap();
             let (slots, scratch) = &mut *guard;
             let owner = &owner[entries[b]..entries[b + 1]];
-            ctx.pick(owner, nbr, entries[b], slots, margin, scratch);
+            ctx.pick(
+                parts[b]..parts[b + 1],
+                owner,
+                nbr,
+                entries[b],
+                slots,
+                margin,
+                scratch,
+            );
         });
         self.near_ref.clear();
         self.near_ref.extend(self.kin.iter().map(|k| k.pos));

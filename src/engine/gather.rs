@@ -319,6 +319,8 @@ pub(super) struct PairScratch<R: Real> {
     pick: Vec<[u32; 3]>,
     /// The half list's build count at that pick.
     picked_in: u64,
+    /// The block's particles at that pick: every picked owner lies among them.
+    picked_for: std::ops::Range<usize>,
 }
 
 impl<R: Real> PairScratch<R> {
@@ -358,9 +360,13 @@ impl<R: Real> PairContext<'_, R> {
     /// next pick. The engine picks again before any particle has moved half the margin, so no
     /// other pair can touch meanwhile, and the pass evaluates the same touching pairs in the same
     /// order as over the whole list (the same bits). The others' slots are reset, as the pass
-    /// would: they do not touch.
+    /// would: they do not touch. `particles` is the block's range of owners: every owner must
+    /// lie in it (checked here once per pick, so that the pass can index the block's sums by
+    /// the picked owners unchecked).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn pick(
         &self,
+        particles: std::ops::Range<usize>,
         owner: &[u32],
         nbr: &[u32],
         e0: usize,
@@ -373,7 +379,10 @@ impl<R: Real> PairContext<'_, R> {
         let sep = Separation::new(self.periodic.image());
         scratch.pick.clear();
         scratch.picked_in = self.list_build;
+        let count = particles.len();
+        let mut owners_inside = true;
         for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
+            owners_inside &= (o as usize).wrapping_sub(particles.start) < count;
             let j = nbr[e0 + e];
             let (ki, kj) = (&self.kin[o as usize], &self.kin[j as usize]);
             // False for a particle that no longer interacts (NaN radius): it is left out.
@@ -384,6 +393,8 @@ impl<R: Real> PairContext<'_, R> {
                 *sl = PairSlot::default();
             }
         }
+        assert!(owners_inside, "a half-list owner outside its block");
+        scratch.picked_for = particles;
     }
 
     /// Evaluates every picked pair (i, j > i) of the block's particles once (`pick`: every pair
@@ -436,8 +447,12 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
     let slots_len = slots.len();
     assert!(
         scratch.picked_in == ctx.list_build
+            && scratch.picked_for == (first..first + count)
             && pick.last().is_none_or(|&[e, ..]| (e as usize) < slots_len)
     );
+    // The sums below are indexed unchecked by the picked owners (inside the block, asserted
+    // above) and by partners in the block (tested): every sum holds `count` places.
+    assert!(nc.len() == count && (!rot || torque.len() == count));
     if scratch.entry.len() < CHUNK {
         scratch.entry.resize(CHUNK, 0);
     }
@@ -525,28 +540,37 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             pair_lanes::evaluate(ctx.law, ctx.dt, lanes, g, &mut out);
             for k in 0..(touching - g * LANES).min(LANES) {
                 let c = g * LANES + k;
-                let [e, o, j] = pick[s_entry[c & MASK] as usize];
+                // SAFETY: the places below `touching` were written in this chunk with a place
+                // of `pick` (p < c1 <= entries); the pick's e < slots_len and its owner lies in
+                // the block (l < count), both asserted above; force, torque (with rotation)
+                // and nc hold count places (asserted above; force by definition); jl < count
+                // is tested. The bounds checks were 8 compares and branches per touching pair.
+                let [e, o, j] = unsafe { *pick.get_unchecked(s_entry[c & MASK] as usize) };
                 let (e, l) = (e as usize, o as usize - first);
                 let get = |a: &[[R; LANES]; 3]| V3::new(a[0][k], a[1][k], a[2][k]);
-                let sl = &mut slots[e];
+                let sl = unsafe { slots.get_unchecked_mut(e) };
                 sl.spring = get(&out.spring);
                 sl.h = out.h[k];
                 let fc = get(&out.f);
-                force[l] += fc;
-                if rot {
-                    torque[l] -= get(&out.ti);
+                unsafe {
+                    *force.get_unchecked_mut(l) += fc;
+                    if rot {
+                        *torque.get_unchecked_mut(l) -= get(&out.ti);
+                    }
+                    *nc.get_unchecked_mut(l) += 1;
                 }
-                nc[l] += 1;
                 // The partner's share: directly when it lies in this block (it comes after
                 // the owner, so every particle's sum keeps one fixed order), else for its
                 // pass.
                 let jl = j as usize - first;
                 if jl < count {
-                    force[jl] -= fc;
-                    if rot {
-                        torque[jl] += get(&out.tj);
+                    unsafe {
+                        *force.get_unchecked_mut(jl) -= fc;
+                        if rot {
+                            *torque.get_unchecked_mut(jl) += get(&out.tj);
+                        }
+                        *nc.get_unchecked_mut(jl) += 1;
                     }
-                    nc[jl] += 1;
                 } else {
                     // j's block, counted from the one after this.
                     let later = jl / BLOCK - 1;
