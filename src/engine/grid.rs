@@ -416,33 +416,55 @@ pub fn build_half<R: Real>(
         return;
     }
     let grid = sort_by_cell(state, periodic, skin);
-    let pos = &state.pos;
-    let rad = &grid.reach;
-    let inv_mass = &state.inv_mass;
+    // Every candidate j the cells hand out lies in 0..n: the cells' starts ascend to n. Checked
+    // once per build, so that the candidate loop reads the particles' data unchecked (the
+    // bounds checks and the box lengths, recomputed per candidate, were half of the loop).
+    assert!(grid.start.last() == Some(&(n as u32)) && grid.start.windows(2).all(|w| w[0] <= w[1]));
+    let (pos, rad, inv_mass) = (&state.pos[..n], &grid.reach[..n], &state.inv_mass[..n]);
+    let image = periodic.image();
+    // The most candidates one particle can have: 27 cells of the fullest cell's count.
+    let fullest = grid
+        .start
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .max()
+        .unwrap_or(0);
+    let most = 27 * fullest as usize;
     let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(HALF_BLOCK))
         .into_par_iter()
         .map(|b| {
             let range = b * HALF_BLOCK..((b + 1) * HALF_BLOCK).min(n);
             let mut counts = Vec::with_capacity(range.len());
             let mut nbr = Vec::with_capacity(range.len() * 8);
+            let mut row = vec![0u32; most];
             for i in range {
-                let p = pos[i];
+                let (p, ri) = (pos[i], rad[i]);
                 let fixed_i = inv_mass[i] == R::zero();
-                let row0 = nbr.len();
+                let mut k = 0;
                 grid.around_from(p, i as u32 + 1, |j| {
+                    debug_assert!(j < n);
+                    // SAFETY: j < n (the assertion on the cells' starts above).
+                    let (pj, rj, mj) = unsafe {
+                        (
+                            *pos.get_unchecked(j),
+                            *rad.get_unchecked(j),
+                            *inv_mass.get_unchecked(j),
+                        )
+                    };
                     // Fixed pairs never interact: they would only cost a distance test a step.
-                    if fixed_i && inv_mass[j] == R::zero() {
-                        return;
-                    }
-                    let d = periodic.delta(p, pos[j]);
-                    let cut = rad[i] + rad[j] + skin;
-                    if d.norm2() < cut * cut {
-                        nbr.push(j as u32);
-                    }
+                    let both_fixed = fixed_i & (mj == R::zero());
+                    let d = image.delta(p, pj);
+                    let cut = ri + rj + skin;
+                    // Every candidate is written and the place advances only for a partner:
+                    // whether one is within reach is a coin flip the branch predictor loses.
+                    row[k] = j as u32;
+                    k += usize::from(d.norm2() < cut * cut && !both_fixed);
                 });
                 // Ascending partners: a fixed order, and the partners' data read in memory order.
-                nbr[row0..].sort_unstable();
-                counts.push((nbr.len() - row0) as u32);
+                let row = &mut row[..k];
+                row.sort_unstable();
+                nbr.extend_from_slice(row);
+                counts.push(k as u32);
             }
             (counts, nbr)
         })
