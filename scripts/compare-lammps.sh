@@ -6,8 +6,9 @@
 # VM's slow and fast phases fall on all of them. Prints each run and the medians, in mobile
 # particle-steps per second (LAMMPS: mobile spheres x steps / the timed run's loop time).
 # Needs LAMMPS with its GRANULAR package: Debian's `lammps` has it (installed here when missing
-# and running as root) and runs it with Open MPI.
-# usage: scripts/compare-lammps.sh [N] [STEPS] [ROUNDS] [SCENES...]
+# and running as root) and runs it with Open MPI. LMP=/path/to/lmp times another build (one
+# compiled for this CPU, say) with the same mpirun.
+# usage: [LMP=lmp] scripts/compare-lammps.sh [N] [STEPS] [ROUNDS] [SCENES...]
 set -euo pipefail
 n=${1:-30000}
 steps=${2:-300}
@@ -15,7 +16,8 @@ rounds=${3:-5}
 shift $(($# < 3 ? $# : 3))
 scenes=("${@:-chute-bed silo-bed}")
 read -r -a scenes <<<"${scenes[*]}"
-if ! command -v lmp >/dev/null; then
+lmp=${LMP:-lmp}
+if ! command -v "$lmp" >/dev/null; then
   [ "$(id -u)" = 0 ] || { echo "compare-lammps: LAMMPS (lmp) not found; install Debian's lammps" >&2; exit 2; }
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq lammps >/dev/null
 fi
@@ -27,7 +29,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 mpi=(mpirun -np 2)
 [ "$(id -u)" = 0 ] && mpi+=(--allow-run-as-root)
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); $(lmp -h | grep -m1 -i 'Large-scale' | xargs)"
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); $("$lmp" -h | grep -m1 -i 'Large-scale' | xargs)"
 for scene in "${scenes[@]}"; do
   # The bed (settled once, then reused) and its LAMMPS input.
   mobile=$("$bin" bench --scene "$scene" --particles "$n" --steps "$steps" --settle --no-store \
@@ -46,7 +48,7 @@ for scene in "${scenes[@]}"; do
     for f in "$input" "$input.newton"; do
       name=lammps-np2-newton-off
       [ "$f" = "$input.newton" ] && name=lammps-np2-newton-on
-      loop=$(cd "$work" && "${mpi[@]}" lmp -in "$f" -log none 2>&1 | grep 'Loop time' | tail -1 |
+      loop=$(cd "$work" && "${mpi[@]}" "$lmp" -in "$f" -log none 2>&1 | grep 'Loop time' | tail -1 |
         awk '{print $4}')
       echo "$r $name $(python3 -c "print($mobile * $steps / $loop)")"
     done
