@@ -197,7 +197,8 @@ fn input_file(name: &str, file: &str, sc: &BenchScene, steps: u64) -> anyhow::Re
         out,
         "# sweep bench scene {name}, written by `sweep bench --lammps`.\n\
          # Run: mpirun -np 2 lmp -in in.{file}  (the second run is the timed one: particle-steps/s =\n\
-         # mobile spheres x {steps} / its loop time).\n\
+         # mobile spheres x {steps} / its loop time). Its last thermo line (ke, vcm x of the\n\
+         # mobile spheres) is comparable with `sweep bench`'s end state.\n\
          # Same spheres, velocities, law constants, walls, gravity, periodic axes, skin and dt.\n\
          # Not the same: Hertz damping matched at one overlap (see sweep's src/lammps.rs), no\n\
          # tangential springs carried over, f64 throughout.\n"
@@ -238,7 +239,8 @@ fn input_file(name: &str, file: &str, sc: &BenchScene, steps: u64) -> anyhow::Re
     }
     let _ = writeln!(
         out,
-        "thermo_style custom step atoms ke\nthermo 1000\nrun 100\nrun {steps}"
+        "variable vcmx equal vcm(mobile,x)\nthermo_style custom step atoms ke v_vcmx\n\
+         thermo_modify format float %.6e\nthermo 1000\nrun 100\nrun {steps}"
     );
     Ok(out)
 }

@@ -120,6 +120,16 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let info = engine.describe();
     let state = engine.download();
     let mobile = state.inv_mass.iter().filter(|&&m| m > 0.0).count();
+    // What a LAMMPS run of the same scene (`--lammps`) prints as `ke` and `vcm(mobile,x)` after
+    // the same 100 + steps: a check that the two ran the same physics.
+    let (ke, mass, px) = (0..state.len()).filter(|&i| state.inv_mass[i] > 0.0).fold(
+        (0.0, 0.0, 0.0),
+        |(e, m, p), i| {
+            let (mi, v) = (state.mass[i], state.vel[i]);
+            (e + 0.5 * mi * v.norm2(), m + mi, p + mi * v.x)
+        },
+    );
+    let vcm_x = px / mass;
     let machine = format!(
         "{} cores, {}",
         std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -132,6 +142,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": a.steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
                 "precision": info.precision, "threads": info.threads, "particle_steps_per_s": rate,
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
+                "translational_ke_j": ke, "vcm_x_m_per_s": vcm_x,
                 "runs_particle_steps_per_s": runs, "best_particle_steps_per_s": best
             })
         );
@@ -139,6 +150,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!(
             "{}: N = {mobile}, {} steps, dt = {dt:.3e} s, {} {} ({}): {rate:.3e} particle-steps/s, {:.2} contacts/particle, {} list builds, {secs:.2} s, checksum {sum}",
             scene_name, a.steps, info.kind, info.precision, info.adapter, r.contacts_per_particle, r.list_builds
+        );
+        println!(
+            "  end state: translational kinetic energy {ke:.6e} J, mean x velocity {vcm_x:.6e} m/s"
         );
         if runs.len() > 1 {
             let all: Vec<String> = runs.iter().map(|x| format!("{x:.3e}")).collect();
