@@ -951,6 +951,44 @@ fn bench_json(dir: &Path, scene: &str, n: &str, extra: &[&str]) -> (Value, Strin
     (serde_json::from_slice(&out.stdout).unwrap(), stderr(&out))
 }
 
+/// `sweep bench --lammps DIR` writes the scene as LAMMPS data and input files beside the run,
+/// reports the end state LAMMPS's last thermo line compares with, and refuses a scene LAMMPS's
+/// sphere styles cannot express, naming it.
+#[test]
+fn bench_writes_the_scene_for_lammps() {
+    let dir = TempDir::new().unwrap();
+    let (v, _) = bench_json(
+        dir.path(),
+        "chute-bed",
+        "300",
+        &["--lammps", "lmp", "--no-store"],
+    );
+    let input = std::fs::read_to_string(dir.path().join("lmp/in.chute-bed")).unwrap();
+    let data = std::fs::read_to_string(dir.path().join("lmp/data.chute-bed")).unwrap();
+    assert!(input.contains("read_data data.chute-bed") && input.contains("run 20"));
+    assert!(data.contains("Velocities"));
+    assert!(v["translational_ke_j"].as_f64().unwrap() > 0.0);
+    assert!(
+        v["vcm_x_m_per_s"].as_f64().unwrap() > 0.0,
+        "the bed flows down +x"
+    );
+    let out = sweep_cmd(dir.path())
+        .args([
+            "bench",
+            "--scene",
+            "chute-rods",
+            "--particles",
+            "300",
+            "--steps",
+            "1",
+        ])
+        .args(["--lammps", "lmp", "--no-store"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("oriented"), "{}", stderr(&out));
+}
+
 /// `sweep bench --repeat K` runs K times from the same start: each run must end in the same state
 /// (the bench refuses otherwise), and the reported rate is the median of the K.
 #[test]
