@@ -12,6 +12,8 @@
 //! - LAMMPS computes in f64.
 
 use std::fmt::Write as _;
+
+use anyhow::Context as _;
 use std::path::{Path, PathBuf};
 
 use crate::bench::BenchScene;
@@ -38,11 +40,16 @@ pub fn export(name: &str, sc: &BenchScene, steps: u64, dir: &Path) -> anyhow::Re
     );
     anyhow::ensure!(c.sink_z.is_none(), "--lammps: scene {name} has a sink");
     let file = name.replace('/', "-");
-    std::fs::create_dir_all(dir)?;
-    let data = dir.join(format!("data.{file}"));
-    std::fs::write(&data, data_file(name, sc))?;
+    // Both texts first: a scene that cannot be written leaves no half of it behind.
+    let (data_text, input_text) = (data_file(name, sc), input_file(name, &file, sc, steps)?);
+    let write = |path: &Path, text: &str| {
+        std::fs::write(path, text).with_context(|| format!("--lammps: writing {}", path.display()))
+    };
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("--lammps: creating {}", dir.display()))?;
+    write(&dir.join(format!("data.{file}")), &data_text)?;
     let input = dir.join(format!("in.{file}"));
-    std::fs::write(&input, input_file(name, &file, sc, steps)?)?;
+    write(&input, &input_text)?;
     Ok(input)
 }
 
@@ -223,13 +230,15 @@ fn input_file(name: &str, file: &str, sc: &BenchScene, steps: u64) -> anyhow::Re
     );
     let _ = writeln!(out, "timestep {:e}", c.dt_s);
     let gv = c.gravity;
-    let _ = writeln!(
-        out,
-        "fix gravity mobile gravity {g:e} vector {:e} {:e} {:e}",
-        gv[0] / g,
-        gv[1] / g,
-        gv[2] / g
-    );
+    if g > 0.0 {
+        let _ = writeln!(
+            out,
+            "fix gravity mobile gravity {g:e} vector {:e} {:e} {:e}",
+            gv[0] / g,
+            gv[1] / g,
+            gv[2] / g
+        );
+    }
     let _ = writeln!(out, "fix move mobile nve/sphere");
     if sc.state.inv_mass.contains(&0.0) {
         let _ = writeln!(out, "fix freeze base freeze");
