@@ -422,14 +422,23 @@ pub fn build_half<R: Real>(
     assert!(grid.start.last() == Some(&(n as u32)) && grid.start.windows(2).all(|w| w[0] <= w[1]));
     let (pos, rad, inv_mass) = (&state.pos[..n], &grid.reach[..n], &state.inv_mass[..n]);
     let image = periodic.image();
+    // The most candidates one particle can have: 27 cells of the fullest cell's count, and
+    // fewer than N. (A row that grows instead, by a test per candidate, cost 1.7 % more
+    // instructions on the flowing chute-bed.)
+    let fullest = grid
+        .start
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .max()
+        .unwrap_or(0);
+    let most = (27 * fullest as usize).min(n);
     let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(HALF_BLOCK))
         .into_par_iter()
         .map(|b| {
             let range = b * HALF_BLOCK..((b + 1) * HALF_BLOCK).min(n);
             let mut counts = Vec::with_capacity(range.len());
             let mut nbr = Vec::with_capacity(range.len() * 8);
-            // One particle's candidates; grows to the most any particle of the block has.
-            let mut row = Vec::<u32>::new();
+            let mut row = vec![0u32; most];
             for i in range {
                 let (p, ri) = (pos[i], rad[i]);
                 let fixed_i = inv_mass[i] == R::zero();
@@ -450,11 +459,7 @@ pub fn build_half<R: Real>(
                     let cut = ri + rj + skin;
                     // Every candidate is written and the place advances only for a partner:
                     // whether one is within reach is a coin flip the branch predictor loses.
-                    if k < row.len() {
-                        row[k] = j as u32;
-                    } else {
-                        row.push(j as u32);
-                    }
+                    row[k] = j as u32;
                     k += usize::from(d.norm2() < cut * cut && !both_fixed);
                 });
                 // Ascending partners: a fixed order, and the partners' data read in memory order.
