@@ -186,6 +186,7 @@ mod quads {
 
     use super::{Kick, KickBlock, Kicked};
     use crate::engine::grid::Periodic;
+    use crate::engine::kinematics::v3_of;
     use crate::engine::real::V3;
 
     /// A particle that left the box: out of line, so that the loop keeps its registers.
@@ -256,11 +257,8 @@ mod quads {
                     }
                 }
                 // |v|² as `V3::norm2` sums it: (x² + y²) + z².
-                let vv = _mm_mul_ps(v, v);
-                let x2 = _mm_cvtss_f32(vv);
-                let y2 = _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(vv, vv));
-                let z2 = _mm_cvtss_f32(_mm_movehl_ps(vv, vv));
-                x2 + y2 + z2
+                let vv = v3_of(_mm_mul_ps(v, v));
+                vv.x + vv.y + vv.z
             }
         })
     }

@@ -116,13 +116,23 @@ impl Separation<f32> {
                 _mm_add_ss(dd, _mm_shuffle_ps::<0b01>(dd, dd)),
                 _mm_movehl_ps(dd, dd),
             ));
-            let v = V3::new(
-                _mm_cvtss_f32(d),
-                _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(d, d)),
-                _mm_cvtss_f32(_mm_movehl_ps(d, d)),
-            );
-            (v, d2)
+            (v3_of(d), d2)
         }
+    }
+}
+
+/// The first three places of a 4-vector (the record's x, y, z).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) fn v3_of(q: std::arch::x86_64::__m128) -> V3<f32> {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE is part of the x86-64 baseline.
+    unsafe {
+        V3::new(
+            _mm_cvtss_f32(q),
+            _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(q, q)),
+            _mm_cvtss_f32(_mm_movehl_ps(q, q)),
+        )
     }
 }
 

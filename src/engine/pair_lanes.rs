@@ -12,6 +12,8 @@ use multiversion::multiversion;
 use std::any::TypeId;
 
 use super::contact::LawKernel;
+#[cfg(target_arch = "x86_64")]
+use super::kinematics::v3_of;
 use super::kinematics::Kin;
 use super::real::{Real, V3};
 
@@ -121,17 +123,7 @@ impl<R: Real> Place<'_, R> {
                     (kj as *const Kin<R>).cast::<f32>(),
                 )
             };
-            let put = |c: &mut [Column<f32>; 3], q: __m128| {
-                // SAFETY: SSE is part of the x86-64 baseline.
-                let (x, y, z) = unsafe {
-                    (
-                        _mm_cvtss_f32(q),
-                        _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(q, q)),
-                        _mm_cvtss_f32(_mm_movehl_ps(q, q)),
-                    )
-                };
-                Place::set3(c, t, V3::new(x, y, z));
-            };
+            let put = |c: &mut [Column<f32>; 3], q: __m128| Place::set3(c, t, v3_of(q));
             // SAFETY: SSE is part of the x86-64 baseline; a `Kin<f32>` is 16-byte aligned with
             // its velocity at place 4 and its angular velocity at place 8.
             unsafe {
