@@ -1,14 +1,19 @@
--- sweep's store. Version 4 (PRAGMA user_version = 4). Every statement is idempotent (IF NOT EXISTS):
+-- sweep's store. Version 5 (PRAGMA user_version = 5). Every statement is idempotent (IF NOT EXISTS):
 -- migrating from an older version runs the whole file again, which adds the new tables.
 -- Units are in column names (SI). Results tables are meant for plain SQL use.
 
+-- One row per launched version of a campaign: relaunching a changed file under the same name is
+-- refused unless the user asks for a new version (`sweep launch --new-version`), which gets its
+-- own row and its own jobs. Reports read the latest version unless told `NAME@vK`.
 CREATE TABLE IF NOT EXISTS campaigns (
     id            INTEGER PRIMARY KEY,
-    name          TEXT NOT NULL UNIQUE,
+    name          TEXT NOT NULL,
+    version       INTEGER NOT NULL DEFAULT 1,
     file          TEXT NOT NULL,
     scene         TEXT NOT NULL,
     spec_json     TEXT NOT NULL,          -- the campaign file as parsed (normalised JSON)
-    created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+    created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    UNIQUE (name, version)
 );
 
 CREATE TABLE IF NOT EXISTS jobs (
@@ -19,7 +24,9 @@ CREATE TABLE IF NOT EXISTS jobs (
     seed            INTEGER NOT NULL,      -- derived from the parameters
     status          TEXT NOT NULL DEFAULT 'pending'
                     CHECK (status IN ('pending', 'running', 'paused', 'done', 'failed')),
-    attempts        INTEGER NOT NULL DEFAULT 0,
+    attempts        INTEGER NOT NULL DEFAULT 0,   -- claims that did not end in a clean pause
+    max_attempts    INTEGER NOT NULL DEFAULT 3,   -- from the campaign's run.max_attempts
+    stage           TEXT,                  -- what the job was doing last: 'claimed', 'fill', 'discharge', 'flow', 'measure'
     last_error      TEXT,
     checkpoint_path TEXT,
     progress        REAL NOT NULL DEFAULT 0,   -- fraction of target simulated time
@@ -28,7 +35,7 @@ CREATE TABLE IF NOT EXISTS jobs (
     particles       INTEGER,
     particle_steps  INTEGER NOT NULL DEFAULT 0,
     wall_time_s     REAL NOT NULL DEFAULT 0,
-    lease_owner     TEXT,
+    lease_owner     TEXT,                  -- 'local:HOST:PID:T' (an OS lock in the job's directory says whether it lives) or 'slurm:…'
     heartbeat_at    REAL,                  -- unix seconds
     backend         TEXT,
     adapter         TEXT,
@@ -266,4 +273,11 @@ CREATE TABLE IF NOT EXISTS silo_field_series (
     value       REAL NOT NULL,
     units       TEXT NOT NULL,
     PRIMARY KEY (job_id, name, t_s)
+);
+
+-- Facts about the store itself, e.g. 'work_dir': the absolute path of the directory that holds
+-- its checkpoints and shared stages (so a renamed or copied database still finds them).
+CREATE TABLE IF NOT EXISTS store_meta (
+    key     TEXT PRIMARY KEY,
+    value   TEXT NOT NULL
 );

@@ -5,6 +5,7 @@ mod cancel;
 mod collect;
 mod export;
 mod fields;
+mod forget;
 mod info;
 mod launch;
 mod plan;
@@ -140,6 +141,16 @@ enum Command {
     /// ERRORS: no database or an unknown job id exit with status 2; a job without field sets
     /// (its campaign had no `observers.fields`) is said so and exits with status 0.
     Fields(fields::Arguments),
+    /// Remove jobs, their results, checkpoints and work directories (after confirmation).
+    ///
+    /// EXAMPLES:
+    ///   sweep forget --job 7
+    ///   sweep forget --campaign silo_QvsF@v1
+    ///   sweep forget --campaign silo_QvsF --yes   # every version, no question
+    ///
+    /// ERRORS: an unknown job or campaign, or a job whose process still runs it, exit with
+    /// status 2; declining the question exits with 1 and removes nothing.
+    Forget(forget::Arguments),
     /// Print the JSON Schema of campaign files (for editors).
     Schema,
     /// GPU adapters found, their limits, and the backend `auto` and `gpu` would choose.
@@ -161,7 +172,13 @@ pub fn run() -> anyhow::Result<i32> {
         Command::Export(a) => export::run(a),
         Command::Fields(a) => fields::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Forget(a) => forget::run(a),
         Command::Schema => schema::run(),
         Command::Info(a) => info::run(a),
     }
+}
+
+/// A clap parser of a whole number in [lo, hi] (thread and job counts).
+pub fn bounded(lo: u64, hi: usize) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi as u64)
 }

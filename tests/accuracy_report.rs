@@ -30,7 +30,7 @@ fn errors_are_measured_against_the_most_accurate_job() {
     );
     let dir = tempfile::TempDir::new().unwrap();
     let mut conn = sweep::store::open(&dir.path().join("a.db")).unwrap();
-    sweep::store::jobs::register(&mut conn, "acc.json", &c, &jobs).unwrap();
+    sweep::store::jobs::register(&mut conn, "acc.json", &c, &jobs, false).unwrap();
     // Q per job (in registration order), and dt from n_c (only their order matters here).
     let q: [f64; 4] = [0.100, 0.130, 0.104, 0.091];
     let dt = [1e-6, 5e-6, 1e-6, 6e-6];

@@ -1,15 +1,19 @@
 //! Campaign files: the raw format (`file`, with where jobs run in `executor`), validation with
 //! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
 
+mod diff;
 mod error;
 mod executor;
 mod expand;
 mod file;
+mod point;
 
+pub use diff::diff_fields;
 pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, JobSpec};
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
+pub use point::point_key;
 
 /// Reads, parses, validates and expands a campaign file.
 ///

@@ -50,7 +50,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(0);
     }
     // Results already there make their jobs done, not cancelled.
-    let r = sweep::runner::slurm::collect(&mut conn, &work_dir(&a.db.db))?;
+    let work = work_dir(&conn, &a.db.db)?;
+    let r = sweep::runner::slurm::collect(&mut conn, &work)?;
     super::collect::print_report(&r);
     let c = sweep::runner::slurm::cancel(&mut conn, cid)?;
     if c.arrays.is_empty() {

@@ -28,7 +28,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
-    let r = sweep::runner::slurm::collect(&mut conn, &work_dir(&a.db.db))?;
+    let work = work_dir(&conn, &a.db.db)?;
+    let r = sweep::runner::slurm::collect(&mut conn, &work)?;
     print_report(&r);
     println!(
         "{} job(s) collected, {} still queued or running under Slurm, {} ended without a result, {} failed, {} not verified",

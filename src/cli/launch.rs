@@ -10,9 +10,14 @@ use sweep::campaign::ExecutorKind;
 use sweep::runner::backend::{auto_summary, BackendChoice};
 use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
+use sweep::store::jobs::Registration;
 use sweep::store::slurm_tasks;
 
 use super::DbArg;
+
+/// The most threads (or jobs at once) a command accepts: far above any machine's cores, far
+/// below what makes the OS refuse a thread pool.
+pub const MAX_THREADS: usize = 1024;
 
 /// How pending jobs run (shared by launch and resume).
 #[derive(clap::Args)]
@@ -22,11 +27,11 @@ pub struct RunArgs {
     /// auto (a GPU when there is one, else the CPU), gpu or cpu.
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
-    /// Jobs run at the same time.
-    #[arg(long, default_value_t = 1)]
+    /// Jobs run at the same time (at least 1).
+    #[arg(long, default_value_t = 1, value_parser = super::bounded(1, MAX_THREADS))]
     pub parallel: usize,
-    /// Engine threads per job (0: cores / parallel).
-    #[arg(long, default_value_t = 0)]
+    /// Engine threads per job (0: cores / parallel; at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = super::bounded(0, MAX_THREADS))]
     pub threads: usize,
 }
 
@@ -38,34 +43,39 @@ pub struct Arguments {
     pub run: RunArgs,
     #[command(flatten)]
     pub exec: super::submit::ExecutorArgs,
+    /// Launch a changed file as a new version of its campaign (the old version's jobs and
+    /// results stay as they are, apart from it).
+    #[arg(long)]
+    pub new_version: bool,
 }
 
 #[derive(clap::Args)]
 pub struct ResumeArguments {
     #[command(flatten)]
     pub run: RunArgs,
-    /// A running job whose heartbeat is older than this (s) is taken as dead.
+    /// A running job of another machine (or of an older sweep) whose heartbeat is older than
+    /// this (s) is taken as dead. Jobs of this machine are judged at once by their OS lock.
     #[arg(long, default_value_t = 30.0)]
     pub stale_after: f64,
-    /// Failed jobs are retried until they have had this many attempts.
-    #[arg(long, default_value_t = 3)]
-    pub max_attempts: i64,
+    /// Jobs are run until they have had this many attempts (default: each campaign's
+    /// `run.max_attempts`); a job whose attempts are spent is marked failed.
+    #[arg(long, value_parser = clap::value_parser!(i64).range(1..))]
+    pub max_attempts: Option<i64>,
     /// Where resumed jobs run: local or slurm (default: where each job last ran; Slurm jobs
     /// are resubmitted with the settings of their last submission).
     #[arg(long)]
     pub executor: Option<ExecutorKind>,
 }
 
-/// The work directory (checkpoints, shared stages) of a database.
-pub fn work_dir(db: &Path) -> PathBuf {
-    let stem = db
-        .file_stem()
-        .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned());
-    db.parent()
-        .unwrap_or(Path::new("."))
-        .join("sweep-work")
-        .join(stem)
+/// The work directory (checkpoints, shared stages) of the database at `db`, as it records it.
+pub fn work_dir(conn: &rusqlite::Connection, db: &Path) -> anyhow::Result<PathBuf> {
+    sweep::store::work_dir(conn, db)
+        .with_context(|| format!("{}: finding its work directory", db.display()))
 }
+
+/// Exit status of a run that stopped on an interrupt (or left jobs paused): 75, EX_TEMPFAIL,
+/// as `sweep run-job`; `sweep resume` continues it.
+pub const EXIT_PAUSED: i32 = 75;
 
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
 fn interrupt_flag() -> Arc<AtomicBool> {
@@ -84,7 +94,9 @@ fn interrupt_flag() -> Arc<AtomicBool> {
 /// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
 fn run_jobs(
     r: &RunArgs,
+    work: PathBuf,
     campaign: Option<i64>,
+    max_attempts: Option<i64>,
     checkpoint_interval_s: f64,
     total: usize,
     done: usize,
@@ -94,32 +106,72 @@ fn run_jobs(
     }
     let opts = PoolOptions {
         db: r.db.db.clone(),
-        work_dir: work_dir(&r.db.db),
+        work_dir: work,
         campaign,
         parallel: r.parallel,
         threads: r.threads,
         backend: r.backend,
         checkpoint_interval_s,
+        max_attempts,
         interrupt: interrupt_flag(),
         bars: std::io::stderr().is_terminal(),
     };
     let s = run_pending(&opts, total, done).context("running jobs")?;
-    Ok(finish(s, &r.db.db))
+    let interrupted = opts.interrupt.load(Ordering::SeqCst);
+    Ok(finish(s, interrupted, &r.db.db))
 }
 
-fn finish(s: sweep::runner::pool::PoolSummary, db: &Path) -> i32 {
+fn finish(s: sweep::runner::pool::PoolSummary, interrupted: bool, db: &Path) -> i32 {
     println!(
         "{} job(s) done, {} failed, {} paused",
         s.done, s.failed, s.paused
     );
-    if s.paused > 0 {
-        println!("continue with: sweep resume --db {}", db.display());
-    }
     if s.failed > 0 {
         println!("see the errors with: sweep status --db {}", db.display());
+    }
+    if s.paused > 0 || interrupted {
+        println!(
+            "interrupted: continue with: sweep resume --db {}",
+            db.display()
+        );
+        EXIT_PAUSED
+    } else if s.failed > 0 {
         1
     } else {
         0
+    }
+}
+
+/// Registers a launched campaign, or explains why not: a file changed since the version
+/// launched under its name is refused with the fields that differ. Ok(Err(code)) is the exit
+/// code of a refusal.
+pub fn register(
+    conn: &mut rusqlite::Connection,
+    a: &Arguments,
+    file: &sweep::campaign::CampaignFile,
+    jobs: &[sweep::campaign::JobSpec],
+) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
+    let path = a.file.display().to_string();
+    match sweep::store::jobs::register(conn, &path, file, jobs, a.new_version)? {
+        Registration::Registered {
+            campaign_id,
+            version,
+            added,
+        } => Ok(Ok((campaign_id, version, added))),
+        Registration::Changed { version, changes } => {
+            eprintln!(
+                "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs; this file changes:",
+                file.name
+            );
+            for c in &changes {
+                eprintln!("  {c}");
+            }
+            eprintln!(
+                "nothing registered. Launch it as version {} with `--new-version` (version {version} and its results stay apart), or give it another \"name\".",
+                version + 1
+            );
+            Ok(Err(2))
+        }
     }
 }
 
@@ -143,25 +195,37 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.run.db.db)?;
-    let (cid, added) =
-        sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &file, &jobs)?;
+    let db = &a.run.db.db;
+    let mut conn = sweep::store::open(db)?;
+    let (cid, version, added) = match register(&mut conn, &a, &file, &jobs)? {
+        Ok(x) => x,
+        Err(code) => return Ok(code),
+    };
     let done: i64 = conn.query_row(
         "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 AND j.status = 'done'",
         [cid],
         |r| r.get(0),
     )?;
     println!(
-        "campaign {}: {} job(s), {} new, {} already done (database {})",
+        "campaign {}{}: {} job(s), {} new, {} already done (database {})",
         file.name,
+        if version > 1 {
+            format!(" (version {version})")
+        } else {
+            String::new()
+        },
         jobs.len(),
         added,
         done,
-        a.run.db.db.display()
+        db.display()
     );
+    let work = work_dir(&conn, db)?;
+    drop(conn);
     run_jobs(
         &a.run,
+        work,
         Some(cid),
+        None,
         file.run.checkpoint_interval_s,
         jobs.len(),
         done as usize,
@@ -178,28 +242,50 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     }
     let db = &a.run.db.db;
     let mut conn = sweep::store::open(db)?;
+    let work = work_dir(&conn, db)?;
     let slurm_used = slurm_tasks::any(&conn)?;
     if slurm_used {
-        let r = slurm::collect(&mut conn, &work_dir(db))?;
+        let r = slurm::collect(&mut conn, &work)?;
         super::collect::print_report(&r);
     }
-    let n = slurm_tasks::release_stale_submissions(&conn, a.stale_after)?
-        + sweep::store::jobs::requeue(&mut conn, a.stale_after, a.max_attempts)?;
+    let released = slurm_tasks::release_stale_submissions(&conn, a.stale_after)?;
+    let decisions = sweep::store::jobs::requeue(&mut conn, a.max_attempts, |j| {
+        sweep::runner::job_lock::liveness(&work, j, a.stale_after)
+    })?;
+    let resumed = decisions.iter().filter(|d| d.action == "pending").count();
     let (total, done): (i64, i64) = conn.query_row(
         "SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs",
         [],
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
-    println!("{n} job(s) to resume, {done} of {total} already done");
+    println!(
+        "{} job(s) to resume, {done} of {total} already done",
+        resumed + released
+    );
+    for d in &decisions {
+        if d.why != "not started yet" {
+            let what = match d.action {
+                "pending" => "resumed",
+                "failed" => "marked failed",
+                _ => "left alone",
+            };
+            println!("  job {} {what}: {} ({})", d.job.id, d.why, d.job.label);
+        }
+    }
     if let Some(code) = super::submit::resume_on_slurm(&mut conn, db, &a, slurm_used)? {
         return Ok(code);
     }
+    drop(conn);
     // Each job's own campaign sets its checkpoint interval; this is the fallback.
-    run_jobs(
+    let code = run_jobs(
         &a.run,
+        work,
         None,
+        a.max_attempts,
         sweep::campaign::RunSettings::default().checkpoint_interval_s,
         total as usize,
         done as usize,
-    )
+    )?;
+    let marked_failed = decisions.iter().any(|d| d.action == "failed");
+    Ok(if code == 0 && marked_failed { 1 } else { code })
 }

@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
+use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
+use sweep::store::jobs::{self, Liveness, OwnerPlace};
 use sweep::store::slurm_tasks::{self, SlurmTask};
 
 use super::DbArg;
@@ -12,9 +14,13 @@ use super::DbArg;
 pub struct Arguments {
     #[command(flatten)]
     pub db: DbArg,
-    /// Only this campaign.
+    /// Only this campaign (every version of it).
     #[arg(long)]
     pub campaign: Option<String>,
+    /// A running job of another machine whose heartbeat is older than this (s) is shown as
+    /// gone (jobs of this machine are judged by their OS lock).
+    #[arg(long, default_value_t = 30.0)]
+    pub stale_after: f64,
 }
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
@@ -27,12 +33,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut conn = sweep::store::open(&a.db.db)?;
     let slurm = slurm_view(&mut conn, &a.db.db)?;
-    let mut camps = conn.prepare(
-        "SELECT id, name, file FROM campaigns WHERE ?1 IS NULL OR name = ?1 ORDER BY id",
-    )?;
-    let camps: Vec<(i64, String, String)> = camps
-        .query_map([&a.campaign], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?
-        .collect::<Result<_, _>>()?;
+    let work = super::launch::work_dir(&conn, &a.db.db)?;
+    let camps = jobs::campaigns(&conn, a.campaign.as_deref())?;
     if camps.is_empty() {
         println!(
             "{}: no campaigns{}",
@@ -43,47 +45,18 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
-    for (cid, name, file) in camps {
-        let mut q = conn.prepare(
-            "SELECT j.id, j.status, j.progress, j.sim_time_s, j.target_time_s, j.particle_steps, j.wall_time_s, j.attempts,
-                    COALESCE(j.last_error, ''), cj.label, COALESCE(j.backend, ''), COALESCE(j.precision, '')
-             FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 ORDER BY j.id",
-        )?;
-        #[allow(clippy::type_complexity)]
-        let rows: Vec<(
-            i64,
-            String,
-            f64,
-            f64,
-            f64,
-            i64,
-            f64,
-            i64,
-            String,
-            String,
-            String,
-            String,
-        )> = q
-            .query_map([cid], |r| {
-                Ok((
-                    r.get(0)?,
-                    r.get(1)?,
-                    r.get(2)?,
-                    r.get(3)?,
-                    r.get(4)?,
-                    r.get(5)?,
-                    r.get(6)?,
-                    r.get(7)?,
-                    r.get(8)?,
-                    r.get(9)?,
-                    r.get(10)?,
-                    r.get(11)?,
-                ))
-            })?
-            .collect::<Result<_, _>>()?;
-        let count = |s: &str| rows.iter().filter(|r| r.1 == s).count();
+    for c in camps {
+        let rows = jobs::campaign_jobs(&conn, c.id)?;
+        let count = |s: &str| rows.iter().filter(|r| r.status == s).count();
         println!(
-            "campaign {name} ({file}): {} jobs — {} done, {} running, {} pending, {} paused, {} failed",
+            "campaign {}{} ({}): {} jobs — {} done, {} running, {} pending, {} paused, {} failed",
+            c.name,
+            if c.version > 1 {
+                format!(" version {}", c.version)
+            } else {
+                String::new()
+            },
+            c.file,
             rows.len(),
             count("done"),
             count("running"),
@@ -92,38 +65,64 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("failed")
         );
         println!(
-            "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>4}  parameters",
+            "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>5}  parameters",
             "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try"
         );
         for r in &rows {
-            let rate = if r.6 > 0.0 { r.5 as f64 / r.6 } else { 0.0 };
-            let eta = if r.1 != "done" && r.3 > 0.0 && r.6 > 0.0 {
-                format!("{:.0}", (r.4 - r.3).max(0.0) * r.6 / r.3)
+            let rate = if r.wall_time_s > 0.0 {
+                r.particle_steps as f64 / r.wall_time_s
+            } else {
+                0.0
+            };
+            let eta = if r.status != "done" && r.sim_time_s > 0.0 && r.wall_time_s > 0.0 {
+                format!(
+                    "{:.0}",
+                    (r.target_time_s - r.sim_time_s).max(0.0) * r.wall_time_s / r.sim_time_s
+                )
             } else {
                 "-".into()
             };
             println!(
-                "{:>5}  {:<8} {:>6.1} {:>6.2}/{:<7.2} {:>16.3e} {:>10} {:>4}  {} {}",
-                r.0,
-                r.1,
-                100.0 * r.2,
-                r.3,
-                r.4,
+                "{:>5}  {:<8} {:>6.1} {:>6.2}/{:<7.2} {:>16.3e} {:>10} {:>5}  {} {}",
+                r.id,
+                r.status,
+                100.0 * r.progress,
+                r.sim_time_s,
+                r.target_time_s,
                 rate,
                 eta,
-                r.7,
-                r.9,
-                if r.10.is_empty() {
-                    String::new()
-                } else {
-                    format!("[{} {}]", r.10, r.11)
+                format!("{}/{}", r.attempts, r.max_attempts),
+                r.label,
+                match (&r.backend, &r.precision) {
+                    (Some(b), Some(p)) => format!("[{b} {p}]"),
+                    _ => String::new(),
                 }
             );
-            if !r.8.is_empty() && r.1 != "done" {
-                println!("         last error: {}", r.8);
+            // Every job not done says why it is where it is.
+            match r.status.as_str() {
+                "running" if jobs::owner_place(r.lease_owner.as_deref()) != OwnerPlace::Slurm => {
+                    let stage = r.stage.as_deref().unwrap_or("claimed");
+                    match job_lock::liveness(&work, &r.as_open(), a.stale_after) {
+                        Liveness::Alive(why) => println!("         {why}; stage '{stage}'"),
+                        Liveness::Gone(why) => println!(
+                            "         NOT RUNNING: {why}, during stage '{stage}'; `sweep resume` continues it"
+                        ),
+                    }
+                }
+                "failed" if r.attempts >= r.max_attempts => println!(
+                    "         no attempts left ({} of {}): `sweep resume --max-attempts {}` tries again",
+                    r.attempts,
+                    r.max_attempts,
+                    r.attempts + 1
+                ),
+                "paused" => println!("         paused at its checkpoint: `sweep resume` continues it"),
+                _ => {}
+            }
+            if let Some(e) = r.last_error.as_deref().filter(|_| r.status != "done") {
+                println!("         last error: {e}");
             }
             if let Some((tasks, view)) = &slurm {
-                if let Some(t) = tasks.get(&r.0) {
+                if let Some(t) = tasks.get(&r.id) {
                     println!("         slurm: {}", describe(t, view.as_ref()));
                 }
             }
@@ -144,7 +143,8 @@ fn slurm_view(conn: &mut rusqlite::Connection, db: &Path) -> anyhow::Result<Opti
     if !slurm_tasks::any(conn)? {
         return Ok(None);
     }
-    let r = slurm::collect(conn, &super::launch::work_dir(db))?;
+    let work = super::launch::work_dir(conn, db)?;
+    let r = slurm::collect(conn, &work)?;
     super::collect::print_report(&r);
     let tasks = slurm_tasks::latest_by_job(conn, None)?;
     let mut arrays: Vec<String> = tasks.values().map(|t| t.array_job_id.clone()).collect();

@@ -109,8 +109,10 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> any
     } else {
         sweep::store::open(db)?
     };
-    let (cid, added) =
-        sweep::store::jobs::register(&mut conn, &a.file.display().to_string(), &launched, jobs)?;
+    let (cid, _version, added) = match super::launch::register(&mut conn, a, &launched, jobs)? {
+        Ok(x) => x,
+        Err(code) => return Ok(code),
+    };
     let (done, pending) = campaign_counts(&conn, cid)?;
     println!(
         "campaign {}: {} job(s), {} new, {} already done (database {}{})",
@@ -181,7 +183,7 @@ fn submit_and_report(
     jobs: &[i64],
     dry_run: bool,
 ) -> anyhow::Result<i32> {
-    let work = std::path::absolute(work_dir(db))?;
+    let work = work_dir(conn, db)?;
     let bin = std::env::current_exe()
         .and_then(|p| p.canonicalize())
         .context("locating the sweep binary for the job scripts")?;

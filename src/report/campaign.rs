@@ -14,7 +14,19 @@ pub struct CampaignRef {
     pub scene: String,
 }
 
-/// The campaign named `name`, or when None the most recent campaign of `scene` (of any scene
+/// "NAME@vK" as (NAME, Some(K)); a plain name (or one whose suffix is not a version) as
+/// (name, None), which means its latest version.
+pub fn split_version(name: &str) -> (&str, Option<i64>) {
+    match name.rsplit_once("@v") {
+        Some((n, k)) if !n.is_empty() => match k.parse() {
+            Ok(k) => (n, Some(k)),
+            Err(_) => (name, None),
+        },
+        _ => (name, None),
+    }
+}
+
+/// The campaign named `name` (its latest version; "NAME@vK" for version K), or when None the most recent campaign of `scene` (of any scene
 /// when `scene` is None). A named campaign must belong to `scene` when one is given.
 ///
 /// # Errors
@@ -48,10 +60,12 @@ pub fn find_campaign(
             (None, None) => bail!("no campaign in the database: launch one first"),
         };
     };
+    let (name, version) = split_version(name);
     let found = conn
         .query_row(
-            "SELECT id, name, scene FROM campaigns WHERE name = ?1",
-            params![name],
+            "SELECT id, name, scene FROM campaigns WHERE name = ?1 AND (?2 IS NULL OR version = ?2)
+             ORDER BY version DESC LIMIT 1",
+            params![name, version],
             row,
         )
         .optional()?;
@@ -63,7 +77,10 @@ pub fn find_campaign(
         ),
         (Some(c), _) => Ok(c),
         (None, _) => {
-            let mut stmt = conn.prepare("SELECT name FROM campaigns ORDER BY name")?;
+            let mut stmt = conn.prepare(
+                "SELECT name || CASE WHEN version > 1 THEN '@v' || version ELSE '' END
+                 FROM campaigns ORDER BY name, version",
+            )?;
             let names = stmt
                 .query_map([], |r| r.get::<_, String>(0))?
                 .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -21,7 +21,7 @@ mod silo_normalise;
 mod streamlines;
 mod table;
 
-pub use campaign::{find_campaign, CampaignRef};
+pub use campaign::{find_campaign, split_version, CampaignRef};
 pub use missing::{campaign_completion, Completion};
 pub use plot::{Axis, Figure, Legend, Panel, Scale, Series, SeriesKind};
 pub use render::{figures_of, render_figure, FigureReport, FIGURES};

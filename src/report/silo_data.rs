@@ -122,28 +122,36 @@ pub fn same_value(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-12)
 }
 
-/// Combines rows of equal (D, f): the mean of their Q and, with ≥ 2 replicas, a CI from their
-/// spread (Student t); with one replica its own CI. Rows without Q are skipped. Sorted by D, f.
+/// Combines the replicas of each point (rows whose parameters are equal except the replica
+/// index, `campaign::point_key`): the mean of their Q and, with ≥ 2 replicas, a CI from their
+/// spread (Student t); with one replica its own CI. Rows without Q are skipped. Sorted by D, f;
+/// two points at one (D, f) that differ in another parameter stay two points.
 pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
-    let mut with_q: Vec<&DischargeRow> = rows.iter().filter(|r| r.q_kg_per_s.is_some()).collect();
-    with_q.sort_by(|a, b| {
+    let mut with_q: Vec<(&DischargeRow, String)> = rows
+        .iter()
+        .filter(|r| r.q_kg_per_s.is_some())
+        .map(|r| (r, crate::campaign::point_key(&r.params_json)))
+        .collect();
+    with_q.sort_by(|(a, ka), (b, kb)| {
         a.orifice_diameter_m
             .total_cmp(&b.orifice_diameter_m)
             .then(a.rotation_frequency_hz.total_cmp(&b.rotation_frequency_hz))
+            .then(ka.cmp(kb))
     });
     let mut out = Vec::new();
     let mut rest = with_q.as_slice();
-    while let Some(first) = rest.first() {
+    while let Some((first, key)) = rest.first() {
         let n = rest
             .iter()
-            .take_while(|r| {
+            .take_while(|(r, k)| {
                 same_value(r.orifice_diameter_m, first.orifice_diameter_m)
                     && same_value(r.rotation_frequency_hz, first.rotation_frequency_hz)
+                    && k == key
             })
             .count();
         let (group, tail) = rest.split_at(n);
         rest = tail;
-        let qs: Vec<f64> = group.iter().filter_map(|r| r.q_kg_per_s).collect();
+        let qs: Vec<f64> = group.iter().filter_map(|(r, _)| r.q_kg_per_s).collect();
         let (q, ci, ci_source) = match mean_ci95(&qs) {
             Some((mean, hw)) => (mean, Some(hw), CiSource::ReplicaSpread),
             None => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
@@ -246,6 +254,23 @@ mod tests {
         // s = 0.1414, t_1 = 12.706: hw = 12.706 · 0.1414 / √2 = 1.2706
         let hw = p.ci.expect("ci");
         assert!((hw - 1.270_620_473_617_470_7).abs() < 1e-9, "{hw}");
+    }
+
+    #[test]
+    fn jobs_that_differ_in_another_parameter_are_not_replicas() {
+        let with_n = |n: u32, replica: u32| DischargeRow {
+            params_json: format!(
+                r#"{{"scene":"silo","silo":{{"particle_count":{n},"replica":{replica}}}}}"#
+            ),
+            ..row(0.03, 0.5, Some(f64::from(n) / 1000.0), Some(0.01))
+        };
+        let pts = combine_replicas(&[with_n(300, 0), with_n(400, 0), with_n(300, 1)]);
+        assert_eq!(pts.len(), 2, "N = 300 and N = 400 are two points");
+        let replicas: Vec<usize> = pts.iter().map(|p| p.replicas).collect();
+        assert!(
+            replicas.contains(&2) && replicas.contains(&1),
+            "{replicas:?}"
+        );
     }
 
     #[test]

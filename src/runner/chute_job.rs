@@ -228,14 +228,12 @@ pub fn run_chute_job(
         Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
     };
     let info = engine.describe();
-    jobs::set_backend(
-        conn,
-        job.id,
-        &info.kind,
-        &info.adapter,
-        &info.precision,
-        state.len(),
-    )?;
+    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
+    let stage = |phase: Phase| match phase {
+        Phase::Flowing => "flow",
+        Phase::Measuring => "measure",
+    };
+    jobs::set_stage(conn, job.id, lease, stage(prog.phase))?;
 
     // A fixed chunk (see CHUNK_S), shortened only for an observer that samples faster.
     let chunk_steps = (CHUNK_S.min(settings.sample_interval_s) / scene.dt)
@@ -323,6 +321,7 @@ pub fn run_chute_job(
                     prog.phase = Phase::Measuring;
                     prog.measure_start_chunk = prog.chunk;
                     prog.observer = Some(probe.clone());
+                    jobs::set_stage(conn, job.id, lease, stage(prog.phase))?;
                     (ctx.log)(format!(
                         "job {}: {} at t = {t_now:.2} s{}; measuring for {} s",
                         job.id,

@@ -5,6 +5,7 @@
 
 pub mod backend;
 pub mod chute_job;
+pub mod job_lock;
 pub mod pool;
 pub mod silo_job;
 pub mod slurm;

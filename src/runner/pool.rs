@@ -8,7 +8,8 @@ use std::sync::{Arc, Mutex};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::backend::BackendChoice;
-use super::silo_job::{run_silo_job, JobContext, Outcome};
+use super::job_lock::{DirLock, Heartbeat};
+use super::silo_job::{job_dir, run_silo_job, JobContext, Outcome};
 use crate::store::jobs::{self, Lease};
 
 /// Options of a run of pending jobs.
@@ -22,6 +23,8 @@ pub struct PoolOptions {
     pub threads: usize,
     pub backend: BackendChoice,
     pub checkpoint_interval_s: f64,
+    /// Overrides each job's own `run.max_attempts` (`sweep resume --max-attempts`).
+    pub max_attempts: Option<i64>,
     pub interrupt: Arc<AtomicBool>,
     /// Draw progress bars (a terminal); otherwise print plain lines.
     pub bars: bool,
@@ -79,9 +82,16 @@ pub fn run_pending(
                 if opts.interrupt.load(Ordering::SeqCst) {
                     return Ok(());
                 }
-                let Some(job) = jobs::claim(&mut conn, opts.campaign, &lease)? else {
+                // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
+                // requeue waits for that transaction) never sees it running and unlocked.
+                let claimed =
+                    jobs::claim(&mut conn, opts.campaign, &lease, opts.max_attempts, |j| {
+                        Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?)
+                    })?;
+                let Some((job, _lock)) = claimed else {
                     return Ok(());
                 };
+                let _beat = Heartbeat::start(&opts.db, job.id, &lease.owner);
                 let bar = multi.add(ProgressBar::new(1000));
                 bar.set_style(
                     ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
@@ -130,9 +140,19 @@ pub fn run_pending(
                     Some("chute") => super::chute_job::run_chute_job,
                     _ => run_silo_job,
                 };
-                let outcome = match run(&mut conn, &job, &lease, &ctx) {
-                    Ok(o) => o,
-                    Err(e) => Outcome::Failed(format!("{e:#}")),
+                // A panic fails the job (with its message) instead of killing the worker.
+                let attempt = std::panic::AssertUnwindSafe(|| run(&mut conn, &job, &lease, &ctx));
+                let outcome = match std::panic::catch_unwind(attempt) {
+                    Ok(Ok(o)) => o,
+                    Ok(Err(e)) => Outcome::Failed(format!("{e:#}")),
+                    Err(panic) => Outcome::Failed(format!(
+                        "the job panicked: {}",
+                        panic
+                            .downcast_ref::<String>()
+                            .map(String::as_str)
+                            .or_else(|| panic.downcast_ref::<&str>().copied())
+                            .unwrap_or("(no message)")
+                    )),
                 };
                 bar.finish_and_clear();
                 let mut s = summary.lock().expect("summary");
@@ -150,7 +170,7 @@ pub fn run_pending(
                     }
                     Outcome::Paused => {
                         s.paused += 1;
-                        jobs::release(&conn, job.id, "paused", None)?;
+                        jobs::release(&conn, job.id, &lease, "paused", None)?;
                         log(format!(
                             "job {} paused at its checkpoint; `sweep resume` continues it",
                             job.id
@@ -158,7 +178,7 @@ pub fn run_pending(
                     }
                     Outcome::Failed(e) => {
                         s.failed += 1;
-                        jobs::release(&conn, job.id, "failed", Some(&e))?;
+                        jobs::release(&conn, job.id, &lease, "failed", Some(&e))?;
                         log(format!("job {} failed: {e}", job.id));
                     }
                 }

@@ -12,6 +12,7 @@ use rusqlite::Connection;
 use serde::{Deserialize, Serialize};
 
 use super::backend::{self, BackendChoice};
+use super::job_lock::DirLock;
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
 use crate::engine::{Backend, State};
@@ -110,11 +111,10 @@ fn fill_stage(
 ) -> anyhow::Result<(State<f64>, u64)> {
     let (key, seed) = spec.fill_key();
     let dir = ctx.work_dir.join("stages").join(&key[..16]);
-    std::fs::create_dir_all(&dir)?;
-    // One process fills; the others sharing the stage wait for its checkpoint.
-    let lock = dir.join("fill.lock");
+    // One process fills (holding the stage's OS lock); the others sharing the stage wait for its
+    // checkpoint, or take the stage over when the filler dies (the kernel drops its lock).
     let mut waited = false;
-    loop {
+    let _lock = loop {
         let (found, refused) = checkpoint::load_latest(&dir, &key);
         for r in refused {
             (ctx.log)(r);
@@ -127,46 +127,32 @@ fn fill_stage(
             ));
             return Ok((s, 0));
         }
-        match std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&lock)
-        {
-            Ok(mut f) => {
-                use std::io::Write;
-                writeln!(f, "{}", std::process::id())?;
-                break;
+        if let Some(lock) = DirLock::try_take(&dir)? {
+            // The filler may have finished between the look and the lock.
+            if checkpoint::load_latest(&dir, &key).0.is_none() {
+                break lock;
             }
-            Err(_) => {
-                let holder: Option<u32> = std::fs::read_to_string(&lock)
-                    .ok()
-                    .and_then(|t| t.trim().parse().ok());
-                let alive = holder.is_some_and(|pid| {
-                    pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
-                });
-                if !alive {
-                    // The filling process died: take the stage over.
-                    let _ = std::fs::remove_file(&lock);
-                    continue;
-                }
-                if !waited {
-                    (ctx.log)(format!(
-                        "fill stage {}: waiting for the job that is filling it",
-                        &key[..16]
-                    ));
-                    waited = true;
-                }
-                if ctx.interrupt.load(Ordering::SeqCst) {
-                    anyhow::bail!("interrupted while waiting for the fill stage");
-                }
-                std::thread::sleep(std::time::Duration::from_millis(200));
-            }
+            continue;
         }
-    }
-    let result = fill_stage_run(spec, scene, ctx, &dir, &key, seed);
-    let _ = std::fs::remove_file(&lock);
-    result
+        if !waited {
+            (ctx.log)(format!(
+                "fill stage {}: waiting for the job that is filling it",
+                &key[..16]
+            ));
+            waited = true;
+        }
+        if ctx.interrupt.load(Ordering::SeqCst) {
+            return Err(Interrupted.into());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    };
+    fill_stage_run(spec, scene, ctx, &dir, &key, seed)
 }
+
+/// The run was interrupted (SIGINT/SIGTERM) before its first checkpoint: the job is paused.
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted before the first checkpoint")]
+pub struct Interrupted;
 
 fn fill_stage_run(
     spec: &JobSpec,
@@ -189,6 +175,11 @@ fn fill_stage_run(
     let mut steps = 0u64;
     let mut s;
     loop {
+        // Every loop that runs the engine stops on an interrupt; a fill has no checkpoint of its
+        // own, so the job starts it again when resumed.
+        if ctx.interrupt.load(Ordering::SeqCst) {
+            return Err(Interrupted.into());
+        }
         let r = engine
             .advance(chunk)
             .map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
@@ -268,7 +259,12 @@ pub fn run_silo_job(
                     job.id
                 ));
             }
-            let (s, fill_steps) = fill_stage(&spec, &scene, ctx)?;
+            jobs::set_stage(conn, job.id, lease, "fill")?;
+            let (s, fill_steps) = match fill_stage(&spec, &scene, ctx) {
+                Ok(x) => x,
+                Err(e) if e.is::<Interrupted>() => return Ok(Outcome::Paused),
+                Err(e) => return Err(e),
+            };
             let bulk = scene.bulk_density(&s);
             let prog = Progress {
                 t_open: s.time,
@@ -298,14 +294,8 @@ pub fn run_silo_job(
         Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
     };
     let info = engine.describe();
-    jobs::set_backend(
-        conn,
-        job.id,
-        &info.kind,
-        &info.adapter,
-        &info.precision,
-        state.len(),
-    )?;
+    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
+    jobs::set_stage(conn, job.id, lease, "discharge")?;
 
     let st = &spec.observers.discharge;
     let chunk_steps = (st.sample_interval_s / scene.dt).round().max(1.0) as u64;

@@ -4,7 +4,9 @@
 
 mod chute_results;
 pub mod fields;
+pub mod forget;
 pub mod jobs;
+pub mod meta;
 pub mod numerics;
 mod open;
 mod results;
@@ -12,6 +14,7 @@ pub mod slurm_ingest;
 pub mod slurm_tasks;
 
 pub use jobs::{JobRow, Lease};
+pub use meta::{default_work_dir, work_dir};
 pub use numerics::JobNumerics;
 pub use open::{open, open_in_memory, SCHEMA_VERSION};
 pub use results::SiloResults;

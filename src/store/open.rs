@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 4;
+pub const SCHEMA_VERSION: i64 = 5;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -29,14 +29,18 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
                 std::thread::sleep(std::time::Duration::from_millis(20));
             }
             Err(e) => {
+                let e = anyhow::Error::from(e);
+                if is_read_only(&e) {
+                    anyhow::bail!("{}", read_only(&path.display().to_string()));
+                }
                 return Err(e)
-                    .with_context(|| format!("{}: cannot switch to WAL mode", path.display()))
+                    .with_context(|| format!("{}: cannot switch to WAL mode", path.display()));
             }
         }
     }
-    conn.pragma_update(None, "foreign_keys", "ON")?;
     conn.pragma_update(None, "synchronous", "NORMAL")?;
     migrate(&mut conn, &path.display().to_string())?;
+    conn.pragma_update(None, "foreign_keys", "ON")?;
     Ok(conn)
 }
 
@@ -56,17 +60,27 @@ pub fn open_in_memory(copy_of: Option<&Path>) -> anyhow::Result<Connection> {
         )
         .with_context(|| format!("{}: cannot copy the database", path.display()))?;
     }
-    conn.pragma_update(None, "foreign_keys", "ON")?;
     migrate(
         &mut conn,
         &copy_of.map_or_else(|| "(memory)".into(), |p| p.display().to_string()),
     )?;
+    conn.pragma_update(None, "foreign_keys", "ON")?;
     Ok(conn)
 }
 
 /// Creates or upgrades the schema according to `PRAGMA user_version`; `name` names the store in
-/// errors.
+/// errors. Runs with foreign keys off (the campaigns table is rebuilt under its referrers).
 fn migrate(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
+    migrate_tx(conn, name).map_err(|e| {
+        if is_read_only(&e) {
+            anyhow::anyhow!("{}", read_only(name))
+        } else {
+            e.context(format!("{name}: cannot set up the database"))
+        }
+    })
+}
+
+fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
     // NOTE: the version check and the migration run in one IMMEDIATE transaction, so two processes
     // opening a new database do not both create it (a deferred transaction would fail with "locked"
     // when upgrading its read lock).
@@ -82,10 +96,58 @@ fn migrate(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
         // `slurm_tasks`, 3 → 4 the coarse-grained fields (`field_sets`, `field_arrays`,
         // `silo_field_series`): schema.sql is idempotent, so every step is running it again.
         tx.execute_batch(include_str!("../../schema.sql"))?;
+        // 4 → 5: campaign versions (the name is no longer unique alone, which SQLite can only
+        // change by rebuilding the table, ids kept), and the jobs' attempt limit and stage.
+        if !has_column(&tx, "campaigns", "version")? {
+            tx.execute_batch(
+                "CREATE TABLE campaigns_v5 (
+                    id INTEGER PRIMARY KEY, name TEXT NOT NULL, version INTEGER NOT NULL DEFAULT 1,
+                    file TEXT NOT NULL, scene TEXT NOT NULL, spec_json TEXT NOT NULL,
+                    created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+                    UNIQUE (name, version));
+                 INSERT INTO campaigns_v5 (id, name, version, file, scene, spec_json, created_at)
+                    SELECT id, name, 1, file, scene, spec_json, created_at FROM campaigns;
+                 DROP TABLE campaigns;
+                 ALTER TABLE campaigns_v5 RENAME TO campaigns;",
+            )?;
+        }
+        if !has_column(&tx, "jobs", "max_attempts")? {
+            tx.execute_batch(
+                "ALTER TABLE jobs ADD COLUMN max_attempts INTEGER NOT NULL DEFAULT 3;
+                 ALTER TABLE jobs ADD COLUMN stage TEXT;",
+            )?;
+        }
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }
     tx.commit()?;
     Ok(())
+}
+
+fn has_column(conn: &Connection, table: &str, column: &str) -> rusqlite::Result<bool> {
+    let mut q = conn.prepare(&format!("PRAGMA table_info({table})"))?;
+    let names = q.query_map([], |r| r.get::<_, String>(1))?;
+    for n in names {
+        if n? == column {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+fn read_only(name: &str) -> String {
+    format!(
+        "{name}: the database is read-only (the file's or its directory's permissions, or a \
+         read-only filesystem): sweep writes it, and its -wal and -shm files beside it"
+    )
+}
+
+/// A write refused because the file (or its directory, for the WAL files) is read-only.
+fn is_read_only(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        matches!(c.downcast_ref::<rusqlite::Error>(),
+            Some(rusqlite::Error::SqliteFailure(f, _)) if f.code == rusqlite::ErrorCode::ReadOnly
+                || f.code == rusqlite::ErrorCode::CannotOpen)
+    })
 }
 
 fn is_busy(e: &rusqlite::Error) -> bool {

@@ -140,6 +140,7 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
         sim_time_s: spec.sim_time_s.max(last_sim),
         target_time_s: spec.target_time_s,
         label: spec.label.clone(),
+        max_attempts: 1,
     };
     let ctx = JobContext {
         work_dir: o.work_dir.clone(),
