@@ -308,6 +308,9 @@ fn killed_at_every_checkpoint_equals_uninterrupted() {
                 db.to_str().unwrap(),
                 "--stale-after",
                 "0",
+                // Every kill is a failed attempt: allow as many as this loop makes.
+                "--max-attempts",
+                "1000",
                 "--backend",
                 "cpu",
                 "--threads",
