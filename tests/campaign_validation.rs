@@ -1,6 +1,8 @@
-//! Campaign integrity, end to end through the built `sweep` binary: `sweep launch` / `sweep plan`
-//! refuse, with exit status 2, a message naming the file and the JSON path, and nothing
-//! registered: impossible geometry (a diameter typed in millimetres), a time step that is not finite and > 0, a job
+//! Campaign integrity, end to end through the built `sweep` binary: `sweep schema` describes
+//! every scene (each shipped campaign validates against it with a real JSON Schema validator,
+//! misplaced or mistyped fields do not), and `sweep launch` / `sweep plan` refuse, with exit
+//! status 2, a message naming the file and the JSON path, and nothing registered: impossible
+//! geometry (a diameter typed in millimetres), a time step that is not finite and > 0, a job
 //! larger than the machine's memory, and a key given twice.
 
 use std::path::{Path, PathBuf};
@@ -125,6 +127,69 @@ fn assert_refused(r: &Refusal, file: &str, needles: &[&str]) {
     for n in needles {
         assert!(r.stderr.contains(n), "{n:?} missing from:\n{}", r.stderr);
     }
+}
+
+// 1. The schema.
+
+fn schema(dir: &Path) -> Value {
+    let out = sweep(dir).arg("schema").output().unwrap();
+    assert!(out.status.success());
+    serde_json::from_slice(&out.stdout).expect("sweep schema prints JSON")
+}
+
+#[test]
+fn every_campaign_validates_against_the_schema_and_misplaced_fields_do_not() {
+    let dir = TempDir::new().unwrap();
+    let schema = schema(dir.path());
+    let validator = jsonschema::validator_for(&schema).expect("a valid JSON Schema");
+    let mut names: Vec<String> = std::fs::read_dir(campaigns_dir())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    names.sort();
+    let scenes: Vec<String> = names
+        .iter()
+        .map(|n| read_campaign(n)["scene"].as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        scenes.iter().any(|s| s == "silo") && scenes.iter().any(|s| s == "chute"),
+        "campaigns/ should hold both scenes: {names:?}"
+    );
+    for name in &names {
+        let c = read_campaign(name);
+        let errors: Vec<String> = validator
+            .iter_errors(&c)
+            .map(|e| format!("{} at {}", e, e.instance_path()))
+            .collect();
+        assert!(errors.is_empty(), "{name}: {errors:#?}");
+    }
+
+    let chute = read_campaign("chute_DvsShear_quick.json");
+    let refused = |c: &Value, what: &str| {
+        assert!(!validator.is_valid(c), "the schema accepts {what}");
+    };
+    let mut c = chute.clone();
+    c["base"]["inclination_deg"] = json!("steep");
+    refused(&c, "a string for the chute's inclination_deg");
+    let mut c = chute.clone();
+    c["base"]["orifice_diameter_m"] = json!(0.02);
+    refused(&c, "a silo parameter in a chute campaign's base");
+    let mut c = chute.clone();
+    c["zip"]["aspect_ratio"] = json!([1.3, "long", 2.0, 2.0]);
+    refused(&c, "a string among a chute's zipped aspect ratios");
+    let mut c = chute.clone();
+    c["sweep"] = json!({ "rotation_frequency_hz": [0.0, 1.0] });
+    refused(&c, "a silo parameter swept in a chute campaign");
+    let mut c = read_campaign("silo_QvsF_quick.json");
+    c["base"]["inclination_deg"] = json!(28.0);
+    refused(&c, "a chute parameter in a silo campaign's base");
+    let mut c = read_campaign("silo_QvsF_quick.json");
+    c["sweep"]["orifice_diameter_m"] = json!([0.015, "wide"]);
+    refused(&c, "a string among a silo's swept orifices");
+    let mut c = chute;
+    c["observers"]["chute"]["max_lag_s"] = json!("long");
+    refused(&c, "a string for an observer setting");
 }
 
 /// Every shipped campaign passes the launch-time checks too (geometry, time step, memory).

@@ -7,12 +7,14 @@ mod executor;
 mod expand;
 mod file;
 mod resources;
+mod schema;
 
 pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, JobSpec};
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};
+pub use schema::campaign_schema;
 
 /// Reads, parses, validates and expands a campaign file.
 ///
