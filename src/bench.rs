@@ -233,13 +233,17 @@ fn chute_rods(n: usize, seed: u64) -> BenchScene {
         ((side / (a * l)).round() as usize).max(4),
         ((side / (a * d)).round() as usize).max(4),
     );
-    let scene = ChuteScene::new(ChuteParams {
+    let p = ChuteParams {
         box_x_lengths: kx as f64 * a,
         box_y_lengths: ky as f64 * a * d / l,
         particle_count: Some(n),
         ..p0
-    })
-    .expect("valid chute parameters");
+    };
+    // Not `ChuteScene::new`: a small bench's box may be narrower than the 4 L a campaign must
+    // have (`chute::MIN_BOX_LENGTHS`, a finite-size bound); the engine itself needs only more
+    // than 2 (L + skin) across, which 4 rod widths of ξ = 1.5 give.
+    let dt = p.time_step().expect("valid chute time step");
+    let scene = ChuteScene { p, dt };
     let (lx, ly) = scene.p.box_size();
     let rb = scene.base_radius();
     let mut s = State::new_oriented(crate::engine::cpu::HISTORY_SLOTS);

@@ -33,9 +33,22 @@ pub struct JobSpec {
     /// Human-readable point of the sweep, e.g. "orifice_diameter_m=0.015,rotation_frequency_hz=0.5,replica=0".
     #[serde(skip)]
     pub label: String,
+    /// Where each swept or zipped value came from: (parameter, JSON path such as
+    /// `sweep.orifice_diameter_m[2]`); parameters not listed came from `base`.
+    #[serde(skip)]
+    pub sources: Vec<(String, String)>,
 }
 
 impl JobSpec {
+    /// The JSON path in the campaign file of a parameter's value: `sweep.…[i]` or `zip.…[i]`
+    /// when the point set it, else `base.…`.
+    pub fn source(&self, field: &str) -> String {
+        self.sources
+            .iter()
+            .find(|(k, _)| k == field)
+            .map_or_else(|| format!("base.{field}"), |(_, s)| s.clone())
+    }
+
     /// Canonical JSON of everything that determines the job's results.
     pub fn resolved_json(&self) -> String {
         // serde_json maps are sorted (no preserve_order feature), so this is canonical.
@@ -424,6 +437,10 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                 precision,
                 backend,
                 label: label.join(","),
+                sources: point
+                    .iter()
+                    .map(|(k, _, path)| (k.clone(), path.clone()))
+                    .collect(),
             });
         }
     }

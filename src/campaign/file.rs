@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::error::CampaignError;
+use super::error::{CampaignError, FieldProblem};
 use super::executor::{ExecutorKind, SlurmSettings};
 use crate::observe::chute::ChuteObserverSettings;
 use crate::observe::discharge::DischargeSettings;
@@ -156,8 +156,24 @@ impl CampaignFile {
     /// Parses a campaign from text; `file` names it in errors.
     ///
     /// # Errors
-    /// Not JSON, a wrong type, a missing field or an unknown key, with its JSON path.
+    /// Not JSON, a wrong type, a missing field, an unknown key or a key given twice in one
+    /// object, with its JSON path.
     pub fn parse_str(text: &str, file: &str) -> Result<Self, CampaignError> {
+        let repeated = super::duplicates::duplicate_keys(text);
+        if !repeated.is_empty() {
+            return Err(CampaignError::Invalid {
+                file: file.to_string(),
+                problems: repeated
+                    .into_iter()
+                    .map(|path| FieldProblem {
+                        path,
+                        message: "duplicate key: this object already has it, and JSON would \
+                                  silently keep only the last value; expected each key once"
+                            .into(),
+                    })
+                    .collect(),
+            });
+        }
         let de = &mut serde_json::Deserializer::from_str(text);
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();

@@ -2,11 +2,14 @@
 //! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
 
 mod diff;
+mod duplicates;
 mod error;
 mod executor;
 mod expand;
 mod file;
 mod point;
+mod resources;
+mod schema;
 
 pub use diff::diff_fields;
 pub use error::{CampaignError, FieldProblem};
@@ -14,12 +17,15 @@ pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, JobSpec};
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
 pub use point::point_key;
+pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};
+pub use schema::campaign_schema;
 
 /// Reads, parses, validates and expands a campaign file.
 ///
 /// # Errors
-/// The file cannot be read, is not JSON of the campaign shape, or has invalid values; every
-/// problem names the file, the JSON path and what was expected.
+/// The file cannot be read, is not JSON of the campaign shape, has invalid values, or has a job
+/// this machine cannot hold (`check_machine`); every problem names the file, the JSON path and
+/// what was expected.
 pub fn load(path: &std::path::Path) -> Result<(CampaignFile, Vec<JobSpec>), CampaignError> {
     let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Read {
         file: path.display().to_string(),
@@ -27,5 +33,33 @@ pub fn load(path: &std::path::Path) -> Result<(CampaignFile, Vec<JobSpec>), Camp
     })?;
     let file = CampaignFile::parse_str(&text, &path.display().to_string())?;
     let jobs = expand(&file, &path.display().to_string())?;
+    check_machine(&jobs, &path.display().to_string())?;
     Ok((file, jobs))
+}
+
+/// Refuses jobs this machine cannot hold: each job's memory estimate against `MemTotal` (or
+/// `SWEEP_MEMORY_LIMIT_BYTES`), naming the field that sets its particle count.
+///
+/// # Errors
+/// A job over the limit, or an unreadable `SWEEP_MEMORY_LIMIT_BYTES`.
+pub fn check_machine(jobs: &[JobSpec], file: &str) -> Result<(), CampaignError> {
+    let limit = memory_limit().map_err(|message| CampaignError::Invalid {
+        file: file.into(),
+        problems: vec![FieldProblem {
+            path: format!("(environment) {MEMORY_LIMIT_ENV}"),
+            message,
+        }],
+    })?;
+    let Some(limit) = limit else {
+        return Ok(());
+    };
+    let problems = resources::memory_problems(jobs, &limit);
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(CampaignError::Invalid {
+            file: file.into(),
+            problems,
+        })
+    }
 }

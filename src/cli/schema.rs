@@ -1,15 +1,7 @@
-//! `sweep schema`: the JSON Schema of campaign files, with the silo parameters under `base`.
+//! `sweep schema`: the JSON Schema of campaign files, both scenes (`campaign::campaign_schema`).
 
 pub fn run() -> anyhow::Result<i32> {
-    let mut campaign = serde_json::to_value(schemars::schema_for!(sweep::campaign::CampaignFile))?;
-    let mut silo = serde_json::to_value(schemars::schema_for!(sweep::scene::SiloParams))?;
-    if let Some(o) = silo.as_object_mut() {
-        o.remove("$schema");
-        o.remove("required");
-    }
-    if let Some(props) = campaign.pointer_mut("/properties") {
-        props["base"] = silo;
-    }
-    println!("{}", serde_json::to_string_pretty(&campaign)?);
+    let schema = sweep::campaign::campaign_schema();
+    println!("{}", serde_json::to_string_pretty(&schema)?);
     Ok(0)
 }

@@ -12,6 +12,7 @@ pub mod grid;
 pub mod history;
 mod kick;
 mod kinematics;
+pub mod memory;
 mod oriented;
 mod pair_lanes;
 pub mod real;

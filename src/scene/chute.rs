@@ -22,7 +22,11 @@ use crate::engine::shape::Spherocylinder;
 use crate::engine::walls::{Wall, WallShape};
 use crate::engine::{EngineConfig, State};
 
+use super::blame::{culprits, step_count_fits, value_of, Reset};
 use super::silo::FieldError;
+
+/// Smallest periodic box side, in particle lengths L, a campaign may ask for.
+pub const MIN_BOX_LENGTHS: f64 = 4.0;
 
 /// Which length sets k_n = factor · m_p g / ℓ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -235,7 +239,138 @@ impl ChuteParams {
                 ),
             );
         }
+        for (field, v) in [
+            ("box_x_lengths", self.box_x_lengths),
+            ("box_y_lengths", self.box_y_lengths),
+        ] {
+            if v.is_finite() && v > 0.0 && v < MIN_BOX_LENGTHS {
+                err(
+                    field,
+                    format!(
+                        "expected a periodic box side ≥ {MIN_BOX_LENGTHS} L (in units of the particle \
+                         length L), got {v} L: a particle would meet its own periodic image"
+                    ),
+                );
+            }
+        }
+        if e.is_empty() {
+            e.extend(self.time_step_problems());
+        }
         e
+    }
+
+    /// The time step the job will use: t_c finite and > 0, dt = t_c / n_c finite and > 0, and
+    /// the longest run (`max_time_s`) a step count that fits in a u64. Each problem names the
+    /// field(s) whose paper value would cure it (`blame::culprits`).
+    fn time_step_problems(&self) -> Vec<FieldError> {
+        let tc_fields: [Reset<ChuteParams>; 7] = [
+            ("stiffness_factor", |q| {
+                q.stiffness_factor = ChuteParams::default().stiffness_factor
+            }),
+            ("particle_length_m", |q| {
+                q.particle_length_m = ChuteParams::default().particle_length_m
+            }),
+            ("aspect_ratio", |q| {
+                q.aspect_ratio = ChuteParams::default().aspect_ratio
+            }),
+            ("particle_density_kg_per_m3", |q| {
+                q.particle_density_kg_per_m3 = ChuteParams::default().particle_density_kg_per_m3
+            }),
+            ("gravity_m_per_s2", |q| {
+                q.gravity_m_per_s2 = ChuteParams::default().gravity_m_per_s2
+            }),
+            ("stiffness_length", |q| {
+                q.stiffness_length = ChuteParams::default().stiffness_length
+            }),
+            ("restitution", |q| {
+                q.restitution = ChuteParams::default().restitution
+            }),
+        ];
+        let tc_ok = |q: &ChuteParams| {
+            let tc = q.contact_time();
+            tc.is_finite() && tc > 0.0
+        };
+        let problem = |field: &str, what: String| FieldError {
+            field: field.into(),
+            message: format!("{field} = {}: {what}", value_of(self, field)),
+        };
+        let tc = self.contact_time();
+        if !tc_ok(self) {
+            return culprits(self, &tc_fields, tc_ok)
+                .into_iter()
+                .map(|f| {
+                    problem(
+                        f,
+                        format!(
+                            "gives a contact time t_c = {tc:e} s (k_n = {:e} N/m), so no time step \
+                             resolves a contact; expected t_c finite and > 0 (t_c depends on \
+                             stiffness_factor, stiffness_length, particle_length_m, aspect_ratio, \
+                             particle_density_kg_per_m3, gravity_m_per_s2 and restitution)",
+                            self.normal_stiffness()
+                        ),
+                    )
+                })
+                .collect();
+        }
+        let dt = match self.time_step() {
+            Ok(dt) => dt,
+            Err(m) => {
+                return vec![FieldError {
+                    field: "contact_steps".into(),
+                    message: m,
+                }]
+            }
+        };
+        let mut dt_fields = tc_fields.to_vec();
+        dt_fields.push(("contact_steps", |q| {
+            q.contact_steps = ChuteParams::default().contact_steps
+        }));
+        let dt_ok = |q: &ChuteParams| q.time_step().is_ok_and(|dt| dt.is_finite() && dt > 0.0);
+        if !dt_ok(self) {
+            return culprits(self, &dt_fields, dt_ok)
+                .into_iter()
+                .map(|f| {
+                    problem(
+                        f,
+                        format!(
+                            "gives a time step dt = t_c / contact_steps = {dt:e} s (t_c = {tc:e} s); \
+                             expected dt finite and > 0"
+                        ),
+                    )
+                })
+                .collect();
+        }
+        let seconds = self.max_time_s();
+        if step_count_fits(seconds, dt) {
+            return Vec::new();
+        }
+        let mut fields: Vec<Reset<ChuteParams>> = vec![
+            ("steady_max_time_s", |q| {
+                q.steady_max_time_s = ChuteParams::default().steady_max_time_s
+            }),
+            ("measure_time_s", |q| {
+                q.measure_time_s = ChuteParams::default().measure_time_s
+            }),
+        ];
+        fields.extend(dt_fields);
+        let fits = |q: &ChuteParams| {
+            q.time_step()
+                .is_ok_and(|dt| step_count_fits(q.max_time_s(), dt))
+        };
+        culprits(self, &fields, fits)
+            .into_iter()
+            .map(|f| {
+                problem(
+                    f,
+                    format!(
+                        "(steady_max_time_s + measure_time_s) / dt = {seconds} s / {dt:e} s = {:e} \
+                         steps: expected a finite step count that fits in 64 bits (< {:e})",
+                        seconds / dt,
+                        u64::MAX as f64
+                    ),
+                )
+            })
+            .collect()
     }
 
     /// The particle shape.

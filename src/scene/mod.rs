@@ -1,6 +1,7 @@
 //! Scenes turn a job's physical parameters into an engine configuration, an initial state and the
 //! stage logic around the engine (filling, opening the orifice, re-insertion, steady state).
 
+mod blame;
 pub mod chute;
 pub mod fill;
 pub mod fill_rods;

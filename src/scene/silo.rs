@@ -11,6 +11,29 @@ use crate::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, 
 use crate::engine::walls::{Wall, WallRotation, WallShape};
 use crate::engine::{EngineConfig, State};
 
+use super::blame::{culprits, step_count_fits, value_of, Reset};
+
+/// Solid fraction of a settled bed of spheres (random close packing), for the bed-height
+/// estimate that campaign validation checks against the cylinder.
+pub const RANDOM_CLOSE_PACKING: f64 = 0.64;
+
+/// A length rounded to the nanometre, for messages (0.0484, not 0.048400000000000006).
+fn metres(v: f64) -> f64 {
+    (v * 1e9).round() / 1e9
+}
+
+/// " (millimetres? …)" when `v` / 1000 would pass `ok`: a length typed in millimetres.
+fn millimetres_hint(v: f64, ok: impl Fn(f64) -> bool) -> String {
+    if ok(v / 1000.0) {
+        format!(
+            " (a length in millimetres? lengths are in metres: {} m would fit)",
+            v / 1000.0
+        )
+    } else {
+        String::new()
+    }
+}
+
 /// Every physical and numerical parameter of a silo job. Defaults are the paper's values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
@@ -203,27 +226,222 @@ impl SiloParams {
             ),
             _ => {}
         }
-        if self.orifice_diameter_m >= 2.0 * self.cylinder_radius_m {
+        if !(self.settle_max_time_s >= 0.0) {
             err(
-                "orifice_diameter_m",
-                format!(
-                    "expected D < 2 R_c = {} m, got {}",
-                    2.0 * self.cylinder_radius_m,
-                    self.orifice_diameter_m
-                ),
+                "settle_max_time_s",
+                format!("expected seconds ≥ 0, got {}", self.settle_max_time_s),
             );
         }
         if e.is_empty() {
-            if let Err(m) = self.time_step() {
-                e.push(FieldError {
-                    field: if self.dt_s.is_some() {
-                        "dt_s"
-                    } else {
-                        "contact_steps"
-                    }
-                    .into(),
+            e.extend(self.geometry_problems());
+        }
+        if e.is_empty() {
+            e.extend(self.time_step_problems());
+        }
+        e
+    }
+
+    /// The container against the particles (every length already checked > 0): d < D < 2 R_c −
+    /// 2 d (an orifice wider than a particle, with at least a particle's width of bottom on
+    /// either side of it), and a settled bed lower than the cylinder.
+    fn geometry_problems(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let (d, dd, rc, h) = (
+            self.particle_diameter_m,
+            self.orifice_diameter_m,
+            self.cylinder_radius_m,
+            self.cylinder_height_m,
+        );
+        if 3.0 * d >= 2.0 * rc {
+            e.push(FieldError {
+                field: "particle_diameter_m".into(),
+                message: format!(
+                    "expected d < 2 R_c / 3 = {} m (cylinder_radius_m = {rc} m), so that an orifice \
+                     fits with d < D < 2 R_c − 2 d; got d = {d} m{}",
+                    metres(2.0 * rc / 3.0),
+                    millimetres_hint(d, |v| 3.0 * v < 2.0 * rc)
+                ),
+            });
+        } else if !(d < dd && dd < 2.0 * rc - 2.0 * d) {
+            let upper = metres(2.0 * rc - 2.0 * d);
+            e.push(FieldError {
+                field: "orifice_diameter_m".into(),
+                message: format!(
+                    "expected d < D < 2 R_c − 2 d, i.e. {d} m < D < {upper} m \
+                     (particle_diameter_m = {d} m, cylinder_radius_m = {rc} m), got D = {dd} m{}",
+                    millimetres_hint(dd, |v| d < v && v < upper)
+                ),
+            });
+        }
+        let bed = self.settled_bed_height_estimate();
+        if bed > h {
+            let fit = (self.particle_count as f64 * h / bed).floor();
+            e.push(FieldError {
+                field: "particle_count".into(),
+                message: format!(
+                    "expected the settled bed to fit in the cylinder: N = {} particles of d = {d} m \
+                     at random close packing (solid fraction {RANDOM_CLOSE_PACKING}) stand about \
+                     {bed:.3} m high in a cylinder of radius {rc} m, taller than cylinder_height_m \
+                     = {h} m; at most about {fit} particles fit",
+                    self.particle_count
+                ),
+            });
+        }
+        e
+    }
+
+    /// Height of the settled bed (m) estimated from the particle count: the particles' volume
+    /// (mean d³ of the uniform size distribution: d³ (1 + p²)) at random close packing over the
+    /// cylinder's cross-section.
+    pub fn settled_bed_height_estimate(&self) -> f64 {
+        let d = self.particle_diameter_m;
+        let volume = self.particle_count as f64
+            * std::f64::consts::PI
+            * d.powi(3)
+            * (1.0 + self.diameter_polydispersity.powi(2))
+            / 6.0;
+        volume
+            / (RANDOM_CLOSE_PACKING
+                * std::f64::consts::PI
+                * self.cylinder_radius_m
+                * self.cylinder_radius_m)
+    }
+
+    /// The time step the job will use: t_c finite and > 0, dt finite, > 0 and ≤ t_c / 5, and
+    /// the fill and discharge times whole step counts that fit in a u64. Each problem names the
+    /// field(s) whose paper value would cure it (`blame::culprits`).
+    fn time_step_problems(&self) -> Vec<FieldError> {
+        let tc_fields: [Reset<SiloParams>; 7] = [
+            ("youngs_modulus_pa", |q| {
+                q.youngs_modulus_pa = SiloParams::default().youngs_modulus_pa
+            }),
+            ("shear_modulus_pa", |q| {
+                if q.shear_modulus_pa.is_some() {
+                    q.shear_modulus_pa = SiloParams::default().shear_modulus_pa
+                }
+            }),
+            ("poisson_ratio", |q| {
+                if q.poisson_ratio.is_some() {
+                    q.poisson_ratio = Some(0.3)
+                }
+            }),
+            ("particle_diameter_m", |q| {
+                q.particle_diameter_m = SiloParams::default().particle_diameter_m
+            }),
+            ("particle_density_kg_per_m3", |q| {
+                q.particle_density_kg_per_m3 = SiloParams::default().particle_density_kg_per_m3
+            }),
+            ("impact_speed_m_per_s", |q| {
+                q.impact_speed_m_per_s = SiloParams::default().impact_speed_m_per_s
+            }),
+            ("diameter_polydispersity", |q| {
+                q.diameter_polydispersity = SiloParams::default().diameter_polydispersity
+            }),
+        ];
+        let tc_ok = |q: &SiloParams| {
+            let tc = q.contact_time();
+            tc.is_finite() && tc > 0.0
+        };
+        let problem = |field: &str, what: String| FieldError {
+            field: field.into(),
+            message: format!("{field} = {}: {what}", value_of(self, field)),
+        };
+        let tc = self.contact_time();
+        if !tc_ok(self) {
+            return culprits(self, &tc_fields, tc_ok)
+                .into_iter()
+                .map(|f| {
+                    problem(
+                        f,
+                        format!(
+                            "gives a Hertz contact time t_c = {tc:e} s, so no time step resolves a \
+                             contact; expected t_c finite and > 0 (t_c depends on \
+                             youngs_modulus_pa, shear_modulus_pa or poisson_ratio, \
+                             particle_diameter_m, particle_density_kg_per_m3 and \
+                             impact_speed_m_per_s)"
+                        ),
+                    )
+                })
+                .collect();
+        }
+        let dt_field = if self.dt_s.is_some() {
+            "dt_s"
+        } else {
+            "contact_steps"
+        };
+        let dt = match self.time_step() {
+            Ok(dt) => dt,
+            Err(m) => {
+                return vec![FieldError {
+                    field: dt_field.into(),
                     message: m,
-                });
+                }]
+            }
+        };
+        let mut dt_fields = tc_fields.to_vec();
+        dt_fields.push(("dt_s", |q| {
+            if q.dt_s.is_some() {
+                q.dt_s = SiloParams::default().dt_s
+            }
+        }));
+        dt_fields.push(("contact_steps", |q| {
+            if q.contact_steps.is_some() {
+                q.contact_steps = Some(50.0)
+            }
+        }));
+        let dt_ok = |q: &SiloParams| q.time_step().is_ok_and(|dt| dt.is_finite() && dt > 0.0);
+        if !dt_ok(self) {
+            return culprits(self, &dt_fields, dt_ok)
+                .into_iter()
+                .map(|f| {
+                    problem(
+                        f,
+                        format!(
+                            "gives a time step dt = {dt:e} s (t_c = {tc:e} s); expected dt finite \
+                             and > 0"
+                        ),
+                    )
+                })
+                .collect();
+        }
+        let mut e = Vec::new();
+        for (time_field, seconds, reset) in [
+            (
+                "discharge_time_s",
+                self.discharge_time_s,
+                (|q| q.discharge_time_s = SiloParams::default().discharge_time_s)
+                    as fn(&mut SiloParams),
+            ),
+            ("settle_max_time_s", self.settle_max_time_s, |q| {
+                q.settle_max_time_s = SiloParams::default().settle_max_time_s
+            }),
+        ] {
+            if step_count_fits(seconds, dt) {
+                continue;
+            }
+            let mut fields = vec![(time_field, reset)];
+            fields.extend(dt_fields.iter().copied());
+            let fits = |q: &SiloParams| {
+                let t = if time_field == "discharge_time_s" {
+                    q.discharge_time_s
+                } else {
+                    q.settle_max_time_s
+                };
+                q.time_step().is_ok_and(|dt| step_count_fits(t, dt))
+            };
+            for f in culprits(self, &fields, fits) {
+                if e.iter().any(|x: &FieldError| x.field == f) {
+                    continue;
+                }
+                e.push(problem(
+                    f,
+                    format!(
+                        "{time_field} / dt = {seconds} s / {dt:e} s = {:e} steps: expected a finite \
+                         step count that fits in 64 bits (< {:e})",
+                        seconds / dt,
+                        u64::MAX as f64
+                    ),
+                ));
             }
         }
         e
