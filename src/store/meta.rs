@@ -17,10 +17,10 @@ pub fn default_work_dir(db: &Path) -> PathBuf {
 
 /// The work directory (checkpoints, shared stages, Slurm files) of the store at `db`.
 ///
-/// The store records its absolute path when first asked, so a renamed or copied database still
-/// reaches the checkpoints it made. When the recorded directory is gone but the default one
-/// beside the database exists (the database moved together with its `sweep-work/`), that one is
-/// used and recorded. A read-only store is only read.
+/// The default directory beside the database wins when it exists (a project copied or moved
+/// with its `sweep-work/` uses its own copy); otherwise the directory the store recorded, so a
+/// renamed database, or one copied alone, still reaches the checkpoints it made. The choice is
+/// recorded (absolute) unless the store is read-only.
 ///
 /// # Errors
 /// Database errors, or the current directory cannot be read.
@@ -33,11 +33,12 @@ pub fn work_dir(conn: &Connection, db: &Path) -> anyhow::Result<PathBuf> {
             |r| r.get(0),
         )
         .optional()?;
-    let chosen = match recorded.map(PathBuf::from) {
-        Some(r) if r.is_dir() || !beside.is_dir() => return Ok(r),
+    let recorded = recorded.map(PathBuf::from);
+    let chosen = match &recorded {
+        Some(r) if !beside.is_dir() => r.clone(),
         _ => beside,
     };
-    if !conn.is_readonly(rusqlite::MAIN_DB)? {
+    if recorded.as_ref() != Some(&chosen) && !conn.is_readonly(rusqlite::MAIN_DB)? {
         conn.execute(
             "INSERT INTO store_meta (key, value) VALUES ('work_dir', ?1)
              ON CONFLICT(key) DO UPDATE SET value = excluded.value",
