@@ -22,7 +22,7 @@ use crate::engine::shape::Spherocylinder;
 use crate::engine::walls::{Wall, WallShape};
 use crate::engine::{EngineConfig, State};
 
-use super::blame::{culprits, step_count_fits, value_of, Reset};
+use super::blame::{time_step_problems, Reset, TimeStepInputs};
 use super::silo::FieldError;
 
 /// Smallest periodic box side, in particle lengths L, a campaign may ask for.
@@ -286,65 +286,10 @@ impl ChuteParams {
                 q.restitution = ChuteParams::default().restitution
             }),
         ];
-        let tc_ok = |q: &ChuteParams| {
-            let tc = q.contact_time();
-            tc.is_finite() && tc > 0.0
-        };
-        let problem = |field: &str, what: String| FieldError {
-            field: field.into(),
-            message: format!("{field} = {}: {what}", value_of(self, field)),
-        };
-        let tc = self.contact_time();
-        if !tc_ok(self) {
-            return culprits(self, &tc_fields, tc_ok)
-                .into_iter()
-                .map(|f| {
-                    problem(
-                        f,
-                        format!(
-                            "gives a contact time t_c = {tc:e} s (k_n = {:e} N/m), so no time step \
-                             resolves a contact; expected t_c finite and > 0 (t_c depends on \
-                             stiffness_factor, stiffness_length, particle_length_m, aspect_ratio, \
-                             particle_density_kg_per_m3, gravity_m_per_s2 and restitution)",
-                            self.normal_stiffness()
-                        ),
-                    )
-                })
-                .collect();
-        }
-        let dt = match self.time_step() {
-            Ok(dt) => dt,
-            Err(m) => {
-                return vec![FieldError {
-                    field: "contact_steps".into(),
-                    message: m,
-                }]
-            }
-        };
-        let mut dt_fields = tc_fields.to_vec();
-        dt_fields.push(("contact_steps", |q| {
+        let step_fields: [Reset<ChuteParams>; 1] = [("contact_steps", |q| {
             q.contact_steps = ChuteParams::default().contact_steps
-        }));
-        let dt_ok = |q: &ChuteParams| q.time_step().is_ok_and(|dt| dt.is_finite() && dt > 0.0);
-        if !dt_ok(self) {
-            return culprits(self, &dt_fields, dt_ok)
-                .into_iter()
-                .map(|f| {
-                    problem(
-                        f,
-                        format!(
-                            "gives a time step dt = t_c / contact_steps = {dt:e} s (t_c = {tc:e} s); \
-                             expected dt finite and > 0"
-                        ),
-                    )
-                })
-                .collect();
-        }
-        let seconds = self.max_time_s();
-        if step_count_fits(seconds, dt) {
-            return Vec::new();
-        }
-        let mut fields: Vec<Reset<ChuteParams>> = vec![
+        })];
+        let run: [Reset<ChuteParams>; 2] = [
             ("steady_max_time_s", |q| {
                 q.steady_max_time_s = ChuteParams::default().steady_max_time_s
             }),
@@ -352,25 +297,29 @@ impl ChuteParams {
                 q.measure_time_s = ChuteParams::default().measure_time_s
             }),
         ];
-        fields.extend(dt_fields);
-        let fits = |q: &ChuteParams| {
-            q.time_step()
-                .is_ok_and(|dt| step_count_fits(q.max_time_s(), dt))
-        };
-        culprits(self, &fields, fits)
-            .into_iter()
-            .map(|f| {
-                problem(
-                    f,
-                    format!(
-                        "(steady_max_time_s + measure_time_s) / dt = {seconds} s / {dt:e} s = {:e} \
-                         steps: expected a finite step count that fits in 64 bits (< {:e})",
-                        seconds / dt,
-                        u64::MAX as f64
-                    ),
-                )
-            })
-            .collect()
+        time_step_problems(
+            self,
+            &TimeStepInputs {
+                contact_fields: &tc_fields,
+                step_fields: &step_fields,
+                step_field: "contact_steps",
+                durations: &[(
+                    "(steady_max_time_s + measure_time_s)",
+                    &run,
+                    ChuteParams::max_time_s,
+                )],
+                contact_time: ChuteParams::contact_time,
+                time_step: ChuteParams::time_step,
+                contact_words: format!(
+                    "gives a contact time t_c (k_n = {:e} N/m)",
+                    self.normal_stiffness()
+                ),
+                contact_inputs: "stiffness_factor, stiffness_length, particle_length_m, \
+                                 aspect_ratio, particle_density_kg_per_m3, gravity_m_per_s2 and \
+                                 restitution",
+                dt_words: "dt = t_c / contact_steps",
+            },
+        )
     }
 
     /// The particle shape.

@@ -11,7 +11,7 @@ use crate::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, 
 use crate::engine::walls::{Wall, WallRotation, WallShape};
 use crate::engine::{EngineConfig, State};
 
-use super::blame::{culprits, step_count_fits, value_of, Reset};
+use super::blame::{time_step_problems, Reset, TimeStepInputs};
 
 /// Solid fraction of a settled bed of spheres (random close packing), for the bed-height
 /// estimate that campaign validation checks against the cylinder.
@@ -338,113 +338,47 @@ impl SiloParams {
                 q.diameter_polydispersity = SiloParams::default().diameter_polydispersity
             }),
         ];
-        let tc_ok = |q: &SiloParams| {
-            let tc = q.contact_time();
-            tc.is_finite() && tc > 0.0
-        };
-        let problem = |field: &str, what: String| FieldError {
-            field: field.into(),
-            message: format!("{field} = {}: {what}", value_of(self, field)),
-        };
-        let tc = self.contact_time();
-        if !tc_ok(self) {
-            return culprits(self, &tc_fields, tc_ok)
-                .into_iter()
-                .map(|f| {
-                    problem(
-                        f,
-                        format!(
-                            "gives a Hertz contact time t_c = {tc:e} s, so no time step resolves a \
-                             contact; expected t_c finite and > 0 (t_c depends on \
-                             youngs_modulus_pa, shear_modulus_pa or poisson_ratio, \
-                             particle_diameter_m, particle_density_kg_per_m3 and \
-                             impact_speed_m_per_s)"
-                        ),
-                    )
-                })
-                .collect();
-        }
-        let dt_field = if self.dt_s.is_some() {
-            "dt_s"
-        } else {
-            "contact_steps"
-        };
-        let dt = match self.time_step() {
-            Ok(dt) => dt,
-            Err(m) => {
-                return vec![FieldError {
-                    field: dt_field.into(),
-                    message: m,
-                }]
-            }
-        };
-        let mut dt_fields = tc_fields.to_vec();
-        dt_fields.push(("dt_s", |q| {
-            if q.dt_s.is_some() {
-                q.dt_s = SiloParams::default().dt_s
-            }
-        }));
-        dt_fields.push(("contact_steps", |q| {
-            if q.contact_steps.is_some() {
-                q.contact_steps = Some(50.0)
-            }
-        }));
-        let dt_ok = |q: &SiloParams| q.time_step().is_ok_and(|dt| dt.is_finite() && dt > 0.0);
-        if !dt_ok(self) {
-            return culprits(self, &dt_fields, dt_ok)
-                .into_iter()
-                .map(|f| {
-                    problem(
-                        f,
-                        format!(
-                            "gives a time step dt = {dt:e} s (t_c = {tc:e} s); expected dt finite \
-                             and > 0"
-                        ),
-                    )
-                })
-                .collect();
-        }
-        let mut e = Vec::new();
-        for (time_field, seconds, reset) in [
-            (
-                "discharge_time_s",
-                self.discharge_time_s,
-                (|q| q.discharge_time_s = SiloParams::default().discharge_time_s)
-                    as fn(&mut SiloParams),
-            ),
-            ("settle_max_time_s", self.settle_max_time_s, |q| {
-                q.settle_max_time_s = SiloParams::default().settle_max_time_s
-            }),
-        ] {
-            if step_count_fits(seconds, dt) {
-                continue;
-            }
-            let mut fields = vec![(time_field, reset)];
-            fields.extend(dt_fields.iter().copied());
-            let fits = |q: &SiloParams| {
-                let t = if time_field == "discharge_time_s" {
-                    q.discharge_time_s
-                } else {
-                    q.settle_max_time_s
-                };
-                q.time_step().is_ok_and(|dt| step_count_fits(t, dt))
-            };
-            for f in culprits(self, &fields, fits) {
-                if e.iter().any(|x: &FieldError| x.field == f) {
-                    continue;
+        let step_fields: [Reset<SiloParams>; 2] = [
+            ("dt_s", |q| {
+                if q.dt_s.is_some() {
+                    q.dt_s = SiloParams::default().dt_s
                 }
-                e.push(problem(
-                    f,
-                    format!(
-                        "{time_field} / dt = {seconds} s / {dt:e} s = {:e} steps: expected a finite \
-                         step count that fits in 64 bits (< {:e})",
-                        seconds / dt,
-                        u64::MAX as f64
-                    ),
-                ));
-            }
-        }
-        e
+            }),
+            ("contact_steps", |q| {
+                if q.contact_steps.is_some() {
+                    q.contact_steps = Some(50.0)
+                }
+            }),
+        ];
+        let discharge: [Reset<SiloParams>; 1] = [("discharge_time_s", |q| {
+            q.discharge_time_s = SiloParams::default().discharge_time_s
+        })];
+        let settle: [Reset<SiloParams>; 1] = [("settle_max_time_s", |q| {
+            q.settle_max_time_s = SiloParams::default().settle_max_time_s
+        })];
+        time_step_problems(
+            self,
+            &TimeStepInputs {
+                contact_fields: &tc_fields,
+                step_fields: &step_fields,
+                step_field: if self.dt_s.is_some() {
+                    "dt_s"
+                } else {
+                    "contact_steps"
+                },
+                durations: &[
+                    ("discharge_time_s", &discharge, |q| q.discharge_time_s),
+                    ("settle_max_time_s", &settle, |q| q.settle_max_time_s),
+                ],
+                contact_time: SiloParams::contact_time,
+                time_step: SiloParams::time_step,
+                contact_words: "gives a Hertz contact time t_c".into(),
+                contact_inputs: "youngs_modulus_pa, shear_modulus_pa or poisson_ratio, \
+                                 particle_diameter_m, particle_density_kg_per_m3 and \
+                                 impact_speed_m_per_s",
+                dt_words: "dt",
+            },
+        )
     }
 
     fn elasticity(&self) -> Elasticity {
