@@ -3,8 +3,8 @@
 
 use std::io::{BufRead, IsTerminal, Write};
 
+use sweep::runner::job::job_dir;
 use sweep::runner::job_lock;
-use sweep::runner::silo_job::job_dir;
 use sweep::store::forget::{self, ForgetPlan};
 use sweep::store::jobs::{self, Liveness};
 

@@ -6,22 +6,16 @@
 //! Checkpoints at chunk boundaries carry the detector and the observer, so a resumed run repeats
 //! exactly the same operations; the results and the job's completion go in one transaction.
 
-use std::sync::atomic::Ordering;
-use std::time::Instant;
-
 use anyhow::Context;
 use rusqlite::{params, Connection, TransactionBehavior};
 use serde::{Deserialize, Serialize};
 
-use super::backend;
-use super::silo_job::{job_dir, save_checkpoint, JobContext, Outcome};
+use super::job::{self, JobContext, JobRun, Ledger, Outcome, Start, Study};
 use crate::campaign::JobSpec;
-use crate::checkpoint;
-use crate::engine::{Backend, State};
+use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::chute::{
     ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, CHUNK_S,
 };
-use crate::observe::snapshots::SnapshotWriter;
 use crate::observe::steady::{SteadyDetector, SteadySettings};
 use crate::scene::chute::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
@@ -46,7 +40,8 @@ enum Phase {
 /// What a checkpoint keeps besides the particles.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct Progress {
-    chunk: u64,
+    #[serde(flatten)]
+    ledger: Ledger,
     phase: Phase,
     detector: SteadyDetector,
     /// (t, kinetic energy of the flowing particles, bulk μ when sampled).
@@ -56,10 +51,6 @@ struct Progress {
     steady_stress_ratio: Option<f64>,
     steady: bool,
     measure_start_chunk: u64,
-    particle_steps: u64,
-    wall_time_s: f64,
-    #[serde(default)]
-    numerics: crate::store::JobNumerics,
 }
 
 /// The flowing particles of a downloaded state as the observer reads them.
@@ -152,17 +143,9 @@ pub fn run_chute_job(
         Ok(s) => s,
         Err(e) => return Ok(Outcome::Failed(e)),
     };
-    let p = scene.p.clone();
     let settings: ChuteObserverSettings = spec.observers.chute.clone().unwrap_or_default();
-    let steady_settings = SteadySettings {
-        window_s: p.steady_window_s,
-        tol_ke: p.steady_kinetic_tolerance,
-        tol_ratio: p.steady_stress_tolerance,
-        ..SteadySettings::default()
-    };
-    let geom = geometry(&scene);
     // A throwaway observer for the stress ratio while flowing (it keeps no state for that).
-    let probe = match ChuteObserver::new(settings.clone(), geom.clone()) {
+    let probe = match ChuteObserver::new(settings.clone(), geometry(&scene)) {
         Ok(o) => o,
         Err(problems) => {
             let text: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
@@ -172,132 +155,139 @@ pub fn run_chute_job(
             )));
         }
     };
-    let dir = job_dir(&ctx.work_dir, &job.hash);
-    let started = Instant::now();
-    let (found, refused) = checkpoint::load_latest(&dir, &job.hash);
-    for r in refused {
-        (ctx.log)(format!("job {}: {r}", job.id));
-    }
-    let (state, mut prog) = match found {
-        Some((path, _, s, extra)) => {
-            let prog = serde_json::from_str::<Progress>(&extra)
-                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
-            (ctx.log)(format!(
-                "job {}: resuming from {} (t = {:.3} s)",
-                job.id,
-                path.display(),
-                s.time
-            ));
-            (s, prog)
-        }
-        None => {
-            if job.sim_time_s > 0.0 {
-                (ctx.log)(format!(
-                    "job {}: no valid checkpoint; restarting from the beginning",
-                    job.id
-                ));
-            }
-            let s = scene.initial_state(spec.seed());
-            let prog = Progress {
-                chunk: 0,
-                phase: Phase::Flowing,
-                detector: SteadyDetector::new(steady_settings, p.inclination_deg),
-                series: Vec::new(),
-                observer: None,
-                steady_time_s: None,
-                steady_stress_ratio: None,
-                steady: false,
-                measure_start_chunk: 0,
-                particle_steps: 0,
-                wall_time_s: 0.0,
-                numerics: Default::default(),
-            };
-            (s, prog)
-        }
-    };
-    // `auto` takes a hardware GPU for f32 rods as for spheres (backend::build).
-    let choice = backend::for_job(&spec, ctx.backend);
-    let mut engine: Box<dyn Backend> = match backend::build(
-        choice,
-        spec.precision,
-        scene.engine_config(),
-        &state,
-        ctx.threads,
-    ) {
-        Ok(e) => e,
-        Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
-    };
-    let info = engine.describe();
-    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
-    let stage = |phase: Phase| match phase {
-        Phase::Flowing => "flow",
-        Phase::Measuring => "measure",
-    };
-    jobs::set_stage(conn, job.id, lease, stage(prog.phase))?;
-
     // A fixed chunk (see CHUNK_S), shortened only for an observer that samples faster.
     let chunk_steps = (CHUNK_S.min(settings.sample_interval_s) / scene.dt)
         .round()
         .max(1.0) as u64;
     let chunk_dt = chunk_steps as f64 * scene.dt;
-    let sample_every = ((settings.sample_interval_s / chunk_dt).round() as u64).max(1);
-    let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
-    let target = p.max_time_s();
-    let bed = expected_bed_height(&scene);
-    let wall0 = prog.wall_time_s;
-    let mut last_beat = Instant::now();
-    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| {
-        save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
+    let study = ChuteStudy {
+        sample_every: ((settings.sample_interval_s / chunk_dt).round() as u64).max(1),
+        measure_chunks: (scene.p.measure_time_s / chunk_dt).round().max(1.0) as u64,
+        bed: expected_bed_height(&scene),
+        chunk_steps,
+        probe,
+        spec,
+        scene,
     };
-    let measure_chunks = (p.measure_time_s / chunk_dt).round().max(1.0) as u64;
-    let snapshots =
-        SnapshotWriter::new(spec.observers.snapshots.as_ref(), &dir, &job.hash, chunk_dt);
-    loop {
-        let t = prog.chunk as f64 * chunk_dt;
-        // Frames at chunk boundaries only, so a resumed run rewrites the same ones.
-        snapshots.at_chunk(prog.chunk, t, || engine.try_download())?;
-        if prog.phase == Phase::Measuring && prog.chunk >= prog.measure_start_chunk + measure_chunks
-        {
-            break;
-        }
+    job::run(conn, job, lease, ctx, &study)
+}
+
+/// A chute job: its parameters, scene, chunking and stress-ratio probe.
+struct ChuteStudy {
+    spec: JobSpec,
+    scene: ChuteScene,
+    probe: ChuteObserver,
+    chunk_steps: u64,
+    /// Chunks between two observer samples.
+    sample_every: u64,
+    /// Chunks of measurement.
+    measure_chunks: u64,
+    /// The expected bed height (m), for the bulk of the stress ratio.
+    bed: f64,
+}
+
+fn stage(phase: Phase) -> &'static str {
+    match phase {
+        Phase::Flowing => "flow",
+        Phase::Measuring => "measure",
+    }
+}
+
+impl Study for ChuteStudy {
+    type Progress = Progress;
+
+    fn spec(&self) -> &JobSpec {
+        &self.spec
+    }
+
+    fn ledger(p: &Progress) -> &Ledger {
+        &p.ledger
+    }
+
+    fn ledger_mut(p: &mut Progress) -> &mut Ledger {
+        &mut p.ledger
+    }
+
+    fn start(&self, _run: &JobRun) -> anyhow::Result<Start<Progress>> {
+        let p = &self.scene.p;
+        let steady_settings = SteadySettings {
+            window_s: p.steady_window_s,
+            tol_ke: p.steady_kinetic_tolerance,
+            tol_ratio: p.steady_stress_tolerance,
+            ..SteadySettings::default()
+        };
+        let prog = Progress {
+            ledger: Ledger::default(),
+            phase: Phase::Flowing,
+            detector: SteadyDetector::new(steady_settings, p.inclination_deg),
+            series: Vec::new(),
+            observer: None,
+            steady_time_s: None,
+            steady_stress_ratio: None,
+            steady: false,
+            measure_start_chunk: 0,
+        };
+        Ok(Start::Ready(
+            Box::new(self.scene.initial_state(self.spec.seed())),
+            prog,
+        ))
+    }
+
+    fn engine_config(&self) -> EngineConfig {
+        self.scene.engine_config()
+    }
+
+    fn chunk_steps(&self) -> u64 {
+        self.chunk_steps
+    }
+
+    fn dt(&self) -> f64 {
+        self.scene.dt
+    }
+
+    fn describe_resume(&self, s: &State<f64>, _: &Progress) -> String {
+        format!("t = {:.3} s", s.time)
+    }
+
+    fn stage(&self, p: &Progress) -> &'static str {
+        stage(p.phase)
+    }
+
+    fn done(&self, p: &Progress, _t: f64) -> bool {
+        p.phase == Phase::Measuring && p.ledger.chunk >= p.measure_start_chunk + self.measure_chunks
+    }
+
+    fn end_time(&self, p: &Progress) -> f64 {
         // The progress target shrinks to the real end once measurement has started.
-        let end = if prog.phase == Phase::Measuring {
-            (prog.measure_start_chunk + measure_chunks) as f64 * chunk_dt
+        if p.phase == Phase::Measuring {
+            (p.measure_start_chunk + self.measure_chunks) as f64
+                * self.chunk_steps as f64
+                * self.scene.dt
         } else {
-            target
-        };
-        if ctx.interrupt.load(Ordering::SeqCst) {
-            let path = save(&mut engine, &prog)?;
-            jobs::heartbeat(
-                conn,
-                job.id,
-                lease,
-                t,
-                t / end,
-                prog.particle_steps,
-                prog.wall_time_s,
-                Some(&path.display().to_string()),
-            )?;
-            return Ok(Outcome::Paused);
+            self.scene.p.max_time_s()
         }
-        let t0 = Instant::now();
-        let report = match engine.advance(chunk_steps) {
-            Ok(r) => r,
-            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
-        };
-        prog.chunk += 1;
-        prog.particle_steps += report.particle_steps;
-        prog.numerics.add(&report);
-        let t_now = prog.chunk as f64 * chunk_dt;
+    }
+
+    fn observe(
+        &self,
+        run: &JobRun,
+        prog: &mut Progress,
+        engine: &mut dyn Backend,
+        _report: &ChunkReport,
+        t_now: f64,
+    ) -> anyhow::Result<Result<(), String>> {
+        let p = &self.scene.p;
+        let (bed, probe) = (self.bed, &self.probe);
         let s = match engine.try_download() {
             Ok(s) => s,
-            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+            Err(e) => return Ok(Err(format!("{e} (last good checkpoint kept)"))),
         };
         let flowing = Flowing::of(&s);
         let ke = s.kinetic_energy();
+        let chunk = prog.ledger.chunk;
         match prog.phase {
             Phase::Flowing => {
-                let ratio = if prog.chunk % STRESS_EVERY == 0 {
+                let ratio = if chunk.is_multiple_of(STRESS_EVERY) {
                     let contacts = engine
                         .contacts()
                         .map_err(|e| anyhow::anyhow!("contact list: {e}"))?;
@@ -314,32 +304,33 @@ pub fn run_chute_job(
                 // The criteria must hold on the current window, not at some earlier moment.
                 let steady = t_now >= p.steady_min_time_s && check.is_some_and(|c| c.steady);
                 if steady || t_now >= p.steady_max_time_s - 1e-9 {
-                    let found = check;
                     prog.steady = steady;
                     prog.steady_time_s = steady.then_some(t_now);
-                    prog.steady_stress_ratio = found.and_then(|c| c.stress_ratio);
+                    prog.steady_stress_ratio = check.and_then(|c| c.stress_ratio);
                     prog.phase = Phase::Measuring;
-                    prog.measure_start_chunk = prog.chunk;
+                    prog.measure_start_chunk = chunk;
                     prog.observer = Some(probe.clone());
-                    jobs::set_stage(conn, job.id, lease, stage(prog.phase))?;
-                    (ctx.log)(format!(
-                        "job {}: {} at t = {t_now:.2} s{}; measuring for {} s",
-                        job.id,
+                    jobs::set_stage(run.conn, run.job.id, run.lease, stage(prog.phase))?;
+                    run.log(format!(
+                        "{} at t = {t_now:.2} s{}; measuring for {} s",
                         if steady {
                             "steady"
                         } else {
                             "NOT steady (steady_max_time_s reached)"
                         },
                         prog.steady_stress_ratio
-                            .map(|m| format!(" (μ = {m:.3}, tan α = {:.3})", scene.tan_alpha()))
+                            .map(|m| format!(
+                                " (μ = {m:.3}, tan α = {:.3})",
+                                self.scene.tan_alpha()
+                            ))
                             .unwrap_or_default(),
                         p.measure_time_s
                     ));
                 }
             }
             Phase::Measuring => {
-                let sample = (prog.chunk - prog.measure_start_chunk) % sample_every == 0;
-                let stress = prog.chunk % STRESS_EVERY == 0;
+                let sample = (chunk - prog.measure_start_chunk).is_multiple_of(self.sample_every);
+                let stress = chunk.is_multiple_of(STRESS_EVERY);
                 let contacts = if sample || stress {
                     engine
                         .contacts()
@@ -352,7 +343,7 @@ pub fn run_chute_job(
                     .then(|| probe.stress_ratio(&snap, BULK.0 * bed, BULK.1 * bed))
                     .flatten();
                 prog.series.push((t_now, ke, ratio));
-                prog.numerics.energy.add(t_now, ke);
+                prog.ledger.numerics.energy.add(t_now, ke);
                 if sample {
                     prog.observer
                         .as_mut()
@@ -361,54 +352,40 @@ pub fn run_chute_job(
                 }
             }
         }
-        let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
-        prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-        let saved = if prog.chunk % ckpt_every == 0 {
-            Some(save(&mut engine, &prog)?)
-        } else {
-            None
-        };
-        if saved.is_some() || last_beat.elapsed().as_secs_f64() > 2.0 {
-            let path = saved.map(|p| p.display().to_string());
-            jobs::heartbeat(
-                conn,
-                job.id,
-                lease,
-                t_now,
-                (t_now / end).min(1.0),
-                prog.particle_steps,
-                prog.wall_time_s,
-                path.as_deref(),
+        Ok(Ok(()))
+    }
+
+    fn finish(
+        &self,
+        conn: &mut Connection,
+        job: &JobRow,
+        _ctx: &JobContext,
+        prog: Progress,
+        t_end: f64,
+    ) -> anyhow::Result<()> {
+        let observer = prog
+            .observer
+            .as_ref()
+            .expect("measurement happened before the end");
+        let mut results = observer.finish();
+        results.summary.steady = prog.steady;
+        results.summary.steady_time_s = prog.steady_time_s;
+        results.summary.steady_stress_ratio = prog.steady_stress_ratio;
+        let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let status: String =
+            tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job.id], |r| {
+                r.get(0)
+            })?;
+        if status != "done" {
+            results.write(&tx, job.id, &prog.series)?;
+            prog.ledger.numerics.write(&tx, job.id, self.scene.dt)?;
+            tx.execute(
+                "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
+                    finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+                params![job.id, t_end, prog.ledger.wall_time_s, prog.ledger.particle_steps as i64],
             )?;
-            last_beat = Instant::now();
         }
-        if let Some(pf) = &ctx.progress {
-            pf(t_now, end, rate);
-        }
+        tx.commit()?;
+        Ok(())
     }
-    let t_end = prog.chunk as f64 * chunk_dt;
-    let observer = prog
-        .observer
-        .as_ref()
-        .expect("measurement happened before the end");
-    let mut results = observer.finish();
-    results.summary.steady = prog.steady;
-    results.summary.steady_time_s = prog.steady_time_s;
-    results.summary.steady_stress_ratio = prog.steady_stress_ratio;
-    let wall = wall0 + started.elapsed().as_secs_f64();
-    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    let status: String = tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job.id], |r| {
-        r.get(0)
-    })?;
-    if status != "done" {
-        results.write(&tx, job.id, &prog.series)?;
-        prog.numerics.write(&tx, job.id, scene.dt)?;
-        tx.execute(
-            "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
-                finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
-            params![job.id, t_end, wall, prog.particle_steps as i64],
-        )?;
-    }
-    tx.commit()?;
-    Ok(Outcome::Done)
 }

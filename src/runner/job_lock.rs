@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use super::silo_job::job_dir;
+use super::job::job_dir;
 use crate::store::jobs::{owner_place, Liveness, OpenJob, OwnerPlace};
 
 /// The lock file of a job's (or a stage's) directory.

@@ -5,10 +5,12 @@
 
 pub mod backend;
 pub mod chute_job;
+pub mod job;
 pub mod job_lock;
 pub mod pool;
 pub mod silo_job;
 pub mod slurm;
 
+pub use job::{job_dir, JobContext, Outcome};
 pub use pool::{run_pending, PoolOptions};
-pub use silo_job::{run_silo_job, JobContext, Outcome};
+pub use silo_job::run_silo_job;

@@ -8,8 +8,9 @@ use std::sync::{Arc, Mutex};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::backend::BackendChoice;
+use super::job::{job_dir, JobContext, Outcome};
 use super::job_lock::{DirLock, Heartbeat};
-use super::silo_job::{job_dir, run_silo_job, JobContext, Outcome};
+use super::silo_job::run_silo_job;
 use crate::store::jobs::{self, Lease};
 
 /// Options of a run of pending jobs.

@@ -1,10 +1,9 @@
-//! Running one silo job: shared fill stage, discharge in chunks of one sampling interval,
-//! checkpoints at chunk boundaries (so a resumed run repeats exactly the same operations), and
-//! the results written with the job's completion in one transaction.
+//! The silo study: a shared fill stage, then the discharge in chunks of one sampling interval
+//! (M(t), clogs, Q; optionally coarse-grained fields), and the results written with the job's
+//! completion in one transaction. The lifecycle around it is `job::run`.
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::path::Path;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -12,94 +11,33 @@ use rusqlite::Connection;
 use serde::{Deserialize, Serialize};
 
 use super::backend::{self, BackendChoice};
+use super::job::{self, JobContext, JobRun, Ledger, Outcome, Start, Study};
 use super::job_lock::DirLock;
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
-use crate::engine::{Backend, State};
+use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::discharge::Discharge;
 use crate::observe::silo_fields::SiloFieldObserver;
-use crate::observe::snapshots::SnapshotWriter;
 use crate::scene::silo::{SiloPhase, SiloScene};
 use crate::store::jobs::{self, JobRow, Lease};
 use crate::store::SiloResults;
-
-/// How a job run ended.
-#[derive(Debug, PartialEq)]
-pub enum Outcome {
-    Done,
-    /// Interrupted (SIGINT/SIGTERM); its checkpoint is current.
-    Paused,
-    Failed(String),
-}
-
-/// Progress callback: (simulated time since opening, target, particle-steps/s).
-pub type ProgressFn = Arc<dyn Fn(f64, f64, f64) + Send + Sync>;
-
-/// Where and how jobs run.
-#[derive(Clone)]
-pub struct JobContext {
-    /// Checkpoints and shared stages live under here.
-    pub work_dir: PathBuf,
-    pub backend: BackendChoice,
-    pub threads: usize,
-    /// Simulated seconds between checkpoints.
-    pub checkpoint_interval_s: f64,
-    pub interrupt: Arc<AtomicBool>,
-    /// Called with (simulated time since opening, target, particle-steps/s) after each chunk.
-    pub progress: Option<ProgressFn>,
-    /// Messages for the user (refused checkpoints, restarts, fill stage reuse).
-    pub log: Arc<dyn Fn(String) + Send + Sync>,
-}
 
 /// What a checkpoint keeps besides the particles.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct Progress {
     t_open: f64,
     step_open: u64,
-    chunk: u64,
+    #[serde(flatten)]
+    ledger: Ledger,
     bulk_density: f64,
     discharge: Discharge,
-    particle_steps: u64,
-    wall_time_s: f64,
     initial_count: usize,
-    #[serde(default)]
-    numerics: crate::store::JobNumerics,
     /// The coarse-grained field observer (absent unless the campaign asks for it).
     #[serde(default)]
     fields: Option<SiloFieldObserver>,
     /// Wall time spent sampling fields (s), for the observer's cost.
     #[serde(default)]
     fields_wall_s: f64,
-}
-
-/// A job's own directory (checkpoints) under the work directory.
-pub fn job_dir(work: &Path, hash: &str) -> PathBuf {
-    work.join("jobs").join(&hash[..16])
-}
-
-/// Downloads the engine's state and writes it with the job's progress record `prog` as the
-/// job's next checkpoint (only ever between chunks, so a resumed run repeats the same steps).
-pub(super) fn save_checkpoint<P: Serialize>(
-    dir: &Path,
-    job_hash: &str,
-    engine: &mut dyn Backend,
-    info: &crate::engine::BackendInfo,
-    prog: &P,
-) -> anyhow::Result<PathBuf> {
-    let s = engine.try_download()?;
-    let h = Header {
-        job_hash: job_hash.to_string(),
-        step: s.step,
-        time_s: s.time,
-        backend: info.kind.clone(),
-        precision: info.precision.clone(),
-    };
-    Ok(checkpoint::save(
-        dir,
-        &h,
-        &s,
-        &serde_json::to_string(prog)?,
-    )?)
 }
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
@@ -234,218 +172,196 @@ pub fn run_silo_job(
         Ok(s) => s,
         Err(e) => return Ok(Outcome::Failed(e)),
     };
-    let dir = job_dir(&ctx.work_dir, &job.hash);
-    let started = Instant::now();
-    let (found, refused) = checkpoint::load_latest(&dir, &job.hash);
-    for r in refused {
-        (ctx.log)(format!("job {}: {r}", job.id));
-    }
-    let (state, mut prog) = match found {
-        Some((path, _, s, extra)) => {
-            let prog = serde_json::from_str::<Progress>(&extra)
-                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
-            (ctx.log)(format!(
-                "job {}: resuming from {} (t = {:.3} s after opening)",
-                job.id,
-                path.display(),
-                s.time - prog.t_open
-            ));
-            (s, prog)
-        }
-        None => {
-            if job.sim_time_s > 0.0 {
-                (ctx.log)(format!(
-                    "job {}: no valid checkpoint; restarting from the beginning",
-                    job.id
-                ));
-            }
-            jobs::set_stage(conn, job.id, lease, "fill")?;
-            let (s, fill_steps) = match fill_stage(&spec, &scene, ctx) {
-                Ok(x) => x,
-                Err(e) if e.is::<Interrupted>() => return Ok(Outcome::Paused),
-                Err(e) => return Err(e),
-            };
-            let bulk = scene.bulk_density(&s);
-            let prog = Progress {
-                t_open: s.time,
-                step_open: s.step,
-                chunk: 0,
-                bulk_density: bulk,
-                discharge: Discharge::new(spec.observers.discharge.clone()),
-                particle_steps: fill_steps,
-                wall_time_s: 0.0,
-                initial_count: s.len(),
-                numerics: Default::default(),
-                fields: None,
-                fields_wall_s: 0.0,
-            };
-            (s, prog)
-        }
+    let chunk_steps = (spec.observers.discharge.sample_interval_s / scene.dt)
+        .round()
+        .max(1.0) as u64;
+    let study = SiloStudy {
+        spec,
+        scene,
+        chunk_steps,
     };
-    let config = scene.engine_config(SiloPhase::Discharge);
-    let mut engine: Box<dyn Backend> = match backend::build(
-        backend::for_job(&spec, ctx.backend),
-        spec.precision,
-        config,
-        &state,
-        ctx.threads,
-    ) {
-        Ok(e) => e,
-        Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
-    };
-    let info = engine.describe();
-    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
-    jobs::set_stage(conn, job.id, lease, "discharge")?;
+    job::run(conn, job, lease, ctx, &study)
+}
 
-    let st = &spec.observers.discharge;
-    let chunk_steps = (st.sample_interval_s / scene.dt).round().max(1.0) as u64;
-    let chunk_dt = chunk_steps as f64 * scene.dt;
-    let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
-    if prog.fields.is_none() {
-        prog.fields = spec
+/// A silo job: its parameters, its scene and its chunk.
+struct SiloStudy {
+    spec: JobSpec,
+    scene: SiloScene,
+    chunk_steps: u64,
+}
+
+impl SiloStudy {
+    fn chunk_dt(&self) -> f64 {
+        self.chunk_steps as f64 * self.scene.dt
+    }
+
+    fn field_observer(&self) -> Option<SiloFieldObserver> {
+        self.spec
             .observers
             .fields
             .as_ref()
-            .map(|f| SiloFieldObserver::new(f, &scene.p, chunk_dt));
+            .map(|f| SiloFieldObserver::new(f, &self.scene.p, self.chunk_dt()))
     }
-    let target = scene.p.discharge_time_s;
-    let wall0 = prog.wall_time_s;
-    let mut last_beat = Instant::now();
-    let seed = spec.seed();
-    let save = |engine: &mut Box<dyn Backend>, prog: &Progress| {
-        save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
-    };
-    let snapshots =
-        SnapshotWriter::new(spec.observers.snapshots.as_ref(), &dir, &job.hash, chunk_dt);
-    loop {
-        let t_rel = prog.chunk as f64 * chunk_dt;
-        // Frames at chunk boundaries only, so a resumed run rewrites the same ones.
-        snapshots.at_chunk(prog.chunk, t_rel, || engine.try_download())?;
-        // Without re-insertion the particles left are the initial ones minus those counted out.
-        let remaining = prog.initial_count - prog.discharge.count as usize;
-        let done = t_rel >= target - 1e-12
-            || prog.discharge.permanently_clogged(t_rel)
-            || (!scene.p.reinsert
-                && (remaining as f64)
-                    < scene.p.stop_remaining_fraction * prog.initial_count as f64);
-        if done {
-            break;
-        }
-        if ctx.interrupt.load(Ordering::SeqCst) {
-            let path = save(&mut engine, &prog)?;
-            jobs::heartbeat(
-                conn,
-                job.id,
-                lease,
-                t_rel,
-                t_rel / target,
-                prog.particle_steps,
-                prog.wall_time_s,
-                Some(&path.display().to_string()),
-            )?;
-            return Ok(Outcome::Paused);
-        }
-        let t0 = Instant::now();
-        let report = match engine.advance(chunk_steps) {
-            Ok(r) => r,
-            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+}
+
+impl Study for SiloStudy {
+    type Progress = Progress;
+
+    fn spec(&self) -> &JobSpec {
+        &self.spec
+    }
+
+    fn ledger(p: &Progress) -> &Ledger {
+        &p.ledger
+    }
+
+    fn ledger_mut(p: &mut Progress) -> &mut Ledger {
+        &mut p.ledger
+    }
+
+    fn start(&self, run: &JobRun) -> anyhow::Result<Start<Progress>> {
+        jobs::set_stage(run.conn, run.job.id, run.lease, "fill")?;
+        let (s, fill_steps) = match fill_stage(&self.spec, &self.scene, run.ctx) {
+            Ok(x) => x,
+            Err(e) if e.is::<Interrupted>() => return Ok(Start::Paused),
+            Err(e) => return Err(e),
         };
-        prog.chunk += 1;
-        prog.particle_steps += report.particle_steps;
-        prog.numerics.add(&report);
-        let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
-        let t_now = prog.chunk as f64 * chunk_dt;
+        let prog = Progress {
+            t_open: s.time,
+            step_open: s.step,
+            ledger: Ledger {
+                particle_steps: fill_steps,
+                ..Ledger::default()
+            },
+            bulk_density: self.scene.bulk_density(&s),
+            discharge: Discharge::new(self.spec.observers.discharge.clone()),
+            initial_count: s.len(),
+            fields: self.field_observer(),
+            fields_wall_s: 0.0,
+        };
+        Ok(Start::Ready(Box::new(s), prog))
+    }
+
+    fn engine_config(&self) -> EngineConfig {
+        self.scene.engine_config(SiloPhase::Discharge)
+    }
+
+    fn chunk_steps(&self) -> u64 {
+        self.chunk_steps
+    }
+
+    fn dt(&self) -> f64 {
+        self.scene.dt
+    }
+
+    fn describe_resume(&self, s: &State<f64>, p: &Progress) -> String {
+        format!("t = {:.3} s after opening", s.time - p.t_open)
+    }
+
+    fn stage(&self, _: &Progress) -> &'static str {
+        "discharge"
+    }
+
+    fn done(&self, p: &Progress, t_rel: f64) -> bool {
+        let sp = &self.scene.p;
+        // Without re-insertion the particles left are the initial ones minus those counted out.
+        let remaining = p.initial_count - p.discharge.count as usize;
+        t_rel >= sp.discharge_time_s - 1e-12
+            || p.discharge.permanently_clogged(t_rel)
+            || (!sp.reinsert
+                && (remaining as f64) < sp.stop_remaining_fraction * p.initial_count as f64)
+    }
+
+    fn end_time(&self, _: &Progress) -> f64 {
+        self.scene.p.discharge_time_s
+    }
+
+    fn observe(
+        &self,
+        _run: &JobRun,
+        p: &mut Progress,
+        engine: &mut dyn Backend,
+        report: &ChunkReport,
+        t_now: f64,
+    ) -> anyhow::Result<Result<(), String>> {
+        let kept = |e: &dyn std::fmt::Display| format!("{e} (last good checkpoint kept)");
         for ev in &report.removed {
-            prog.discharge
-                .record_exit(ev.time_s - prog.t_open, ev.mass_kg);
+            p.discharge.record_exit(ev.time_s - p.t_open, ev.mass_kg);
         }
-        if scene.p.reinsert && !report.removed.is_empty() {
+        if self.scene.p.reinsert && !report.removed.is_empty() {
             let mut s = match engine.try_download() {
                 Ok(s) => s,
-                Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+                Err(e) => return Ok(Err(kept(&e))),
             };
             let step = s.step;
-            scene.reinsert(&mut s, &report.removed, seed ^ step);
+            self.scene
+                .reinsert(&mut s, &report.removed, self.spec.seed() ^ step);
             engine.upload(&s);
         }
-        prog.discharge.sample(t_now);
-        if let Some(obs) = prog.fields.as_mut() {
-            if obs.samples_at(prog.chunk) && obs.wanted_at(t_now) {
+        p.discharge.sample(t_now);
+        // A checkpoint of an older sweep may lack the observer its campaign asks for.
+        if p.fields.is_none() {
+            p.fields = self.field_observer();
+        }
+        if let Some(obs) = p.fields.as_mut() {
+            if obs.samples_at(p.ledger.chunk) && obs.wanted_at(t_now) {
                 let t_f = Instant::now();
                 let s = match engine.try_download() {
                     Ok(s) => s,
-                    Err(e) => {
-                        return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)")))
-                    }
+                    Err(e) => return Ok(Err(kept(&e))),
                 };
                 let contacts = if obs.needs_contacts() {
                     match engine.contacts() {
                         Ok(c) => Some(c),
-                        Err(e) => {
-                            return Ok(Outcome::Failed(format!(
-                                "contact stress: {e} (last good checkpoint kept)"
-                            )))
-                        }
+                        Err(e) => return Ok(Err(format!("contact stress: {}", kept(&e)))),
                     }
                 } else {
                     None
                 };
                 obs.sample(t_now, &s, contacts.as_deref());
-                prog.fields_wall_s += t_f.elapsed().as_secs_f64();
+                p.fields_wall_s += t_f.elapsed().as_secs_f64();
             }
         }
-        if t_now >= st.skip_initial_s - 1e-12 {
+        if t_now >= self.spec.observers.discharge.skip_initial_s - 1e-12 {
             match engine.kinetic_energy() {
-                Ok(e) => prog.numerics.energy.add(t_now, e),
-                Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+                Ok(e) => p.ledger.numerics.energy.add(t_now, e),
+                Err(e) => return Ok(Err(kept(&e))),
             }
         }
-        prog.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-        let saved = if prog.chunk % ckpt_every == 0 {
-            Some(save(&mut engine, &prog)?)
-        } else {
-            None
+        Ok(Ok(()))
+    }
+
+    fn finish(
+        &self,
+        conn: &mut Connection,
+        job: &JobRow,
+        ctx: &JobContext,
+        p: Progress,
+        t_end: f64,
+    ) -> anyhow::Result<()> {
+        let sp = &self.scene.p;
+        let summary = p.discharge.summarize(t_end);
+        if p.fields.is_some() {
+            (ctx.log)(format!(
+                "job {}: field observer took {:.2} s of {:.2} s wall time",
+                job.id, p.fields_wall_s, p.ledger.wall_time_s
+            ));
+        }
+        let results = SiloResults {
+            orifice_diameter_m: sp.orifice_diameter_m,
+            rotation_frequency_hz: sp.rotation_frequency_hz,
+            particle_diameter_m: sp.particle_diameter_m,
+            bulk_density_kg_per_m3: p.bulk_density,
+            discharge: p.discharge,
+            summary,
+            wall_time_s: p.ledger.wall_time_s,
+            particle_steps: p.ledger.particle_steps,
+            sim_time_s: t_end,
+            dt_s: self.scene.dt,
+            numerics: p.ledger.numerics,
+            fields: p.fields,
         };
-        if saved.is_some() || last_beat.elapsed().as_secs_f64() > 2.0 {
-            let path = saved.map(|p| p.display().to_string());
-            jobs::heartbeat(
-                conn,
-                job.id,
-                lease,
-                t_now,
-                t_now / target,
-                prog.particle_steps,
-                prog.wall_time_s,
-                path.as_deref(),
-            )?;
-            last_beat = Instant::now();
-        }
-        if let Some(p) = &ctx.progress {
-            p(t_now, target, rate);
-        }
+        results.commit(conn, job.id)?;
+        Ok(())
     }
-    let t_end = prog.chunk as f64 * chunk_dt;
-    let summary = prog.discharge.summarize(t_end);
-    let results = SiloResults {
-        orifice_diameter_m: scene.p.orifice_diameter_m,
-        rotation_frequency_hz: scene.p.rotation_frequency_hz,
-        particle_diameter_m: scene.p.particle_diameter_m,
-        bulk_density_kg_per_m3: prog.bulk_density,
-        discharge: prog.discharge.clone(),
-        summary,
-        wall_time_s: wall0 + started.elapsed().as_secs_f64(),
-        particle_steps: prog.particle_steps,
-        sim_time_s: t_end,
-        dt_s: scene.dt,
-        numerics: prog.numerics.clone(),
-        fields: prog.fields.clone(),
-    };
-    if prog.fields.is_some() {
-        (ctx.log)(format!(
-            "job {}: field observer took {:.2} s of {:.2} s wall time",
-            job.id, prog.fields_wall_s, results.wall_time_s
-        ));
-    }
-    results.commit(conn, job.id)?;
-    Ok(Outcome::Done)
 }

@@ -94,7 +94,7 @@ pub fn spec_path(work: &Path, job_id: i64) -> PathBuf {
 
 /// A job's own directory (the local executor's too).
 pub fn job_dir(work: &Path, hash: &str) -> PathBuf {
-    crate::runner::silo_job::job_dir(work, hash)
+    crate::runner::job::job_dir(work, hash)
 }
 
 /// Writes a JSON file atomically.

@@ -23,7 +23,8 @@ use super::files::{self, FailedMarker, ProgressFile, TaskSpec};
 use super::query;
 use crate::runner::backend::BackendChoice;
 use crate::runner::chute_job::run_chute_job;
-use crate::runner::silo_job::{run_silo_job, JobContext, Outcome};
+use crate::runner::job::{JobContext, Outcome, ProgressFn};
+use crate::runner::silo_job::run_silo_job;
 use crate::store::jobs::{JobRow, Lease};
 
 /// What `sweep run-job` was asked to do.
@@ -207,11 +208,7 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
 }
 
 /// The progress callback: `progress.json` rewritten at most every second.
-fn progress_writer(
-    dir: &Path,
-    spec: &TaskSpec,
-    me: Option<String>,
-) -> crate::runner::silo_job::ProgressFn {
+fn progress_writer(dir: &Path, spec: &TaskSpec, me: Option<String>) -> ProgressFn {
     let path = dir.join("progress.json");
     let job_id = spec.job_id;
     let started = Instant::now();

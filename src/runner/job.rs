@@ -1,0 +1,317 @@
+//! One job's lifecycle, whatever the study: resume from the latest valid checkpoint or start
+//! afresh, build the backend and record it, then the chunk loop (snapshots, interrupt, advance,
+//! observe, checkpoint, heartbeat, progress) and the results. A study (silo, chute, the next
+//! one) plugs in through `Study`: how it starts, what it observes after each chunk, when it is
+//! done and what it stores. Checkpoints are written only between chunks, so a resumed run
+//! repeats exactly the same operations. (The claim, the OS lock and the heartbeat thread are
+//! the executor's: `pool`, `slurm::task`.)
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context;
+use rusqlite::Connection;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use super::backend::{self, BackendChoice};
+use crate::campaign::JobSpec;
+use crate::checkpoint::{self, Header};
+use crate::engine::{Backend, ChunkReport, EngineConfig, State};
+use crate::observe::snapshots::SnapshotWriter;
+use crate::store::jobs::{self, JobRow, Lease};
+
+/// How a job run ended.
+#[derive(Debug, PartialEq)]
+pub enum Outcome {
+    Done,
+    /// Interrupted (SIGINT/SIGTERM); its checkpoint is current (or, before the first one, the
+    /// job starts again).
+    Paused,
+    Failed(String),
+}
+
+/// Progress callback: (simulated time, target, particle-steps/s).
+pub type ProgressFn = Arc<dyn Fn(f64, f64, f64) + Send + Sync>;
+
+/// Where and how jobs run.
+#[derive(Clone)]
+pub struct JobContext {
+    /// Checkpoints and shared stages live under here.
+    pub work_dir: PathBuf,
+    pub backend: BackendChoice,
+    pub threads: usize,
+    /// Simulated seconds between checkpoints.
+    pub checkpoint_interval_s: f64,
+    pub interrupt: Arc<AtomicBool>,
+    /// Called with (simulated time, target, particle-steps/s) after each chunk.
+    pub progress: Option<ProgressFn>,
+    /// Messages for the user (refused checkpoints, restarts, fill stage reuse).
+    pub log: Arc<dyn Fn(String) + Send + Sync>,
+}
+
+/// A job's own directory (checkpoints, snapshots, its lock) under the work directory.
+pub fn job_dir(work: &Path, hash: &str) -> PathBuf {
+    work.join("jobs").join(&hash[..16])
+}
+
+/// What every study's checkpoint keeps about the run itself (flattened into its progress
+/// record, so the checkpoint's JSON keeps its fields where they always were).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Ledger {
+    /// Chunks run so far.
+    pub chunk: u64,
+    pub particle_steps: u64,
+    pub wall_time_s: f64,
+    #[serde(default)]
+    pub numerics: crate::store::JobNumerics,
+}
+
+/// How a fresh start went.
+pub enum Start<P> {
+    Ready(Box<State<f64>>, P),
+    /// Interrupted before the job had a state of its own (in the silo's fill stage).
+    Paused,
+}
+
+/// The job, as a study's hooks see it.
+pub struct JobRun<'a> {
+    pub conn: &'a Connection,
+    pub job: &'a JobRow,
+    pub lease: &'a Lease,
+    pub ctx: &'a JobContext,
+}
+
+impl JobRun<'_> {
+    pub fn log(&self, message: String) {
+        (self.ctx.log)(format!("job {}: {message}", self.job.id))
+    }
+}
+
+/// A study plugged into the job lifecycle.
+pub trait Study {
+    /// What a checkpoint keeps besides the particles (with its `Ledger` flattened in).
+    type Progress: Serialize + DeserializeOwned;
+
+    fn spec(&self) -> &JobSpec;
+    fn ledger(p: &Self::Progress) -> &Ledger;
+    fn ledger_mut(p: &mut Self::Progress) -> &mut Ledger;
+    /// A fresh start: the initial state and progress.
+    ///
+    /// # Errors
+    /// Database and I/O errors.
+    fn start(&self, run: &JobRun) -> anyhow::Result<Start<Self::Progress>>;
+    /// The engine for the chunks.
+    fn engine_config(&self) -> EngineConfig;
+    /// Steps per chunk (a chunk is the sampling interval of the study's observers).
+    fn chunk_steps(&self) -> u64;
+    /// The time step (s).
+    fn dt(&self) -> f64;
+    /// Where a resumed job stands, for the log ("t = 1.2 s after opening").
+    fn describe_resume(&self, s: &State<f64>, p: &Self::Progress) -> String;
+    /// What the job is doing at this point ('discharge', 'flow', 'measure').
+    fn stage(&self, p: &Self::Progress) -> &'static str;
+    /// Whether the job has reached its end at simulated time `t`.
+    fn done(&self, p: &Self::Progress, t: f64) -> bool;
+    /// The simulated time the job is heading for, for progress and ETA.
+    fn end_time(&self, p: &Self::Progress) -> f64;
+    /// Observes the engine after a chunk ending at `t`. Ok(Err(reason)) fails the job.
+    ///
+    /// # Errors
+    /// Database and I/O errors.
+    fn observe(
+        &self,
+        run: &JobRun,
+        p: &mut Self::Progress,
+        engine: &mut dyn Backend,
+        report: &ChunkReport,
+        t: f64,
+    ) -> anyhow::Result<Result<(), String>>;
+    /// Stores the results and marks the job done, in one transaction.
+    ///
+    /// # Errors
+    /// Database errors.
+    fn finish(
+        &self,
+        conn: &mut Connection,
+        job: &JobRow,
+        ctx: &JobContext,
+        p: Self::Progress,
+        t_end: f64,
+    ) -> anyhow::Result<()>;
+}
+
+/// Downloads the engine's state and writes it with the job's progress record `prog` as the
+/// job's next checkpoint (only ever between chunks, so a resumed run repeats the same steps).
+pub fn save_checkpoint<P: Serialize>(
+    dir: &Path,
+    job_hash: &str,
+    engine: &mut dyn Backend,
+    info: &crate::engine::BackendInfo,
+    prog: &P,
+) -> anyhow::Result<PathBuf> {
+    let s = engine.try_download()?;
+    let h = Header {
+        job_hash: job_hash.to_string(),
+        step: s.step,
+        time_s: s.time,
+        backend: info.kind.clone(),
+        precision: info.precision.clone(),
+    };
+    Ok(checkpoint::save(
+        dir,
+        &h,
+        &s,
+        &serde_json::to_string(prog)?,
+    )?)
+}
+
+/// Runs (or resumes) one job of `study` to its end, an interruption, or a failure.
+///
+/// # Errors
+/// Database and I/O errors; physics failures are an `Outcome::Failed` instead.
+pub fn run<S: Study>(
+    conn: &mut Connection,
+    job: &JobRow,
+    lease: &Lease,
+    ctx: &JobContext,
+    study: &S,
+) -> anyhow::Result<Outcome> {
+    let dir = job_dir(&ctx.work_dir, &job.hash);
+    let started = Instant::now();
+    let (found, refused) = checkpoint::load_latest(&dir, &job.hash);
+    for r in refused {
+        (ctx.log)(format!("job {}: {r}", job.id));
+    }
+    let (state, mut prog) = match found {
+        Some((path, _, s, extra)) => {
+            let prog = serde_json::from_str::<S::Progress>(&extra)
+                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
+            (ctx.log)(format!(
+                "job {}: resuming from {} ({})",
+                job.id,
+                path.display(),
+                study.describe_resume(&s, &prog)
+            ));
+            (s, prog)
+        }
+        None => {
+            if job.sim_time_s > 0.0 {
+                (ctx.log)(format!(
+                    "job {}: no valid checkpoint; restarting from the beginning",
+                    job.id
+                ));
+            }
+            let run = JobRun {
+                conn,
+                job,
+                lease,
+                ctx,
+            };
+            match study.start(&run)? {
+                Start::Ready(s, p) => (*s, p),
+                Start::Paused => return Ok(Outcome::Paused),
+            }
+        }
+    };
+    let spec = study.spec();
+    let mut engine: Box<dyn Backend> = match backend::build(
+        backend::for_job(spec, ctx.backend),
+        spec.precision,
+        study.engine_config(),
+        &state,
+        ctx.threads,
+    ) {
+        Ok(e) => e,
+        Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
+    };
+    drop(state);
+    let info = engine.describe();
+    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
+    jobs::set_stage(conn, job.id, lease, study.stage(&prog))?;
+
+    let chunk_steps = study.chunk_steps();
+    let chunk_dt = chunk_steps as f64 * study.dt();
+    let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
+    let wall0 = S::ledger(&prog).wall_time_s;
+    let mut last_beat = Instant::now();
+    let save = |engine: &mut Box<dyn Backend>, prog: &S::Progress| {
+        save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
+    };
+    let snapshots =
+        SnapshotWriter::new(spec.observers.snapshots.as_ref(), &dir, &job.hash, chunk_dt);
+    loop {
+        let t = S::ledger(&prog).chunk as f64 * chunk_dt;
+        // Frames at chunk boundaries only, so a resumed run rewrites the same ones.
+        snapshots.at_chunk(S::ledger(&prog).chunk, t, || engine.try_download())?;
+        if study.done(&prog, t) {
+            break;
+        }
+        if ctx.interrupt.load(Ordering::SeqCst) {
+            let path = save(&mut engine, &prog)?;
+            let l = S::ledger(&prog);
+            jobs::heartbeat(
+                conn,
+                job.id,
+                lease,
+                t,
+                (t / study.end_time(&prog)).min(1.0),
+                l.particle_steps,
+                l.wall_time_s,
+                Some(&path.display().to_string()),
+            )?;
+            return Ok(Outcome::Paused);
+        }
+        let t0 = Instant::now();
+        let report = match engine.advance(chunk_steps) {
+            Ok(r) => r,
+            Err(e) => return Ok(Outcome::Failed(format!("{e} (last good checkpoint kept)"))),
+        };
+        let rate = report.particle_steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
+        let l = S::ledger_mut(&mut prog);
+        l.chunk += 1;
+        l.particle_steps += report.particle_steps;
+        l.numerics.add(&report);
+        let t_now = l.chunk as f64 * chunk_dt;
+        let run = JobRun {
+            conn,
+            job,
+            lease,
+            ctx,
+        };
+        if let Err(reason) = study.observe(&run, &mut prog, engine.as_mut(), &report, t_now)? {
+            return Ok(Outcome::Failed(reason));
+        }
+        S::ledger_mut(&mut prog).wall_time_s = wall0 + started.elapsed().as_secs_f64();
+        let saved = if S::ledger(&prog).chunk % ckpt_every == 0 {
+            Some(save(&mut engine, &prog)?)
+        } else {
+            None
+        };
+        let end = study.end_time(&prog);
+        if saved.is_some() || last_beat.elapsed().as_secs_f64() > 2.0 {
+            let path = saved.map(|p| p.display().to_string());
+            let l = S::ledger(&prog);
+            jobs::heartbeat(
+                conn,
+                job.id,
+                lease,
+                t_now,
+                (t_now / end).min(1.0),
+                l.particle_steps,
+                l.wall_time_s,
+                path.as_deref(),
+            )?;
+            last_beat = Instant::now();
+        }
+        if let Some(p) = &ctx.progress {
+            p(t_now, end, rate);
+        }
+    }
+    let t_end = S::ledger(&prog).chunk as f64 * chunk_dt;
+    S::ledger_mut(&mut prog).wall_time_s = wall0 + started.elapsed().as_secs_f64();
+    study.finish(conn, job, ctx, prog, t_end)?;
+    Ok(Outcome::Done)
+}
