@@ -1,7 +1,8 @@
-//! Job lifecycle: claim, run in chunks, heartbeat, checkpoint, resume, finish. `silo_job` runs one
-//! silo job, `chute_job` one chute job; two executors decide where: `pool` runs a campaign's
-//! pending jobs K at a time on this machine, `slurm` hands them to Slurm as job arrays; `backend`
-//! picks and builds the simulation backend.
+//! Job lifecycle: `job` runs one job (resume or start, the chunk loop, checkpoints, results)
+//! of a study that plugs in through `job::Study` (`silo_job`, `chute_job`); `job_lock` says
+//! whether a job's process lives (an OS lock, a heartbeat thread). Two executors decide where:
+//! `pool` claims and runs a campaign's pending jobs K at a time on this machine, `slurm` hands
+//! them to Slurm as job arrays; `backend` picks and builds the simulation backend.
 
 pub mod backend;
 pub mod chute_job;
