@@ -6,6 +6,7 @@ use std::time::Instant;
 use sweep::bench::Settling;
 use sweep::campaign::Precision;
 use sweep::runner::backend::{self, BackendChoice};
+use sweep::store::bench_runs;
 
 use super::DbArg;
 
@@ -165,10 +166,21 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     if !a.no_store {
         let conn = sweep::store::open(&a.db.db)?;
-        conn.execute(
-            "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
-            rusqlite::params![scene_name, info.kind, info.precision, info.threads as i64, mobile as i64, a.steps as i64, dt, rate, r.contacts_per_particle, sum, machine],
+        bench_runs::record(
+            &conn,
+            &bench_runs::BenchRun {
+                scene: &scene_name,
+                backend: &info.kind,
+                precision: &info.precision,
+                threads: info.threads as i64,
+                particles: mobile as i64,
+                steps: a.steps as i64,
+                dt_s: dt,
+                particle_steps_per_s: rate,
+                contacts_per_particle: r.contacts_per_particle,
+                state_checksum: &sum,
+                machine: &machine,
+            },
         )?;
     }
     Ok(0)

@@ -1,6 +1,5 @@
 //! `sweep cancel`: cancels a campaign's Slurm arrays; their jobs stay resumable.
 
-use rusqlite::OptionalExtension;
 use sweep::store::slurm_tasks;
 
 use super::launch::work_dir;
@@ -25,24 +24,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut conn = sweep::store::open(&a.db.db)?;
     let cid = match &a.campaign {
-        Some(name) => {
-            let id: Option<i64> = conn
-                .query_row("SELECT id FROM campaigns WHERE name = ?1", [name], |r| {
-                    r.get(0)
-                })
-                .optional()?;
-            match id {
-                Some(id) => Some(id),
-                None => {
-                    eprintln!(
-                        "sweep: no campaign named {name} in {}; see `sweep status --db {}`",
-                        a.db.db.display(),
-                        a.db.db.display()
-                    );
-                    return Ok(2);
-                }
+        Some(name) => match sweep::store::jobs::campaign_id(&conn, name)? {
+            Some(id) => Some(id),
+            None => {
+                eprintln!(
+                    "sweep: no campaign named {name} in {}; see `sweep status --db {}`",
+                    a.db.db.display(),
+                    a.db.db.display()
+                );
+                return Ok(2);
             }
-        }
+        },
         None => None,
     };
     if !slurm_tasks::any(&conn)? {

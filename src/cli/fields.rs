@@ -1,6 +1,5 @@
 //! `sweep fields --job ID`: lists a job's coarse-grained field sets and their fields.
 
-use rusqlite::OptionalExtension;
 use sweep::store::fields::{list_field_sets, load_field_arrays};
 
 use super::DbArg;
@@ -20,14 +19,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let conn = sweep::store::open(&a.db.db)?;
-    let label: Option<String> = conn
-        .query_row(
-            "SELECT COALESCE((SELECT label FROM campaign_jobs WHERE job_id = jobs.id LIMIT 1), hash) FROM jobs WHERE id = ?1",
-            [a.job],
-            |r| r.get(0),
-        )
-        .optional()?;
-    let Some(label) = label else {
+    let Some(label) = sweep::store::jobs::job_label(&conn, a.job)? else {
         eprintln!(
             "sweep: no job {} in {}; see `sweep status --db {}`",
             a.job,

@@ -10,6 +10,7 @@ use sweep::campaign::ExecutorKind;
 use sweep::runner::backend::{auto_summary, BackendChoice};
 use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
+use sweep::store::job_counts;
 use sweep::store::jobs::Registration;
 use sweep::store::slurm_tasks;
 
@@ -201,11 +202,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         Ok(x) => x,
         Err(code) => return Ok(code),
     };
-    let done: i64 = conn.query_row(
-        "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 AND j.status = 'done'",
-        [cid],
-        |r| r.get(0),
-    )?;
+    let done = job_counts::campaign_done_count(&conn, cid)?;
     println!(
         "campaign {}{}: {} job(s), {} new, {} already done (database {})",
         file.name,
@@ -253,11 +250,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         sweep::runner::job_lock::liveness(&work, j, a.stale_after)
     })?;
     let resumed = decisions.iter().filter(|d| d.action == "pending").count();
-    let (total, done): (i64, i64) = conn.query_row(
-        "SELECT COUNT(*), COALESCE(SUM(status = 'done'), 0) FROM jobs",
-        [],
-        |r| Ok((r.get(0)?, r.get(1)?)),
-    )?;
+    let job_counts::JobTotals { total, done } = job_counts::job_totals(&conn)?;
     println!(
         "{} job(s) to resume, {done} of {total} already done",
         resumed + released

@@ -56,21 +56,16 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         *rates
             .entry((backend.clone(), precision.clone()))
             .or_insert_with(|| {
-                conn.as_ref()?
-                    .query_row(
-                        "SELECT particle_steps_per_s FROM bench_runs WHERE scene IN (?1, ?5) AND backend = ?2
-                         AND precision = ?3 AND (backend = 'gpu' OR threads = ?4)
-                         ORDER BY scene = ?5 DESC, id DESC LIMIT 1",
-                        rusqlite::params![
-                            bench_scene,
-                            backend,
-                            precision,
-                            threads as i64,
-                            settled.as_deref().unwrap_or(bench_scene)
-                        ],
-                        |r| r.get(0),
-                    )
-                    .ok()
+                sweep::store::bench_runs::newest_rate(
+                    conn.as_ref()?,
+                    &sweep::store::bench_runs::RateQuery {
+                        scene: bench_scene,
+                        settled_scene: settled.as_deref().unwrap_or(bench_scene),
+                        backend: &backend,
+                        precision: &precision,
+                        threads: threads as i64,
+                    },
+                )
             })
     };
     let source = match settled {

@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::Context;
 use sweep::campaign::{CampaignFile, ExecutorKind, JobSpec, SlurmSettings};
 use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
+use sweep::store::job_counts;
 
 use super::launch::{work_dir, Arguments, ResumeArguments};
 
@@ -158,18 +159,8 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> any
 
 /// Done jobs and pending job ids of a campaign.
 fn campaign_counts(conn: &rusqlite::Connection, cid: i64) -> anyhow::Result<(i64, Vec<i64>)> {
-    let done: i64 = conn.query_row(
-        "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 AND j.status = 'done'",
-        [cid],
-        |r| r.get(0),
-    )?;
-    let mut q = conn.prepare(
-        "SELECT j.id FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
-         WHERE cj.campaign_id = ?1 AND j.status = 'pending' ORDER BY j.id",
-    )?;
-    let pending = q
-        .query_map([cid], |r| r.get(0))?
-        .collect::<Result<Vec<i64>, _>>()?;
+    let done = job_counts::campaign_done_count(conn, cid)?;
+    let pending = job_counts::pending_job_ids(conn, cid)?;
     Ok((done, pending))
 }
 
@@ -272,11 +263,7 @@ pub fn resume_on_slurm(
             return Ok(Some(code));
         }
     }
-    let pending: i64 = conn.query_row(
-        "SELECT COUNT(*) FROM jobs WHERE status = 'pending'",
-        [],
-        |r| r.get(0),
-    )?;
+    let pending = job_counts::pending_count(conn)?;
     if pending > 0 {
         // Jobs that never went to Slurm run here.
         return Ok(None);

@@ -525,6 +525,33 @@ pub fn campaigns(conn: &Connection, name: Option<&str>) -> anyhow::Result<Vec<Ca
     Ok(rows)
 }
 
+/// The id of the campaign named `name` (its first version found), or `None`.
+///
+/// # Errors
+/// Database errors.
+pub fn campaign_id(conn: &Connection, name: &str) -> anyhow::Result<Option<i64>> {
+    Ok(conn
+        .query_row("SELECT id FROM campaigns WHERE name = ?1", [name], |r| {
+            r.get(0)
+        })
+        .optional()?)
+}
+
+/// A job's label (from its first campaign link, else its parameter hash), or `None` when there
+/// is no such job.
+///
+/// # Errors
+/// Database errors.
+pub fn job_label(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row(
+            "SELECT COALESCE((SELECT label FROM campaign_jobs WHERE job_id = jobs.id LIMIT 1), hash) FROM jobs WHERE id = ?1",
+            [id],
+            |r| r.get(0),
+        )
+        .optional()?)
+}
+
 /// One job of a campaign, as `sweep status` shows it.
 #[derive(Clone, Debug)]
 pub struct JobStatus {

@@ -1,10 +1,14 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
 //! (`results`; `chute_results` for the chute; `fields` for coarse-grained fields), jobs handed
-//! to Slurm (`slurm_tasks`) and their results ingested (`slurm_ingest`). Every write that marks progress is one transaction.
+//! to Slurm (`slurm_tasks`) and their results ingested (`slurm_ingest`), job counts
+//! (`job_counts`), benchmark runs (`bench_runs`). Every write that marks progress is one
+//! transaction.
 
+pub mod bench_runs;
 mod chute_results;
 pub mod fields;
 pub mod forget;
+pub mod job_counts;
 pub mod jobs;
 pub mod meta;
 pub mod numerics;
