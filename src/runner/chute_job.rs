@@ -7,7 +7,7 @@
 //! exactly the same operations; the results and the job's completion go in one transaction.
 
 use anyhow::Context;
-use rusqlite::{params, Connection, TransactionBehavior};
+use rusqlite::Connection;
 use serde::{Deserialize, Serialize};
 
 use super::job::{self, JobContext, JobRun, Ledger, Outcome, Start, Study};
@@ -19,6 +19,7 @@ use crate::observe::chute::{
 use crate::observe::steady::{SteadyDetector, SteadySettings};
 use crate::scene::chute::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
+use crate::store::ChuteJobResults;
 
 /// The stress ratio is sampled every this many chunks while waiting for the steady state
 /// (every 0.5 s at the default 0.05 s interval): it needs the contact list, and one snapshot's
@@ -371,21 +372,16 @@ impl Study for ChuteStudy {
         results.summary.steady = prog.steady;
         results.summary.steady_time_s = prog.steady_time_s;
         results.summary.steady_stress_ratio = prog.steady_stress_ratio;
-        let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-        let status: String =
-            tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job.id], |r| {
-                r.get(0)
-            })?;
-        if status != "done" {
-            results.write(&tx, job.id, &prog.series)?;
-            prog.ledger.numerics.write(&tx, job.id, self.scene.dt)?;
-            tx.execute(
-                "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
-                    finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
-                params![job.id, t_end, prog.ledger.wall_time_s, prog.ledger.particle_steps as i64],
-            )?;
+        ChuteJobResults {
+            results,
+            series: prog.series,
+            wall_time_s: prog.ledger.wall_time_s,
+            particle_steps: prog.ledger.particle_steps,
+            sim_time_s: t_end,
+            dt_s: self.scene.dt,
+            numerics: prog.ledger.numerics,
         }
-        tx.commit()?;
+        .commit(conn, job.id)?;
         Ok(())
     }
 }

@@ -12,6 +12,7 @@ use super::job::{job_dir, JobContext, Outcome};
 use super::job_lock::{DirLock, Heartbeat};
 use super::silo_job::run_silo_job;
 use crate::store::jobs::{self, Lease};
+use crate::store::silo_done::{silo_done, SiloDone};
 
 /// Options of a run of pending jobs.
 #[derive(Clone)]
@@ -203,28 +204,28 @@ pub fn run_pending(
 }
 
 fn describe_done(conn: &rusqlite::Connection, job: i64) -> anyhow::Result<String> {
-    let (q, ci, clogs, perm, wall, ps): (Option<f64>, Option<f64>, i64, i64, f64, i64) = conn.query_row(
-        "SELECT s.q_kg_per_s, s.q_ci95_kg_per_s, s.clogs, s.permanently_clogged, j.wall_time_s, j.particle_steps
-         FROM discharge_summary s JOIN jobs j ON j.id = s.job_id WHERE s.job_id = ?1",
-        [job],
-        |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?)),
-    )?;
+    let SiloDone {
+        q_kg_per_s: q,
+        q_ci95_kg_per_s: ci,
+        clogs,
+        permanently_clogged: perm,
+        wall_time_s: wall,
+        particle_steps: ps,
+    } = silo_done(conn, job)?;
     let q = match (q, ci) {
         (Some(q), Some(c)) => format!("Q = {q:.4} ± {c:.4} kg/s"),
         _ => "Q = n/a (no flowing interval long enough)".into(),
     };
     Ok(format!(
         "{q}, {clogs} clog(s){}, {wall:.1} s wall, {:.2e} particle-steps/s",
-        if perm != 0 { " (permanent)" } else { "" },
+        if perm { " (permanent)" } else { "" },
         ps as f64 / wall.max(1e-9)
     ))
 }
 
 /// The checkpoint interval of the (first) campaign a job belongs to.
 fn checkpoint_interval(conn: &rusqlite::Connection, job: i64) -> Option<f64> {
-    let spec: String = conn
-        .query_row("SELECT c.spec_json FROM campaigns c JOIN campaign_jobs cj ON cj.campaign_id = c.id WHERE cj.job_id = ?1 ORDER BY c.id LIMIT 1", [job], |r| r.get(0))
-        .ok()?;
+    let spec = jobs::first_campaign_spec(conn, job).ok().flatten()?;
     let c: crate::campaign::CampaignFile = serde_json::from_str(&spec).ok()?;
     Some(c.run.checkpoint_interval_s)
 }

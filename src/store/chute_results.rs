@@ -1,11 +1,54 @@
 //! Results of a chute job: the rows of `ChuteResults` and the steady-state series, written for
 //! one job in one transaction. Each table's rows for the job are deleted first, so a retried
-//! commit replaces rather than duplicates.
+//! commit replaces rather than duplicates. `ChuteJobResults::commit` writes them in the same
+//! transaction that marks the job done.
 
 use anyhow::Context;
 use rusqlite::{params, Connection, Transaction, TransactionBehavior};
 
 use crate::observe::chute::ChuteResults;
+
+/// What a finished chute job stores.
+#[derive(Clone, Debug)]
+pub struct ChuteJobResults {
+    pub results: ChuteResults,
+    /// t (s), kinetic energy (J), bulk μ: the run's series, into `chute_series`.
+    pub series: Vec<(f64, f64, Option<f64>)>,
+    pub wall_time_s: f64,
+    pub particle_steps: u64,
+    pub sim_time_s: f64,
+    /// Time step and the running numerical record of the run.
+    pub dt_s: f64,
+    pub numerics: super::JobNumerics,
+}
+
+impl ChuteJobResults {
+    /// Writes every result row and marks the job done, in one transaction; a job already done
+    /// (another process finished it) is left alone and nothing is written twice. Returns whether
+    /// it wrote.
+    ///
+    /// # Errors
+    /// Database errors, or a non-finite value bound for a NOT NULL column.
+    pub fn commit(&self, conn: &mut Connection, job_id: i64) -> anyhow::Result<bool> {
+        let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let status: String =
+            tx.query_row("SELECT status FROM jobs WHERE id = ?1", [job_id], |r| {
+                r.get(0)
+            })?;
+        let write = status != "done";
+        if write {
+            self.results.write(&tx, job_id, &self.series)?;
+            self.numerics.write(&tx, job_id, self.dt_s)?;
+            tx.execute(
+                "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
+                    finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+                params![job_id, self.sim_time_s, self.wall_time_s, self.particle_steps as i64],
+            )?;
+        }
+        tx.commit()?;
+        Ok(write)
+    }
+}
 
 impl ChuteResults {
     /// Writes every chute table for `job_id`, and `series` (t (s), kinetic energy (J), bulk

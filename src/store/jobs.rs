@@ -552,6 +552,75 @@ pub fn job_label(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
         .optional()?)
 }
 
+/// The campaign file (JSON) of the first campaign job `job_id` belongs to, or `None`.
+///
+/// # Errors
+/// Database errors.
+pub fn first_campaign_spec(conn: &Connection, job_id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row("SELECT c.spec_json FROM campaigns c JOIN campaign_jobs cj ON cj.campaign_id = c.id WHERE cj.job_id = ?1 ORDER BY c.id LIMIT 1", [job_id], |r| r.get(0))
+        .optional()?)
+}
+
+/// A job's state as the Slurm collector checks it.
+#[derive(Clone, Debug)]
+pub struct JobState {
+    pub status: String,
+    pub hash: String,
+    pub lease_owner: Option<String>,
+}
+
+/// The state of job `id`.
+///
+/// # Errors
+/// Database errors, among them no such job.
+pub fn job_state(conn: &Connection, id: i64) -> anyhow::Result<JobState> {
+    let mut q = conn.prepare_cached("SELECT status, hash, lease_owner FROM jobs WHERE id = ?1")?;
+    Ok(q.query_row([id], |r| {
+        Ok(JobState {
+            status: r.get(0)?,
+            hash: r.get(1)?,
+            lease_owner: r.get(2)?,
+        })
+    })?)
+}
+
+/// A job a Slurm task runs, written into the task's own in-memory store as claimed by it.
+#[derive(Clone, Debug)]
+pub struct TaskJob<'a> {
+    pub id: i64,
+    pub hash: &'a str,
+    pub scene: &'a str,
+    pub params_json: &'a str,
+    pub seed: i64,
+    pub sim_time_s: f64,
+    pub target_time_s: f64,
+    pub lease: &'a Lease,
+}
+
+/// Inserts `job` running (one attempt, heartbeat now) under its lease.
+///
+/// # Errors
+/// Database errors.
+pub fn insert_running(conn: &Connection, job: &TaskJob) -> anyhow::Result<()> {
+    conn.execute(
+        "INSERT INTO jobs (id, hash, scene, params_json, seed, status, attempts, sim_time_s, target_time_s, lease_owner, heartbeat_at)
+         VALUES (?1, ?2, ?3, ?4, ?5, 'running', 1, ?6, ?7, ?8, ?9)",
+        params![
+            job.id,
+            job.hash,
+            job.scene,
+            job.params_json,
+            job.seed,
+            job.sim_time_s,
+            job.target_time_s,
+            job.lease.owner,
+            now()
+        ],
+    )?;
+    Ok(())
+}
+
 /// One job of a campaign, as `sweep status` shows it.
 #[derive(Clone, Debug)]
 pub struct JobStatus {

@@ -1,8 +1,8 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
 //! (`results`; `chute_results` for the chute; `fields` for coarse-grained fields), jobs handed
-//! to Slurm (`slurm_tasks`) and their results ingested (`slurm_ingest`), job counts
-//! (`job_counts`), benchmark runs (`bench_runs`). Every write that marks progress is one
-//! transaction.
+//! to Slurm (`slurm_tasks`, `pending`) and their results ingested (`slurm_ingest`), job counts
+//! (`job_counts`), a finished silo job's headline (`silo_done`), benchmark runs (`bench_runs`).
+//! Every write that marks progress is one transaction.
 
 pub mod bench_runs;
 mod chute_results;
@@ -13,15 +13,26 @@ pub mod jobs;
 pub mod meta;
 pub mod numerics;
 mod open;
+pub mod pending;
 mod results;
+pub mod silo_done;
 pub mod slurm_ingest;
 pub mod slurm_tasks;
 
+pub use chute_results::ChuteJobResults;
 pub use jobs::{JobRow, Lease};
 pub use meta::{default_work_dir, work_dir};
 pub use numerics::JobNumerics;
-pub use open::{open, open_in_memory, SCHEMA_VERSION};
+pub use open::{copy_to, open, open_in_memory, SCHEMA_VERSION};
 pub use results::SiloResults;
+
+/// The database's current UTC time as `YYYYMMDDTHHMMSS` (names a submission's scripts).
+///
+/// # Errors
+/// Database errors.
+pub fn stamp(conn: &rusqlite::Connection) -> anyhow::Result<String> {
+    Ok(conn.query_row("SELECT strftime('%Y%m%dT%H%M%S', 'now')", [], |r| r.get(0))?)
+}
 
 /// Unix time in seconds.
 pub fn now() -> f64 {

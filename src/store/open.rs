@@ -153,3 +153,12 @@ fn is_read_only(e: &anyhow::Error) -> bool {
 fn is_busy(e: &rusqlite::Error) -> bool {
     matches!(e, rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::DatabaseBusy || f.code == rusqlite::ErrorCode::DatabaseLocked)
 }
+
+/// Writes a compacted copy of the store on `conn` to the new file `path` (`VACUUM INTO`).
+///
+/// # Errors
+/// Database errors, among them `path` already existing.
+pub fn copy_to(conn: &Connection, path: &Path) -> anyhow::Result<()> {
+    conn.execute("VACUUM INTO ?1", [path.display().to_string()])?;
+    Ok(())
+}

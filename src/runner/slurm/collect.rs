@@ -19,6 +19,7 @@ use rusqlite::Connection;
 
 use super::files::{self, FailedMarker, ProgressFile};
 use super::query::{self, SlurmView};
+use crate::store::jobs;
 use crate::store::slurm_ingest::{self, Ingested};
 use crate::store::slurm_tasks::{self, SlurmTask};
 
@@ -152,11 +153,13 @@ impl OpenJob {
 /// Every job not done whose latest submission went to Slurm.
 fn open_jobs(conn: &Connection) -> anyhow::Result<Vec<OpenJob>> {
     let latest = slurm_tasks::latest_by_job(conn, None)?;
-    let mut q = conn.prepare("SELECT status, hash, lease_owner FROM jobs WHERE id = ?1")?;
     let mut out = Vec::new();
     for (id, task) in latest {
-        let (status, hash, lease): (String, String, Option<String>) =
-            q.query_row([id], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+        let jobs::JobState {
+            status,
+            hash,
+            lease_owner: lease,
+        } = jobs::job_state(conn, id)?;
         if status != "done" {
             out.push(OpenJob {
                 task,

@@ -22,6 +22,7 @@ use sha2::{Digest, Sha256};
 
 use super::error::SlurmError;
 use crate::checkpoint::write_atomic;
+use crate::store::jobs::{job_state, JobState};
 use crate::store::slurm_ingest::count_results;
 
 /// Version of the files' JSON; a task refuses a job file of another version.
@@ -164,7 +165,7 @@ pub fn write_result(
     let db = dir.join("result.db");
     let tmp = dir.join(format!("result.db.tmp.{}", std::process::id()));
     let _ = std::fs::remove_file(&tmp);
-    conn.execute("VACUUM INTO ?1", [tmp.display().to_string()])?;
+    crate::store::copy_to(conn, &tmp)?;
     let bytes = std::fs::read(&tmp).map_err(SlurmError::io(&tmp))?;
     std::fs::File::open(&tmp)
         .and_then(|f| f.sync_all())
@@ -215,13 +216,9 @@ pub fn verify_result(dir: &Path, job_id: i64, hash: &str) -> Result<Option<Resul
     }
     let conn = Connection::open_with_flags(&db, OpenFlags::SQLITE_OPEN_READ_ONLY)
         .map_err(|e| format!("{}: {e}", db.display()))?;
-    let (h, status): (String, String) = conn
-        .query_row(
-            "SELECT hash, status FROM jobs WHERE id = ?1",
-            [job_id],
-            |r| Ok((r.get(0)?, r.get(1)?)),
-        )
-        .map_err(|e| format!("{}: job {job_id}: {e}", db.display()))?;
+    let JobState {
+        hash: h, status, ..
+    } = job_state(&conn, job_id).map_err(|e| format!("{}: job {job_id}: {e}", db.display()))?;
     if h != hash || status != "done" {
         return Err(format!(
             "{}: job {job_id} is '{status}' with hash {}, expected done with {}",

@@ -18,7 +18,7 @@ use super::script::{script, ScriptInput};
 use crate::campaign::{CampaignFile, ExecutorKind, SlurmSettings};
 use crate::checkpoint::write_atomic;
 use crate::runner::backend::BackendChoice;
-use crate::store::slurm_tasks;
+use crate::store::{pending, slurm_tasks};
 
 /// How one submission runs its jobs; stored with each task so that `sweep resume` resubmits a
 /// job as it was first submitted.
@@ -94,8 +94,7 @@ pub fn submit(
     let by_id: BTreeMap<i64, &TaskSpec> = specs.iter().map(|s| (s.job_id, s)).collect();
     let chunk = query::max_array_size().max(1);
     let parts: Vec<&[i64]> = ids.chunks(chunk).collect();
-    let stamp: String =
-        conn.query_row("SELECT strftime('%Y%m%dT%H%M%S', 'now')", [], |r| r.get(0))?;
+    let stamp = crate::store::stamp(conn)?;
     let settings_json = serde_json::to_string(o.settings)?;
     let dir = files::slurm_dir(o.work_dir);
     let mut out = Vec::new();
@@ -203,32 +202,21 @@ fn pending_specs(
     ids: &[i64],
     checkpoint_interval_s: f64,
 ) -> anyhow::Result<Vec<TaskSpec>> {
-    let mut q = conn.prepare(
-        "SELECT j.id, j.hash, j.scene, j.params_json, j.seed, j.target_time_s, j.sim_time_s,
-                COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), '')
-         FROM jobs j WHERE j.id = ?1 AND j.status = 'pending'",
-    )?;
-    let mut out = Vec::new();
-    for &id in ids {
-        let mut rows = q.query_map([id], |r| {
-            Ok(TaskSpec {
-                format: files::FORMAT,
-                job_id: r.get(0)?,
-                hash: r.get(1)?,
-                scene: r.get(2)?,
-                params_json: r.get(3)?,
-                seed: r.get(4)?,
-                target_time_s: r.get(5)?,
-                sim_time_s: r.get(6)?,
-                label: r.get(7)?,
-                checkpoint_interval_s,
-            })
-        })?;
-        if let Some(s) = rows.next() {
-            out.push(s?);
-        }
-    }
-    Ok(out)
+    Ok(pending::pending_tasks(conn, ids)?
+        .into_iter()
+        .map(|t| TaskSpec {
+            format: files::FORMAT,
+            job_id: t.job_id,
+            hash: t.hash,
+            scene: t.scene,
+            params_json: t.params_json,
+            seed: t.seed,
+            target_time_s: t.target_time_s,
+            sim_time_s: t.sim_time_s,
+            label: t.label,
+            checkpoint_interval_s,
+        })
+        .collect())
 }
 
 /// Jobs that `sweep resume` submits together.
@@ -239,9 +227,6 @@ pub struct ResumeGroup {
     pub settings: SubmitSettings,
     pub jobs: Vec<i64>,
 }
-
-/// A pending job: (id, first campaign's id, name and spec).
-type PendingJob = (i64, Option<i64>, Option<String>, Option<String>);
 
 /// Pending jobs that `sweep resume` hands to Slurm, grouped by submission: those last submitted
 /// to Slurm (with the settings of that submission), those never submitted whose first campaign
@@ -256,20 +241,19 @@ pub fn resume_groups(
     fallback: &SubmitSettings,
 ) -> anyhow::Result<Vec<ResumeGroup>> {
     let latest = slurm_tasks::latest_by_job(conn, None)?;
-    let mut q = conn.prepare(
-        "SELECT j.id, c.id, c.name, c.spec_json FROM jobs j
-         LEFT JOIN campaigns c ON c.id = (SELECT MIN(campaign_id) FROM campaign_jobs WHERE job_id = j.id)
-         WHERE j.status = 'pending' ORDER BY j.id",
-    )?;
-    let pending: Vec<PendingJob> = q
-        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))?
-        .collect::<Result<_, _>>()?;
+    let pending = pending::pending_jobs(conn)?;
     let names: BTreeMap<i64, String> = pending
         .iter()
-        .filter_map(|p| Some((p.1?, p.2.clone()?)))
+        .filter_map(|p| Some((p.campaign_id?, p.campaign_name.clone()?)))
         .collect();
     let mut groups: BTreeMap<(Option<i64>, String), Vec<i64>> = BTreeMap::new();
-    for (id, cid, _, spec) in pending {
+    for pending::PendingJob {
+        id,
+        campaign_id: cid,
+        campaign_spec: spec,
+        ..
+    } in pending
+    {
         let key = match latest.get(&id) {
             Some(t) => (t.campaign_id.or(cid), t.settings_json.clone()),
             None => {

@@ -17,7 +17,6 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::Context;
-use rusqlite::params;
 
 use super::files::{self, FailedMarker, ProgressFile, TaskSpec};
 use super::query;
@@ -25,7 +24,7 @@ use crate::runner::backend::BackendChoice;
 use crate::runner::chute_job::run_chute_job;
 use crate::runner::job::{JobContext, Outcome, ProgressFn};
 use crate::runner::silo_job::run_silo_job;
-use crate::store::jobs::{JobRow, Lease};
+use crate::store::jobs::{self, JobRow, Lease, TaskJob};
 
 /// What `sweep run-job` was asked to do.
 pub struct TaskOptions {
@@ -117,20 +116,18 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
         .map_or(0.0, |p| p.sim_time_s);
     let mut conn = crate::store::open_in_memory(None)?;
     let lease = Lease::new();
-    conn.execute(
-        "INSERT INTO jobs (id, hash, scene, params_json, seed, status, attempts, sim_time_s, target_time_s, lease_owner, heartbeat_at)
-         VALUES (?1, ?2, ?3, ?4, ?5, 'running', 1, ?6, ?7, ?8, ?9)",
-        params![
-            spec.job_id,
-            spec.hash,
-            spec.scene,
-            spec.params_json,
-            spec.seed,
-            spec.sim_time_s.max(last_sim),
-            spec.target_time_s,
-            lease.owner,
-            crate::store::now()
-        ],
+    jobs::insert_running(
+        &conn,
+        &TaskJob {
+            id: spec.job_id,
+            hash: &spec.hash,
+            scene: &spec.scene,
+            params_json: &spec.params_json,
+            seed: spec.seed,
+            sim_time_s: spec.sim_time_s.max(last_sim),
+            target_time_s: spec.target_time_s,
+            lease: &lease,
+        },
     )?;
     let job = JobRow {
         id: spec.job_id,
