@@ -17,7 +17,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use rusqlite::{Connection, OptionalExtension};
+use rusqlite::Connection;
 
 use super::chute_profiles::chute_profile_set;
 use super::data_array::Encoding;
@@ -78,11 +78,7 @@ pub fn export_job(
         job_id,
         message: e.to_string(),
     };
-    let hash: String = conn
-        .query_row("SELECT hash FROM jobs WHERE id = ?1", [job_id], |r| {
-            r.get(0)
-        })
-        .optional()
+    let hash: String = crate::store::jobs::job_hash(conn, job_id)
         .map_err(|e| store(&e))?
         .ok_or(ExportError::UnknownJob { job_id })?;
     let dir = job_dir(work_dir, &hash);

@@ -537,6 +537,17 @@ pub fn campaign_id(conn: &Connection, name: &str) -> anyhow::Result<Option<i64>>
         .optional()?)
 }
 
+/// A job's parameter hash (which names its work directory), or `None` when there is no such
+/// job.
+///
+/// # Errors
+/// Database errors.
+pub fn job_hash(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row("SELECT hash FROM jobs WHERE id = ?1", [id], |r| r.get(0))
+        .optional()?)
+}
+
 /// A job's label (from its first campaign link, else its parameter hash), or `None` when there
 /// is no such job.
 ///
