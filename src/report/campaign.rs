@@ -1,18 +1,10 @@
 //! Which campaign a report is about: by name, or the most recent one (of a scene). Read-only.
 
 use anyhow::{bail, Result};
-use rusqlite::{params, Connection, OptionalExtension};
+use rusqlite::Connection;
 
-/// A campaign row, as much of it as a report needs.
-#[derive(Debug, Clone)]
-pub struct CampaignRef {
-    /// campaigns.id
-    pub id: i64,
-    /// campaigns.name
-    pub name: String,
-    /// campaigns.scene, e.g. "silo"
-    pub scene: String,
-}
+pub use crate::store::campaign_reads::CampaignRef;
+use crate::store::campaign_reads::{campaign_named, campaign_names, newest_campaign};
 
 /// "NAME@vK" as (NAME, Some(K)); a plain name (or one whose suffix is not a version) as
 /// (name, None), which means its latest version.
@@ -36,22 +28,8 @@ pub fn find_campaign(
     name: Option<&str>,
     scene: Option<&str>,
 ) -> Result<CampaignRef> {
-    let row = |r: &rusqlite::Row<'_>| {
-        Ok(CampaignRef {
-            id: r.get(0)?,
-            name: r.get(1)?,
-            scene: r.get(2)?,
-        })
-    };
     let Some(name) = name else {
-        let found = conn
-            .query_row(
-                "SELECT id, name, scene FROM campaigns WHERE ?1 IS NULL OR scene = ?1 \
-                 ORDER BY created_at DESC, id DESC LIMIT 1",
-                params![scene],
-                row,
-            )
-            .optional()?;
+        let found = newest_campaign(conn, scene)?;
         return match (found, scene) {
             (Some(c), _) => Ok(c),
             (None, Some(scene)) => {
@@ -61,14 +39,7 @@ pub fn find_campaign(
         };
     };
     let (name, version) = split_version(name);
-    let found = conn
-        .query_row(
-            "SELECT id, name, scene FROM campaigns WHERE name = ?1 AND (?2 IS NULL OR version = ?2)
-             ORDER BY version DESC LIMIT 1",
-            params![name, version],
-            row,
-        )
-        .optional()?;
+    let found = campaign_named(conn, name, version)?;
     match (found, scene) {
         (Some(c), Some(scene)) if c.scene != scene => bail!(
             "campaign '{}' is a '{}' campaign; this figure needs a '{scene}' campaign",
@@ -77,13 +48,7 @@ pub fn find_campaign(
         ),
         (Some(c), _) => Ok(c),
         (None, _) => {
-            let mut stmt = conn.prepare(
-                "SELECT name || CASE WHEN version > 1 THEN '@v' || version ELSE '' END
-                 FROM campaigns ORDER BY name, version",
-            )?;
-            let names = stmt
-                .query_map([], |r| r.get::<_, String>(0))?
-                .collect::<rusqlite::Result<Vec<_>>>()?;
+            let names = campaign_names(conn)?;
             if names.is_empty() {
                 bail!("no campaign named '{name}': the database has no campaigns")
             }

@@ -2,10 +2,11 @@
 //! (`results`; `chute_results` for the chute, read back by `chute_reads`; `fields` for
 //! coarse-grained fields), jobs handed to Slurm (`slurm_tasks`, `pending`) and their results
 //! ingested (`slurm_ingest`), job counts (`job_counts`), a finished silo job's headline
-//! (`silo_done`), benchmark runs (`bench_runs`). Every write that marks progress is one
-//! transaction.
+//! (`silo_done`), benchmark runs (`bench_runs`), campaigns as reports find them
+//! (`campaign_reads`). Every write that marks progress is one transaction.
 
 pub mod bench_runs;
+pub mod campaign_reads;
 pub mod chute_reads;
 mod chute_results;
 pub mod fields;
