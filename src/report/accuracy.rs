@@ -21,13 +21,16 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Result};
-use rusqlite::{params, Connection};
+use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
 use super::table::{sci, Table};
 use crate::campaign::{JobSpec, Precision, SceneKind};
+use crate::store::accuracy_reads::accuracy_rows;
+use crate::store::chute_reads::{bed_height, block_transport};
+use crate::store::silo_reads;
 
 /// One done job of the campaign, with its settings and costs.
 struct Run {
@@ -112,44 +115,21 @@ fn short_number(v: &str) -> String {
 }
 
 fn runs(conn: &Connection, campaign: &CampaignRef) -> Result<Vec<Run>> {
-    let mut st = conn.prepare(
-        "SELECT j.id, cj.label, j.params_json, j.wall_time_s, j.particle_steps, n.dt_s, n.max_overlap_ratio,
-                COALESCE(j.backend, ''), e.mean_kinetic_j, e.drift_per_s
-         FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id LEFT JOIN job_numerics n ON n.job_id = j.id
-         LEFT JOIN job_energy e ON e.job_id = j.id
-         WHERE cj.campaign_id = ?1 AND j.status = 'done' ORDER BY j.id",
-    )?;
-    let rows = st.query_map(params![campaign.id], |r| {
-        Ok((
-            r.get::<_, i64>(0)?,
-            r.get::<_, String>(1)?,
-            r.get::<_, String>(2)?,
-            r.get::<_, f64>(3)?,
-            r.get::<_, i64>(4)?,
-            r.get::<_, Option<f64>>(5)?,
-            r.get::<_, Option<f64>>(6)?,
-            (
-                r.get::<_, String>(7)?,
-                r.get::<_, Option<f64>>(8)?,
-                r.get::<_, Option<f64>>(9)?,
-            ),
-        ))
-    })?;
     let mut out = Vec::new();
-    for row in rows {
-        let (id, label, json, wall_s, ps, dt_s, max_overlap, (backend, energy, drift)) = row?;
-        let spec: JobSpec = serde_json::from_str(&json)?;
+    for row in accuracy_rows(conn, campaign.id)? {
+        let spec: JobSpec = serde_json::from_str(&row.params_json)?;
+        let wall_s = row.wall_time_s;
         out.push(Run {
-            id,
-            label,
+            id: row.job_id,
+            label: row.label,
             spec,
             wall_s,
-            rate: ps as f64 / wall_s.max(1e-9),
-            dt_s,
-            max_overlap,
-            backend,
-            energy,
-            drift,
+            rate: row.particle_steps as f64 / wall_s.max(1e-9),
+            dt_s: row.dt_s,
+            max_overlap: row.max_overlap_ratio,
+            backend: row.backend,
+            energy: row.mean_kinetic_j,
+            drift: row.drift_per_s,
         });
     }
     Ok(out)
@@ -240,42 +220,22 @@ fn paper(runs: &[Run]) -> Option<usize> {
 
 /// Silo: (Q, CI) of a job.
 fn flow_rate(conn: &Connection, job: i64) -> Result<Option<(f64, f64)>> {
-    let r = conn.query_row(
-        "SELECT q_kg_per_s, q_ci95_kg_per_s FROM discharge_summary WHERE job_id = ?1",
-        [job],
-        |r| Ok((r.get::<_, Option<f64>>(0)?, r.get::<_, Option<f64>>(1)?)),
-    );
-    Ok(match r {
-        Ok((Some(q), ci)) => Some((q, ci.unwrap_or(f64::NAN))),
+    Ok(match silo_reads::flow_rate(conn, job) {
+        Ok(silo_reads::FlowRate {
+            q_kg_per_s: Some(q),
+            q_ci95_kg_per_s: ci,
+        }) => Some((q, ci.unwrap_or(f64::NAN))),
         _ => None,
     })
 }
 
 /// Chute: per block (D, γ̇) in the central bed of a job.
 fn profiles(conn: &Connection, job: i64) -> Result<Vec<(u32, Option<f64>, f64)>> {
-    let h: f64 = conn
-        .query_row(
-            "SELECT bed_height_m FROM chute_summary WHERE job_id = ?1",
-            [job],
-            |r| r.get(0),
-        )
-        .unwrap_or(0.0);
-    let mut st = conn.prepare(
-        "SELECT block, z_m, diffusion_m2_per_s, shear_rate_per_s FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
-    )?;
-    let rows = st.query_map([job], |r| {
-        Ok((
-            r.get::<_, u32>(0)?,
-            r.get::<_, f64>(1)?,
-            r.get::<_, Option<f64>>(2)?,
-            r.get::<_, f64>(3)?,
-        ))
-    })?;
+    let h: f64 = bed_height(conn, job).unwrap_or(0.0);
     let mut out = Vec::new();
-    for row in rows {
-        let (b, z, d, g) = row?;
-        if z > 0.2 * h && z < 0.8 * h {
-            out.push((b, d, g));
+    for b in block_transport(conn, job)? {
+        if b.z_m > 0.2 * h && b.z_m < 0.8 * h {
+            out.push((b.block, b.diffusion_m2_per_s, b.shear_rate_per_s));
         }
     }
     Ok(out)

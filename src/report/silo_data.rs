@@ -1,83 +1,10 @@
 //! The silo results a figure reads: discharge summaries of a campaign's done jobs, M(t) series,
 //! and replicas of one (D, f) combined into one flow rate with its 95 % confidence interval.
-//! Read-only; no plotting here.
+//! The queries live in `store::silo_reads`. Read-only; no plotting here.
 
-use anyhow::Result;
-use rusqlite::{params, Connection};
+pub use crate::store::silo_reads::{done_discharge_rows, mass_series, DischargeRow};
 
 use crate::observe::fits::mean_ci95;
-
-/// One done job's discharge summary, joined with its campaign label.
-#[derive(Debug, Clone)]
-pub struct DischargeRow {
-    /// jobs.id
-    pub job_id: i64,
-    /// campaign_jobs.label
-    pub label: String,
-    /// Orifice diameter D, m.
-    pub orifice_diameter_m: f64,
-    /// Bottom rotation frequency f, Hz.
-    pub rotation_frequency_hz: f64,
-    /// Particle diameter d, m.
-    pub particle_diameter_m: f64,
-    /// Bulk density ρ_b, kg/m³.
-    pub bulk_density_kg_per_m3: f64,
-    /// Mean flow rate Q over flowing intervals, kg/s; None when there was none long enough.
-    pub q_kg_per_s: Option<f64>,
-    /// Half-width of the 95 % confidence interval of Q, kg/s.
-    pub q_ci95_kg_per_s: Option<f64>,
-    /// jobs.params_json, for parameters the summary does not repeat (gravity).
-    pub params_json: String,
-}
-
-/// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
-///
-/// Jobs not done are left out even if they left a partial summary, so that a figure shows
-/// exactly the finished jobs and `missing` names the rest.
-///
-/// # Errors
-/// On a database error.
-pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
-    let mut stmt = conn.prepare(
-        "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
-                s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
-                s.q_ci95_kg_per_s, j.params_json \
-         FROM campaign_jobs cj \
-         JOIN jobs j ON j.id = cj.job_id \
-         JOIN discharge_summary s ON s.job_id = j.id \
-         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
-         ORDER BY s.orifice_diameter_m, s.rotation_frequency_hz, j.id",
-    )?;
-    let rows = stmt
-        .query_map(params![campaign_id], |r| {
-            Ok(DischargeRow {
-                job_id: r.get(0)?,
-                label: r.get(1)?,
-                orifice_diameter_m: r.get(2)?,
-                rotation_frequency_hz: r.get(3)?,
-                particle_diameter_m: r.get(4)?,
-                bulk_density_kg_per_m3: r.get(5)?,
-                q_kg_per_s: r.get(6)?,
-                q_ci95_kg_per_s: r.get(7)?,
-                params_json: r.get(8)?,
-            })
-        })?
-        .collect::<rusqlite::Result<Vec<_>>>()?;
-    Ok(rows)
-}
-
-/// M(t) of one job as (t_s, mass_kg), in time order.
-///
-/// # Errors
-/// On a database error.
-pub fn mass_series(conn: &Connection, job_id: i64) -> Result<Vec<(f64, f64)>> {
-    let mut stmt =
-        conn.prepare("SELECT t_s, mass_kg FROM discharge_series WHERE job_id = ?1 ORDER BY t_s")?;
-    let rows = stmt
-        .query_map(params![job_id], |r| Ok((r.get(0)?, r.get(1)?)))?
-        .collect::<rusqlite::Result<Vec<_>>>()?;
-    Ok(rows)
-}
 
 /// Where a combined point's confidence interval comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -21,6 +21,7 @@ use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
 use crate::store::fields::{
     list_field_sets, load_field_arrays, load_field_series, FieldArray, FieldSet,
 };
+use crate::store::silo_reads::clog_intervals;
 
 /// Cells with a solid fraction below this hold (almost) no particles: left white in the maps.
 const EMPTY_PHI: f64 = 0.02;
@@ -507,13 +508,14 @@ fn orifice_pk(conn: &Connection, job_id: i64) -> Result<Option<(f64, Option<f64>
     let Some((series, _)) = load_field_series(conn, job_id, ORIFICE_KINETIC_PRESSURE)? else {
         return Ok(None);
     };
-    let mut q = conn.prepare("SELECT start_s, duration_s FROM clogs WHERE job_id = ?1")?;
-    let clogs = q
-        .query_map([job_id], |r| Ok((r.get::<_, f64>(0)?, r.get::<_, f64>(1)?)))?
-        .collect::<rusqlite::Result<Vec<_>>>()?;
+    let clogs = clog_intervals(conn, job_id)?;
     let flowing: Vec<f64> = series
         .iter()
-        .filter(|(t, _)| !clogs.iter().any(|(s, d)| *t >= *s && *t <= s + d))
+        .filter(|(t, _)| {
+            !clogs
+                .iter()
+                .any(|c| *t >= c.start_s && *t <= c.start_s + c.duration_s)
+        })
         .map(|(_, v)| *v)
         .collect();
     if flowing.is_empty() {

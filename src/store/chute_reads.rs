@@ -269,3 +269,49 @@ pub fn shear_profile(conn: &Connection, job_id: i64, z_max_m: f64) -> Result<Vec
         .collect::<rusqlite::Result<Vec<_>>>()?;
     Ok(rows)
 }
+
+/// The bed height H of one job, m (`chute_summary`).
+///
+/// # Errors
+/// On a database error, among them no summary for the job.
+pub fn bed_height(conn: &Connection, job_id: i64) -> Result<f64> {
+    Ok(conn.query_row(
+        "SELECT bed_height_m FROM chute_summary WHERE job_id = ?1",
+        [job_id],
+        |r| r.get(0),
+    )?)
+}
+
+/// One block's diffusivity and shear rate, as the accuracy map compares them.
+#[derive(Debug, Clone, Copy)]
+pub struct BlockTransport {
+    /// Block index.
+    pub block: u32,
+    /// Block centre, m.
+    pub z_m: f64,
+    /// D_z, m²/s; None when the block had too few particles.
+    pub diffusion_m2_per_s: Option<f64>,
+    /// dV_x/dz averaged over the block, 1/s.
+    pub shear_rate_per_s: f64,
+}
+
+/// The blocks of one job with their D_z and γ̇, by block index.
+///
+/// # Errors
+/// On a database error.
+pub fn block_transport(conn: &Connection, job_id: i64) -> Result<Vec<BlockTransport>> {
+    let mut st = conn.prepare(
+        "SELECT block, z_m, diffusion_m2_per_s, shear_rate_per_s FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
+    )?;
+    let rows = st
+        .query_map([job_id], |r| {
+            Ok(BlockTransport {
+                block: r.get(0)?,
+                z_m: r.get(1)?,
+                diffusion_m2_per_s: r.get(2)?,
+                shear_rate_per_s: r.get(3)?,
+            })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}

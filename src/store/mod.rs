@@ -1,10 +1,12 @@
 //! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
-//! (`results`; `chute_results` for the chute, read back by `chute_reads`; `fields` for
-//! coarse-grained fields), jobs handed to Slurm (`slurm_tasks`, `pending`) and their results
-//! ingested (`slurm_ingest`), job counts (`job_counts`), a finished silo job's headline
-//! (`silo_done`), benchmark runs (`bench_runs`), campaigns as reports find them
-//! (`campaign_reads`). Every write that marks progress is one transaction.
+//! (`results`, read back by `silo_reads`; `chute_results` for the chute, read back by
+//! `chute_reads`; `fields` for coarse-grained fields), jobs handed to Slurm (`slurm_tasks`,
+//! `pending`) and their results ingested (`slurm_ingest`), job counts (`job_counts`), a finished
+//! silo job's headline (`silo_done`), what the accuracy map reads (`accuracy_reads`), benchmark
+//! runs (`bench_runs`), campaigns as reports find them (`campaign_reads`). Every write that marks
+//! progress is one transaction.
 
+pub mod accuracy_reads;
 pub mod bench_runs;
 pub mod campaign_reads;
 pub mod chute_reads;
@@ -19,6 +21,7 @@ mod open;
 pub mod pending;
 mod results;
 pub mod silo_done;
+pub mod silo_reads;
 pub mod slurm_ingest;
 pub mod slurm_tasks;
 

@@ -1,0 +1,126 @@
+//! Reading silo results back for the figures (`report::silo_data`, `report::silo_fields`): the
+//! discharge summaries of a campaign's done jobs, a job's M(t) and its clogs.
+
+use anyhow::Result;
+use rusqlite::{params, Connection};
+
+/// One done job's discharge summary, joined with its campaign label.
+#[derive(Debug, Clone)]
+pub struct DischargeRow {
+    /// jobs.id
+    pub job_id: i64,
+    /// campaign_jobs.label
+    pub label: String,
+    /// Orifice diameter D, m.
+    pub orifice_diameter_m: f64,
+    /// Bottom rotation frequency f, Hz.
+    pub rotation_frequency_hz: f64,
+    /// Particle diameter d, m.
+    pub particle_diameter_m: f64,
+    /// Bulk density ρ_b, kg/m³.
+    pub bulk_density_kg_per_m3: f64,
+    /// Mean flow rate Q over flowing intervals, kg/s; None when there was none long enough.
+    pub q_kg_per_s: Option<f64>,
+    /// Half-width of the 95 % confidence interval of Q, kg/s.
+    pub q_ci95_kg_per_s: Option<f64>,
+    /// jobs.params_json, for parameters the summary does not repeat (gravity).
+    pub params_json: String,
+}
+
+/// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
+///
+/// Jobs not done are left out even if they left a partial summary, so that a figure shows
+/// exactly the finished jobs and `missing` names the rest.
+///
+/// # Errors
+/// On a database error.
+pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
+                s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
+                s.q_ci95_kg_per_s, j.params_json \
+         FROM campaign_jobs cj \
+         JOIN jobs j ON j.id = cj.job_id \
+         JOIN discharge_summary s ON s.job_id = j.id \
+         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
+         ORDER BY s.orifice_diameter_m, s.rotation_frequency_hz, j.id",
+    )?;
+    let rows = stmt
+        .query_map(params![campaign_id], |r| {
+            Ok(DischargeRow {
+                job_id: r.get(0)?,
+                label: r.get(1)?,
+                orifice_diameter_m: r.get(2)?,
+                rotation_frequency_hz: r.get(3)?,
+                particle_diameter_m: r.get(4)?,
+                bulk_density_kg_per_m3: r.get(5)?,
+                q_kg_per_s: r.get(6)?,
+                q_ci95_kg_per_s: r.get(7)?,
+                params_json: r.get(8)?,
+            })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// M(t) of one job as (t_s, mass_kg), in time order.
+///
+/// # Errors
+/// On a database error.
+pub fn mass_series(conn: &Connection, job_id: i64) -> Result<Vec<(f64, f64)>> {
+    let mut stmt =
+        conn.prepare("SELECT t_s, mass_kg FROM discharge_series WHERE job_id = ?1 ORDER BY t_s")?;
+    let rows = stmt
+        .query_map(params![job_id], |r| Ok((r.get(0)?, r.get(1)?)))?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// One clog of a job (`clogs`): when it began and how long it lasted, s.
+#[derive(Debug, Clone, Copy)]
+pub struct ClogInterval {
+    pub start_s: f64,
+    pub duration_s: f64,
+}
+
+/// The clogs of one job, in the table's order.
+///
+/// # Errors
+/// On a database error.
+pub fn clog_intervals(conn: &Connection, job_id: i64) -> Result<Vec<ClogInterval>> {
+    let mut q = conn.prepare("SELECT start_s, duration_s FROM clogs WHERE job_id = ?1")?;
+    let clogs = q
+        .query_map([job_id], |r| {
+            Ok(ClogInterval {
+                start_s: r.get(0)?,
+                duration_s: r.get(1)?,
+            })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(clogs)
+}
+
+/// A job's flow rate Q and the half-width of its 95 % confidence interval, kg/s
+/// (`discharge_summary`; None when there was no flowing interval long enough).
+#[derive(Debug, Clone, Copy)]
+pub struct FlowRate {
+    pub q_kg_per_s: Option<f64>,
+    pub q_ci95_kg_per_s: Option<f64>,
+}
+
+/// The flow rate of one job.
+///
+/// # Errors
+/// On a database error, among them no summary for the job.
+pub fn flow_rate(conn: &Connection, job_id: i64) -> Result<FlowRate> {
+    Ok(conn.query_row(
+        "SELECT q_kg_per_s, q_ci95_kg_per_s FROM discharge_summary WHERE job_id = ?1",
+        [job_id],
+        |r| {
+            Ok(FlowRate {
+                q_kg_per_s: r.get(0)?,
+                q_ci95_kg_per_s: r.get(1)?,
+            })
+        },
+    )?)
+}
