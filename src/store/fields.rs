@@ -1,69 +1,15 @@
 //! Coarse-grained field sets in the store (`field_sets`, `field_arrays`, `silo_field_series`):
 //! one set is a grid and a time window, its arrays the fields on that grid as little-endian f64
 //! blobs (point index `(k*ny + j)*nx + i`, axis 0 fastest as in VTK, then components). This file
-//! owns the encoding; what the fields mean is `observe::coarse_grain`'s.
+//! owns the encoding; what the fields mean is `observe::coarse_grain`'s, which also defines
+//! `FieldSet` and `FieldArray` (re-exported here), so observers never import the store.
 
 use anyhow::Context;
 use rusqlite::{params, Connection, OptionalExtension};
 use serde::{Deserialize, Serialize};
 
-/// One grid and time window of a job's coarse-grained fields.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FieldSet {
-    /// Row id (ignored by `save_field_set`, which returns the new one).
-    pub id: i64,
-    pub job_id: i64,
-    /// Unique per job: `map_t3.000`, `mean`, `orifice_profile`, …
-    pub name: String,
-    /// `z`, `rz` or `xyz`.
-    pub grid_kind: String,
-    /// Position of point (0, 0, 0) (m); for `rz` axis 0 is r and axis 1 is z.
-    pub origin_m: [f64; 3],
-    pub spacing_m: [f64; 3],
-    /// Points per axis; an unused axis has 1.
-    pub shape: [usize; 3],
-    /// Gaussian width w (m).
-    pub kernel_width_m: f64,
-    /// Cutoff in units of w.
-    pub cutoff_widths: f64,
-    /// Time window averaged (s since the orifice opened); equal for a single snapshot.
-    pub t_start_s: f64,
-    pub t_end_s: f64,
-    /// Snapshots averaged.
-    pub samples: i64,
-}
-
-impl FieldSet {
-    /// Number of grid points.
-    pub fn points(&self) -> usize {
-        self.shape.iter().product()
-    }
-
-    /// Coordinate of point `i` along `axis` (m).
-    pub fn coordinate(&self, axis: usize, i: usize) -> f64 {
-        self.origin_m[axis] + i as f64 * self.spacing_m[axis]
-    }
-}
-
-/// One field on a set's grid.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FieldArray {
-    /// `phi`, `density`, `momentum`, `velocity`, `kinetic_stress`, `kinetic_pressure`, …
-    pub field: String,
-    /// SI units: `kg/m^3`, `m/s`, `Pa`, `1`.
-    pub units: String,
-    /// 1 scalar, 3 vector, 9 tensor (row-major).
-    pub components: usize,
-    /// `points × components` values, point-major.
-    pub data: Vec<f64>,
-}
-
-impl FieldArray {
-    /// Component `c` at point `p`.
-    pub fn at(&self, p: usize, c: usize) -> f64 {
-        self.data[p * self.components + c]
-    }
-}
+pub use crate::observe::coarse_grain::{FieldArray, FieldSet};
+use crate::observe::silo_fields::SiloFieldObserver;
 
 /// The JSON of `field_sets.grid_json`.
 #[derive(Serialize, Deserialize)]
@@ -383,6 +329,25 @@ fn decode(blob: &[u8]) -> Vec<f64> {
     blob.chunks_exact(8)
         .map(|b| f64::from_le_bytes(b.try_into().expect("chunks of 8")))
         .collect()
+}
+
+/// Stores every field set and series of a silo job's field observer for `job_id` (inside the
+/// caller's transaction, so they commit with the job's other results).
+///
+/// # Errors
+/// Database errors or non-finite values.
+pub fn save_silo_fields(
+    conn: &Connection,
+    job_id: i64,
+    fields: &SiloFieldObserver,
+) -> anyhow::Result<()> {
+    for (set, arrays) in fields.field_sets() {
+        save_field_set(conn, job_id, &set, &arrays)?;
+    }
+    for s in fields.series() {
+        save_field_series(conn, job_id, s.name, s.units, s.samples)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,14 +1,19 @@
-//! The silo field observer's results as store rows: each average becomes a field set (the maps
+//! The silo field observer's results, handed to the store as plain values: each average becomes a field set (the maps
 //! `map_t<time>`, the whole-run `mean`, and `mean_xyz` when asked), each series rows of
 //! `silo_field_series`. Fields stored per set: phi, density, momentum, velocity,
 //! kinetic_stress, kinetic_pressure (and contact_stress); (r, z) sets carry vector and tensor
 //! components in the cylindrical basis (r, θ, z), Cartesian sets in (x, y, z).
 
-use rusqlite::Connection;
-
 use super::observer::{SiloFieldObserver, ORIFICE_KINETIC_PRESSURE, ORIFICE_MASS_FLUX};
-use crate::observe::coarse_grain::GridAverage;
-use crate::store::fields::{save_field_series, save_field_set, FieldArray, FieldSet};
+use crate::observe::coarse_grain::{FieldArray, FieldSet, GridAverage};
+
+/// One time series of a scalar: its name, SI units and (t (s), value) samples.
+#[derive(Clone, Copy, Debug)]
+pub struct NamedSeries<'a> {
+    pub name: &'static str,
+    pub units: &'static str,
+    pub samples: &'a [(f64, f64)],
+}
 
 impl SiloFieldObserver {
     /// Every field set with at least one sample, with its arrays.
@@ -73,28 +78,19 @@ impl SiloFieldObserver {
         v
     }
 
-    /// Writes every set and series for `job_id` (inside the caller's transaction).
-    ///
-    /// # Errors
-    /// Database errors or non-finite values.
-    pub fn write(&self, conn: &Connection, job_id: i64) -> anyhow::Result<()> {
-        for (set, arrays) in self.field_sets() {
-            save_field_set(conn, job_id, &set, &arrays)?;
-        }
-        save_field_series(
-            conn,
-            job_id,
-            ORIFICE_KINETIC_PRESSURE,
-            "Pa",
-            &self.orifice_kinetic_pressure,
-        )?;
-        save_field_series(
-            conn,
-            job_id,
-            ORIFICE_MASS_FLUX,
-            "kg/s",
-            &self.orifice_mass_flux,
-        )?;
-        Ok(())
+    /// The orifice series, named as the store keeps them.
+    pub fn series(&self) -> [NamedSeries<'_>; 2] {
+        [
+            NamedSeries {
+                name: ORIFICE_KINETIC_PRESSURE,
+                units: "Pa",
+                samples: &self.orifice_kinetic_pressure,
+            },
+            NamedSeries {
+                name: ORIFICE_MASS_FLUX,
+                units: "kg/s",
+                samples: &self.orifice_mass_flux,
+            },
+        ]
     }
 }
