@@ -1,4 +1,6 @@
-//! The SQLite store: schema and migrations (`open`), jobs and their lifecycle (`jobs`), results
+//! The SQLite store, the only door to SQL: schema and migrations (`open`), where its work directory
+//! is (`meta`), jobs and their lifecycle (`jobs`: registration, claim, heartbeat, release;
+//! `requeue` for `resume`; `lookup` for status), forgetting jobs (`forget`), results
 //! (`results`, read back by `silo_reads`; `chute_results` for the chute, read back by
 //! `chute_reads`; `fields` for coarse-grained fields), jobs handed to Slurm (`slurm_tasks`,
 //! `pending`) and their results ingested (`slurm_ingest`), job counts (`job_counts`), a finished
@@ -15,10 +17,12 @@ pub mod fields;
 pub mod forget;
 pub mod job_counts;
 pub mod jobs;
+mod lookup;
 pub mod meta;
 pub mod numerics;
 mod open;
 pub mod pending;
+mod requeue;
 mod results;
 pub mod silo_done;
 pub mod silo_reads;

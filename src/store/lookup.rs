@@ -1,0 +1,185 @@
+//! Reading jobs and campaigns as `sweep status`, the executors and the exporters show them:
+//! campaign versions, a campaign's jobs with their progress and lease, single fields of a job.
+
+use rusqlite::{params, Connection, OptionalExtension};
+
+use super::now;
+use super::requeue::OpenJob;
+
+/// A campaign version as `sweep status` lists it.
+#[derive(Clone, Debug)]
+pub struct CampaignRow {
+    pub id: i64,
+    pub name: String,
+    pub version: i64,
+    pub file: String,
+}
+
+/// Campaigns (every version), all or those named `name`, oldest first.
+///
+/// # Errors
+/// Database errors.
+pub fn campaigns(conn: &Connection, name: Option<&str>) -> anyhow::Result<Vec<CampaignRow>> {
+    let mut q = conn.prepare(
+        "SELECT id, name, version, file FROM campaigns WHERE ?1 IS NULL OR name = ?1 ORDER BY name, version",
+    )?;
+    let rows = q
+        .query_map([name], |r| {
+            Ok(CampaignRow {
+                id: r.get(0)?,
+                name: r.get(1)?,
+                version: r.get(2)?,
+                file: r.get(3)?,
+            })
+        })?
+        .collect::<Result<_, _>>()?;
+    Ok(rows)
+}
+
+/// The id of the campaign named `name` (its first version found), or `None`.
+///
+/// # Errors
+/// Database errors.
+pub fn campaign_id(conn: &Connection, name: &str) -> anyhow::Result<Option<i64>> {
+    Ok(conn
+        .query_row("SELECT id FROM campaigns WHERE name = ?1", [name], |r| {
+            r.get(0)
+        })
+        .optional()?)
+}
+
+/// A job's parameter hash (which names its work directory), or `None` when there is no such
+/// job.
+///
+/// # Errors
+/// Database errors.
+pub fn job_hash(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row("SELECT hash FROM jobs WHERE id = ?1", [id], |r| r.get(0))
+        .optional()?)
+}
+
+/// A job's label (from its first campaign link, else its parameter hash), or `None` when there
+/// is no such job.
+///
+/// # Errors
+/// Database errors.
+pub fn job_label(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row(
+            "SELECT COALESCE((SELECT label FROM campaign_jobs WHERE job_id = jobs.id LIMIT 1), hash) FROM jobs WHERE id = ?1",
+            [id],
+            |r| r.get(0),
+        )
+        .optional()?)
+}
+
+/// The campaign file (JSON) of the first campaign job `job_id` belongs to, or `None`.
+///
+/// # Errors
+/// Database errors.
+pub fn first_campaign_spec(conn: &Connection, job_id: i64) -> anyhow::Result<Option<String>> {
+    Ok(conn
+        .query_row("SELECT c.spec_json FROM campaigns c JOIN campaign_jobs cj ON cj.campaign_id = c.id WHERE cj.job_id = ?1 ORDER BY c.id LIMIT 1", [job_id], |r| r.get(0))
+        .optional()?)
+}
+
+/// A job's state as the Slurm collector checks it.
+#[derive(Clone, Debug)]
+pub struct JobState {
+    pub status: String,
+    pub hash: String,
+    pub lease_owner: Option<String>,
+}
+
+/// The state of job `id`.
+///
+/// # Errors
+/// Database errors, among them no such job.
+pub fn job_state(conn: &Connection, id: i64) -> anyhow::Result<JobState> {
+    let mut q = conn.prepare_cached("SELECT status, hash, lease_owner FROM jobs WHERE id = ?1")?;
+    Ok(q.query_row([id], |r| {
+        Ok(JobState {
+            status: r.get(0)?,
+            hash: r.get(1)?,
+            lease_owner: r.get(2)?,
+        })
+    })?)
+}
+
+/// One job of a campaign, as `sweep status` shows it.
+#[derive(Clone, Debug)]
+pub struct JobStatus {
+    pub id: i64,
+    pub hash: String,
+    pub status: String,
+    pub progress: f64,
+    pub sim_time_s: f64,
+    pub target_time_s: f64,
+    pub particle_steps: i64,
+    pub wall_time_s: f64,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub last_error: Option<String>,
+    pub label: String,
+    pub backend: Option<String>,
+    pub precision: Option<String>,
+    pub lease_owner: Option<String>,
+    pub heartbeat_age_s: Option<f64>,
+    pub stage: Option<String>,
+}
+
+impl JobStatus {
+    /// The fields `requeue`'s liveness test reads.
+    pub fn as_open(&self) -> OpenJob {
+        OpenJob {
+            id: self.id,
+            hash: self.hash.clone(),
+            label: self.label.clone(),
+            status: self.status.clone(),
+            attempts: self.attempts,
+            max_attempts: self.max_attempts,
+            lease_owner: self.lease_owner.clone(),
+            heartbeat_age_s: self.heartbeat_age_s,
+            stage: self.stage.clone(),
+            last_error: self.last_error.clone(),
+        }
+    }
+}
+
+/// The jobs of campaign (version) `campaign_id`, by id.
+///
+/// # Errors
+/// Database errors.
+pub fn campaign_jobs(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<JobStatus>> {
+    let mut q = conn.prepare(
+        "SELECT j.id, j.hash, j.status, j.progress, j.sim_time_s, j.target_time_s, j.particle_steps, j.wall_time_s,
+                j.attempts, j.max_attempts, j.last_error, cj.label, j.backend, j.precision, j.lease_owner,
+                ?2 - j.heartbeat_at, j.stage
+         FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 ORDER BY j.id",
+    )?;
+    let rows = q
+        .query_map(params![campaign_id, now()], |r| {
+            Ok(JobStatus {
+                id: r.get(0)?,
+                hash: r.get(1)?,
+                status: r.get(2)?,
+                progress: r.get(3)?,
+                sim_time_s: r.get(4)?,
+                target_time_s: r.get(5)?,
+                particle_steps: r.get(6)?,
+                wall_time_s: r.get(7)?,
+                attempts: r.get(8)?,
+                max_attempts: r.get(9)?,
+                last_error: r.get(10)?,
+                label: r.get(11)?,
+                backend: r.get(12)?,
+                precision: r.get(13)?,
+                lease_owner: r.get(14)?,
+                heartbeat_age_s: r.get(15)?,
+                stage: r.get(16)?,
+            })
+        })?
+        .collect::<Result<_, _>>()?;
+    Ok(rows)
+}
