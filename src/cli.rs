@@ -10,8 +10,10 @@ mod info;
 mod launch;
 mod plan;
 mod report;
+mod run_args;
 mod run_job;
 mod schema;
+mod shared;
 mod status;
 mod submit;
 
@@ -53,7 +55,7 @@ enum Command {
     /// what was expected; nothing is registered. A failed job does not stop the others; the exit
     /// status is then 1. With Slurm: no `sbatch` on PATH, bad settings, or `sbatch` refusing a
     /// script (a bad partition, say) exit with status 2 and Slurm's message; the jobs stay pending.
-    Launch(launch::Arguments),
+    Launch(run_args::Arguments),
     /// Continue paused jobs, jobs whose process died (stale heartbeat) and failed jobs with
     /// attempts left, from their last valid checkpoint.
     ///
@@ -64,7 +66,7 @@ enum Command {
     ///   sweep resume
     ///   sweep resume --db paper.db --parallel 2
     ///   sweep resume --executor local   # run what was left on Slurm on this machine
-    Resume(launch::ResumeArguments),
+    Resume(run_args::ResumeArguments),
     /// Campaigns and jobs: status, progress, throughput, time remaining.
     ///
     /// For jobs handed to Slurm, Slurm's view beside sweep's (finished results are collected
@@ -176,9 +178,4 @@ pub fn run() -> anyhow::Result<i32> {
         Command::Schema => schema::run(),
         Command::Info(a) => info::run(a),
     }
-}
-
-/// A clap parser of a whole number in [lo, hi] (thread and job counts).
-pub fn bounded(lo: u64, hi: usize) -> clap::builder::RangedU64ValueParser<usize> {
-    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi as u64)
 }

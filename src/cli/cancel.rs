@@ -2,7 +2,7 @@
 
 use sweep::store::slurm_tasks;
 
-use super::launch::work_dir;
+use super::shared::{print_report, work_dir};
 use super::DbArg;
 
 #[derive(clap::Args)]
@@ -44,7 +44,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     // Results already there make their jobs done, not cancelled.
     let work = work_dir(&conn, &a.db.db)?;
     let r = sweep::runner::slurm::collect(&mut conn, &work)?;
-    super::collect::print_report(&r);
+    print_report(&r);
     let c = sweep::runner::slurm::cancel(&mut conn, cid)?;
     if c.arrays.is_empty() {
         println!("nothing to cancel: no job is queued or running under Slurm");

@@ -1,9 +1,8 @@
 //! `sweep collect`: finished Slurm results into the database (also run by `status` and `resume`).
 
-use sweep::runner::slurm::CollectReport;
 use sweep::store::slurm_tasks;
 
-use super::launch::work_dir;
+use super::shared::{print_report, work_dir};
 use super::DbArg;
 
 #[derive(clap::Args)]
@@ -44,25 +43,4 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         1
     })
-}
-
-/// One line per job whose state changed, and a warning when Slurm could not be asked.
-pub fn print_report(r: &CollectReport) {
-    for id in &r.ingested {
-        println!("job {id} done: its result verifies and is collected");
-    }
-    for (id, why) in &r.failed {
-        println!("job {id} failed {why}");
-    }
-    for (id, why) in &r.ended {
-        println!("job {id} paused: {why}");
-    }
-    for (id, why) in &r.refused {
-        println!("job {id}: result not collected: {why}");
-    }
-    if let Some(e) = &r.slurm_error {
-        eprintln!(
-            "sweep: cannot ask Slurm ({e}): jobs handed to it without a result are left as they are"
-        );
-    }
 }

@@ -40,7 +40,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             Encoding::Base64
         },
     };
-    let work = super::launch::work_dir(&conn, &a.db.db)?;
+    let work = super::shared::work_dir(&conn, &a.db.db)?;
     let r = export_job(&conn, &work, a.job, &a.vtk, &opts)?;
     for n in &r.notes {
         eprintln!("sweep: {n}");

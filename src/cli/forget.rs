@@ -33,7 +33,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let mut conn = sweep::store::open(&a.db.db)?;
-    let work = super::launch::work_dir(&conn, &a.db.db)?;
+    let work = super::shared::work_dir(&conn, &a.db.db)?;
     let plan = match (&a.job, &a.campaign) {
         (Some(id), _) => forget::plan_job(&conn, *id),
         (None, Some(name)) => {

@@ -11,72 +11,10 @@ use sweep::runner::backend::{auto_summary, BackendChoice};
 use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
 use sweep::store::job_counts;
-use sweep::store::jobs::Registration;
 use sweep::store::slurm_tasks;
 
-use super::DbArg;
-
-/// The most threads (or jobs at once) a command accepts: far above any machine's cores, far
-/// below what makes the OS refuse a thread pool.
-pub const MAX_THREADS: usize = 1024;
-
-/// How pending jobs run (shared by launch and resume).
-#[derive(clap::Args)]
-pub struct RunArgs {
-    #[command(flatten)]
-    pub db: DbArg,
-    /// auto (a GPU when there is one, else the CPU), gpu or cpu.
-    #[arg(long, default_value = "auto")]
-    pub backend: BackendChoice,
-    /// Jobs run at the same time (at least 1).
-    #[arg(long, default_value_t = 1, value_parser = super::bounded(1, MAX_THREADS))]
-    pub parallel: usize,
-    /// Engine threads per job (0: cores / parallel; at most 1024).
-    #[arg(long, default_value_t = 0, value_parser = super::bounded(0, MAX_THREADS))]
-    pub threads: usize,
-}
-
-#[derive(clap::Args)]
-pub struct Arguments {
-    /// Campaign file (JSON).
-    pub file: PathBuf,
-    #[command(flatten)]
-    pub run: RunArgs,
-    #[command(flatten)]
-    pub exec: super::submit::ExecutorArgs,
-    /// Launch a changed file as a new version of its campaign (the old version's jobs and
-    /// results stay as they are, apart from it).
-    #[arg(long)]
-    pub new_version: bool,
-}
-
-#[derive(clap::Args)]
-pub struct ResumeArguments {
-    #[command(flatten)]
-    pub run: RunArgs,
-    /// A running job of another machine (or of an older sweep) whose heartbeat is older than
-    /// this (s) is taken as dead. Jobs of this machine are judged at once by their OS lock.
-    #[arg(long, default_value_t = 30.0)]
-    pub stale_after: f64,
-    /// Jobs are run until they have had this many attempts (default: each campaign's
-    /// `run.max_attempts`); a job whose attempts are spent is marked failed.
-    #[arg(long, value_parser = clap::value_parser!(i64).range(1..))]
-    pub max_attempts: Option<i64>,
-    /// Where resumed jobs run: local or slurm (default: where each job last ran; Slurm jobs
-    /// are resubmitted with the settings of their last submission).
-    #[arg(long)]
-    pub executor: Option<ExecutorKind>,
-}
-
-/// The work directory (checkpoints, shared stages) of the database at `db`, as it records it.
-pub fn work_dir(conn: &rusqlite::Connection, db: &Path) -> anyhow::Result<PathBuf> {
-    sweep::store::work_dir(conn, db)
-        .with_context(|| format!("{}: finding its work directory", db.display()))
-}
-
-/// Exit status of a run that stopped on an interrupt (or left jobs paused): 75, EX_TEMPFAIL,
-/// as `sweep run-job`; `sweep resume` continues it.
-pub const EXIT_PAUSED: i32 = 75;
+use super::run_args::{Arguments, ResumeArguments, RunArgs};
+use super::shared::{print_report, register, work_dir, EXIT_PAUSED};
 
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
 fn interrupt_flag() -> Arc<AtomicBool> {
@@ -140,39 +78,6 @@ fn finish(s: sweep::runner::pool::PoolSummary, interrupted: bool, db: &Path) -> 
         1
     } else {
         0
-    }
-}
-
-/// Registers a launched campaign, or explains why not: a file changed since the version
-/// launched under its name is refused with the fields that differ. Ok(Err(code)) is the exit
-/// code of a refusal.
-pub fn register(
-    conn: &mut rusqlite::Connection,
-    a: &Arguments,
-    file: &sweep::campaign::CampaignFile,
-    jobs: &[sweep::campaign::JobSpec],
-) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
-    let path = a.file.display().to_string();
-    match sweep::store::jobs::register(conn, &path, file, jobs, a.new_version)? {
-        Registration::Registered {
-            campaign_id,
-            version,
-            added,
-        } => Ok(Ok((campaign_id, version, added))),
-        Registration::Changed { version, changes } => {
-            eprintln!(
-                "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs; this file changes:",
-                file.name
-            );
-            for c in &changes {
-                eprintln!("  {c}");
-            }
-            eprintln!(
-                "nothing registered. Launch it as version {} with `--new-version` (version {version} and its results stay apart), or give it another \"name\".",
-                version + 1
-            );
-            Ok(Err(2))
-        }
     }
 }
 
@@ -243,7 +148,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let slurm_used = slurm_tasks::any(&conn)?;
     if slurm_used {
         let r = slurm::collect(&mut conn, &work)?;
-        super::collect::print_report(&r);
+        print_report(&r);
     }
     let released = slurm_tasks::release_stale_submissions(&conn, a.stale_after)?;
     let decisions = sweep::store::jobs::requeue(&mut conn, a.max_attempts, |j| {

@@ -18,7 +18,7 @@ pub struct Arguments {
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
     /// Engine threads (0: SLURM_CPUS_PER_TASK, else 1).
-    #[arg(long, default_value_t = 0, value_parser = super::bounded(0, super::launch::MAX_THREADS))]
+    #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, super::run_args::MAX_THREADS))]
     pub threads: usize,
 }
 

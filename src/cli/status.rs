@@ -33,7 +33,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut conn = sweep::store::open(&a.db.db)?;
     let slurm = slurm_view(&mut conn, &a.db.db)?;
-    let work = super::launch::work_dir(&conn, &a.db.db)?;
+    let work = super::shared::work_dir(&conn, &a.db.db)?;
     let camps = jobs::campaigns(&conn, a.campaign.as_deref())?;
     if camps.is_empty() {
         println!(
@@ -143,9 +143,9 @@ fn slurm_view(conn: &mut rusqlite::Connection, db: &Path) -> anyhow::Result<Opti
     if !slurm_tasks::any(conn)? {
         return Ok(None);
     }
-    let work = super::launch::work_dir(conn, db)?;
+    let work = super::shared::work_dir(conn, db)?;
     let r = slurm::collect(conn, &work)?;
-    super::collect::print_report(&r);
+    super::shared::print_report(&r);
     let tasks = slurm_tasks::latest_by_job(conn, None)?;
     let mut arrays: Vec<String> = tasks.values().map(|t| t.array_job_id.clone()).collect();
     arrays.sort();

@@ -9,80 +9,8 @@ use sweep::campaign::{CampaignFile, ExecutorKind, JobSpec, SlurmSettings};
 use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
 use sweep::store::job_counts;
 
-use super::launch::{work_dir, Arguments, ResumeArguments};
-
-/// Where jobs run, and how Slurm is asked for them.
-#[derive(clap::Args)]
-pub struct ExecutorArgs {
-    /// local (this machine) or slurm (job arrays); default: the campaign's run.executor, else
-    /// local.
-    #[arg(long)]
-    pub executor: Option<ExecutorKind>,
-    /// Slurm partition (default: the campaign's run.slurm, else the cluster's default).
-    #[arg(long, value_name = "P")]
-    pub partition: Option<String>,
-    /// GPUs per job (--gres=gpu:N).
-    #[arg(long, value_name = "N")]
-    pub gpus_per_job: Option<u32>,
-    /// CPU cores per job (--cpus-per-task), also the engine threads unless --threads is given.
-    #[arg(long, value_name = "N")]
-    pub cpus_per_job: Option<u32>,
-    /// Time limit per task ([D-]HH:MM:SS); a job that needs longer is checkpointed and requeued.
-    #[arg(long, value_name = "HH:MM:SS")]
-    pub time: Option<String>,
-    /// At most K tasks of the array run at once (--array=…%K).
-    #[arg(long, value_name = "K")]
-    pub array_max: Option<u32>,
-    /// One more sbatch option, repeatable: --sbatch-arg=--account=proj42.
-    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true)]
-    pub sbatch_args: Vec<String>,
-    /// Print the sbatch scripts and submit nothing (the database is left as it was).
-    #[arg(long)]
-    pub dry_run: bool,
-}
-
-impl ExecutorArgs {
-    /// The campaign's Slurm settings with the command line's on top (sbatch args added).
-    fn slurm_settings(&self, file: &SlurmSettings) -> SlurmSettings {
-        let mut s = file.clone();
-        if let Some(p) = &self.partition {
-            s.partition = Some(p.clone());
-        }
-        if let Some(n) = self.gpus_per_job {
-            s.gpus_per_job = n;
-        }
-        if let Some(n) = self.cpus_per_job {
-            s.cpus_per_job = n;
-        }
-        if let Some(t) = &self.time {
-            s.time = Some(t.clone());
-        }
-        if let Some(k) = self.array_max {
-            s.array_max = Some(k);
-        }
-        s.sbatch_args.extend(self.sbatch_args.iter().cloned());
-        s
-    }
-
-    /// The Slurm-only flags given on the command line.
-    pub fn slurm_flags(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        for (set, name) in [
-            (self.partition.is_some(), "--partition"),
-            (self.gpus_per_job.is_some(), "--gpus-per-job"),
-            (self.cpus_per_job.is_some(), "--cpus-per-job"),
-            (self.time.is_some(), "--time"),
-            (self.array_max.is_some(), "--array-max"),
-            (!self.sbatch_args.is_empty(), "--sbatch-arg"),
-            (self.dry_run, "--dry-run"),
-        ] {
-            if set {
-                v.push(name);
-            }
-        }
-        v
-    }
-}
+use super::run_args::{Arguments, ResumeArguments};
+use super::shared::work_dir;
 
 /// `sweep launch --executor slurm`: registers the jobs, then hands the pending ones to Slurm.
 pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> anyhow::Result<i32> {
@@ -110,7 +38,7 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> any
     } else {
         sweep::store::open(db)?
     };
-    let (cid, _version, added) = match super::launch::register(&mut conn, a, &launched, jobs)? {
+    let (cid, _version, added) = match super::shared::register(&mut conn, a, &launched, jobs)? {
         Ok(x) => x,
         Err(code) => return Ok(code),
     };

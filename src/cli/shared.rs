@@ -1,0 +1,79 @@
+//! Helpers the subcommands share: the store's work directory, exit statuses, bounded counts,
+//! registering a launched campaign, and reporting collected Slurm results.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use sweep::runner::slurm::CollectReport;
+use sweep::store::jobs;
+
+use super::run_args::Arguments;
+
+/// The work directory (checkpoints, shared stages) of the database at `db`, as it records it.
+pub fn work_dir(conn: &rusqlite::Connection, db: &Path) -> anyhow::Result<PathBuf> {
+    sweep::store::work_dir(conn, db)
+        .with_context(|| format!("{}: finding its work directory", db.display()))
+}
+
+/// Exit status of a run that stopped on an interrupt (or left jobs paused): 75, EX_TEMPFAIL,
+/// as `sweep run-job`; `sweep resume` continues it.
+pub const EXIT_PAUSED: i32 = 75;
+
+/// Registers a launched campaign, or explains why not: a file changed since the version
+/// launched under its name is refused with the fields that differ. Ok(Err(code)) is the exit
+/// code of a refusal.
+pub fn register(
+    conn: &mut rusqlite::Connection,
+    a: &Arguments,
+    file: &sweep::campaign::CampaignFile,
+    jobs: &[sweep::campaign::JobSpec],
+) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
+    let path = a.file.display().to_string();
+    match jobs::register(conn, &path, file, jobs, a.new_version)? {
+        jobs::Registration::Registered {
+            campaign_id,
+            version,
+            added,
+        } => Ok(Ok((campaign_id, version, added))),
+        jobs::Registration::Changed { version, changes } => {
+            eprintln!(
+                "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs; this file changes:",
+                file.name
+            );
+            for c in &changes {
+                eprintln!("  {c}");
+            }
+            eprintln!(
+                "nothing registered. Launch it as version {} with `--new-version` (version {version} and its results stay apart), or give it another \"name\".",
+                version + 1
+            );
+            Ok(Err(2))
+        }
+    }
+}
+
+/// A clap parser of a whole number in [lo, hi] (thread and job counts).
+pub fn bounded(lo: u64, hi: usize) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi as u64)
+}
+
+/// One line per job whose state changed, and a warning when Slurm could not be asked.
+pub fn print_report(r: &CollectReport) {
+    for id in &r.ingested {
+        println!("job {id} done: its result verifies and is collected");
+    }
+    for (id, why) in &r.failed {
+        println!("job {id} failed {why}");
+    }
+    for (id, why) in &r.ended {
+        println!("job {id} paused: {why}");
+    }
+    for (id, why) in &r.refused {
+        println!("job {id}: result not collected: {why}");
+    }
+    if let Some(e) = &r.slurm_error {
+        eprintln!(
+            "sweep: cannot ask Slurm ({e}): jobs handed to it without a result are left as they are"
+        );
+    }
+}
