@@ -5,19 +5,12 @@
 mod accuracy;
 mod campaign;
 mod chute;
-mod chute_data;
-mod chute_profiles;
-mod chute_scaling;
-mod chute_velocity;
 mod drawn;
 mod field_map;
 mod missing;
 mod plot;
 mod render;
 mod silo;
-mod silo_data;
-mod silo_fields;
-mod silo_normalise;
 mod streamlines;
 mod table;
 

@@ -12,7 +12,7 @@ use super::chute;
 use super::drawn::Drawn;
 use super::missing::campaign_completion;
 use super::silo;
-use super::silo_fields;
+use super::silo::fields as silo_fields;
 
 /// The silo paper's figures (PRE 2020), with what they show.
 const SILO_FIGURES: [(&str, &str); 11] = [

@@ -9,15 +9,15 @@ use std::path::Path;
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
-use super::campaign::CampaignRef;
-use super::drawn::{write_all, Drawn};
-use super::field_map::{MapFigure, MapPanel, MapRow};
-use super::plot::{Axis, Figure, Legend, Panel, Series};
-use super::silo_data::{distinct, done_discharge_rows, same_value};
-use super::streamlines::Field2d;
-use super::table::{csv_num, mm, short, Table};
 use crate::observe::fits::mean_ci95;
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
+use crate::report::campaign::CampaignRef;
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::field_map::{MapFigure, MapPanel, MapRow};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{distinct, done_discharge_rows, same_value};
+use crate::report::streamlines::Field2d;
+use crate::report::table::{csv_num, mm, short, Table};
 use crate::store::fields::{
     list_field_sets, load_field_arrays, load_field_series, FieldArray, FieldSet,
 };

@@ -10,14 +10,14 @@ use std::path::Path;
 use anyhow::Result;
 use rusqlite::Connection;
 
-use super::campaign::CampaignRef;
-use super::chute::{
+use crate::report::campaign::CampaignRef;
+use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
+use crate::report::chute::{
     case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices, GREY,
 };
-use super::chute_data::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
-use super::drawn::{write_all, Drawn};
-use super::plot::{Axis, Figure, Legend, Panel, Series};
-use super::table::{csv_num, fixed, sci, short, Table};
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// "z = 2.5 L", or the block index when the block has no chute_blocks row.
 fn block_label(row: Option<&BlockRow>, block: i64, l: f64) -> String {

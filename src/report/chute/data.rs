@@ -9,7 +9,7 @@ pub use crate::store::chute_reads::{
     CurveTable,
 };
 
-use super::silo_data::same_value;
+use crate::report::silo::data::same_value;
 
 /// The value of `values` closest to `target` (ties: the smaller one); None when empty.
 pub fn closest(values: impl Iterator<Item = f64>, target: f64) -> Option<f64> {

@@ -9,14 +9,14 @@ use std::path::Path;
 use anyhow::Result;
 use rusqlite::Connection;
 
-use super::campaign::CampaignRef;
-use super::chute::{color, preface, GREY};
-use super::chute_data::{blocks, done_chute_jobs, ChuteJob};
-use super::drawn::{write_all, Drawn};
-use super::plot::{Axis, Figure, Legend, Panel, Series};
-use super::silo_data::{distinct, same_value};
-use super::table::{csv_num, fixed, sci, short, Table};
 use crate::observe::fits::{linear_fit, LinearFit};
+use crate::report::campaign::CampaignRef;
+use crate::report::chute::data::{blocks, done_chute_jobs, ChuteJob};
+use crate::report::chute::{color, preface, GREY};
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{distinct, same_value};
+use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// The central part of the bed, as fractions of the bed height H: blocks with centre
 /// 0.3 H < z < 0.7 H. For the paper's H = 20 L this is its 6 L < z < 14 L.

@@ -4,8 +4,8 @@
 
 use std::fmt::Write as _;
 
-use super::silo_data::{distinct, same_value, FlowPoint};
-use super::table::{csv_num, fixed, mm, sci, short, Table};
+use crate::report::silo::data::{distinct, same_value, FlowPoint};
+use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
 /// Q/Q_ref vs f for one orifice.
 pub(crate) struct NormalisedCurve {

@@ -3,6 +3,10 @@
 //! Q/Q_{f=1} vs f (Figs. 4 and 5). Every number comes from discharge_summary and
 //! discharge_series of the campaign's done jobs; nothing from the paper is hard-coded.
 
+pub(crate) mod data;
+pub(crate) mod fields;
+mod normalise;
+
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -12,13 +16,13 @@ use rusqlite::Connection;
 use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
-use super::silo_data::{
+use super::table::{csv_num, fixed, mm, sci, short, Table};
+use crate::observe::fits::{beverloo_fit, janda_fit, JandaFit};
+use crate::report::silo::data::{
     combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, mass_series, same_value,
     spread, CiSource, DischargeRow, FlowPoint,
 };
-use super::silo_normalise::{normalise, NormalisedCurve};
-use super::table::{csv_num, fixed, mm, sci, short, Table};
-use crate::observe::fits::{beverloo_fit, janda_fit, JandaFit};
+use crate::report::silo::normalise::{normalise, NormalisedCurve};
 
 /// At most this many M(t) curves in Fig. 2, so the legend stays readable.
 const MAX_FIG2_CURVES: usize = 8;
@@ -528,7 +532,7 @@ mod tests {
     /// default), plus an older silo campaign and an older chute campaign.
     fn synthetic_db(freqs: &[f64]) -> Connection {
         let conn = Connection::open_in_memory().expect("in-memory db");
-        conn.execute_batch(include_str!("../../schema.sql"))
+        conn.execute_batch(include_str!("../../../schema.sql"))
             .expect("schema");
         let old = add_campaign(&conn, "old_silo", "silo", "2020-01-01T00:00:00.000Z");
         add_job(&conn, old, "old", "done", 0.03, 0.5, Some((9.0, 0.1)));

@@ -10,13 +10,13 @@ use std::path::Path;
 use anyhow::Result;
 use rusqlite::Connection;
 
-use super::campaign::CampaignRef;
-use super::chute::{color, empty_panel, preface};
-use super::chute_data::{blocks, closest, done_chute_jobs, shear_profile, ChuteJob};
-use super::drawn::{write_all, Drawn};
-use super::plot::{Axis, Figure, Legend, Panel, Series};
-use super::silo_data::{distinct, same_value};
-use super::table::{csv_num, fixed, sci, short, Table};
+use crate::report::campaign::CampaignRef;
+use crate::report::chute::data::{blocks, closest, done_chute_jobs, shear_profile, ChuteJob};
+use crate::report::chute::{color, empty_panel, preface};
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{distinct, same_value};
+use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// Fig. 3: the profiles at the campaign's ξ closest to 1.3.
 pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {

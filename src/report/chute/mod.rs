@@ -1,12 +1,17 @@
 //! Figures 2–7 of the chute paper (Soft Matter 2022, spherocylinders on an incline) redrawn from
 //! a campaign's rows: MSD_z(τ) per block (Fig. 2, here), the D and γ̇ profiles (Figs. 3 and 4,
-//! `chute_profiles`), v_z PDFs and skewness (Fig. 5) and velocity correlations (Fig. 7,
-//! `chute_velocity`), and the scaling D ~ γ̇ d_⊥² (Fig. 6, `chute_scaling`). Every number comes
+//! `profiles`), v_z PDFs and skewness (Fig. 5) and velocity correlations (Fig. 7,
+//! `velocity`), and the scaling D ~ γ̇ d_⊥² (Fig. 6, `scaling`). Every number comes
 //! from the chute tables of the campaign's done jobs. Lengths are in units of the particle length
 //! L = chute_summary.total_length_m of each job, so D is in L²/s, as the paper plots.
 //!
 //! Figs. 2, 5 and 7 show the paper's two showcase cases: the done job with ξ closest to 1.3 (then
 //! α closest to 27°) and the one with ξ closest to 2.5 (then α closest to 30°).
+
+pub(crate) mod data;
+mod profiles;
+mod scaling;
+mod velocity;
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -15,17 +20,17 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
-use super::chute_data::{
-    block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, ChuteJob, CurveTable,
-};
 use super::drawn::{write_all, Drawn};
 use super::plot::{Axis, Figure, Panel, Series};
-use super::silo_data::spread;
 use super::table::{csv_num, fixed, sci, short, Table};
+use crate::report::chute::data::{
+    block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, ChuteJob, CurveTable,
+};
+use crate::report::silo::data::spread;
 
-pub(crate) use super::chute_profiles::{fig3, fig4};
-pub(crate) use super::chute_scaling::fig6;
-pub(crate) use super::chute_velocity::{fig5, fig7};
+pub(crate) use crate::report::chute::profiles::{fig3, fig4};
+pub(crate) use crate::report::chute::scaling::fig6;
+pub(crate) use crate::report::chute::velocity::{fig5, fig7};
 
 /// The paper's showcase cases (ξ, α in degrees): Figs. 2, 5 and 7 (a) and (b).
 pub(crate) const SHOWCASES: [(f64, f64); 2] = [(1.3, 27.0), (2.5, 30.0)];
