@@ -1,4 +1,4 @@
-//! The narrow interface every backend implements (CPU in `cpu.rs`, GPU in `gpu/`), and what a
+//! The narrow interface every backend implements (CPU in `cpu/`, GPU in `gpu/`), and what a
 //! chunk of steps reports. Observers only ever see a downloaded `State<f64>`.
 
 use serde::{Deserialize, Serialize};

@@ -3,7 +3,7 @@
 //! exchange format (checkpoints, GPU, spherocylinders): it lives with the particle, so it survives
 //! re-sorting and removal. A pair's spring is stored twice (i's view and j's view), mirror images
 //! (exact negatives when the sphere step wrote them; up to rounding from the GPU). The sphere step
-//! keeps springs per pair while a chunk runs (`cpu.rs`) and writes them back here.
+//! keeps springs per pair while a chunk runs (`cpu/half_lists.rs`) and writes them back here.
 
 use super::real::{Real, V3};
 

@@ -7,9 +7,9 @@ use std::any::TypeId;
 use multiversion::multiversion;
 
 use super::cpu::{ALIVE, DYING};
-use super::gather::Props;
 use super::grid::Periodic;
 use super::kinematics::Kin;
+use super::pair_pass::Props;
 use super::real::{Real, V3};
 
 /// What every particle's kick and drift reads besides its own arrays.

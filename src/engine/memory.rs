@@ -5,7 +5,7 @@
 //! - the state (`state.rs`): id, position, velocity, force, radius, mass, 1/m, angular velocity,
 //!   torque, 1/I (spheres) or orientation, angular momentum, body 1/I and half length (oriented
 //!   particles), and the contact-history table of `cpu::HISTORY_SLOTS` (partner id, spring);
-//! - the CPU engine's scratch (`cpu.rs`, `grid.rs`): spheres: the packed kinematics (16 reals),
+//! - the CPU engine's scratch (`cpu/`, `grid.rs`): spheres: the packed kinematics (16 reals),
 //!   constants, new force and torque, flags, the wall springs of up to `WALLS` walls, the half
 //!   list (start, reference position, and per entry partner, owner, reverse slot and owner, pair
 //!   slot and near reference) with `HALF_ENTRIES` entries, and the history carrier a rebuild

@@ -1,6 +1,6 @@
 //! The CPU engine's watchdog: its limits, and the energy criterion it checks once per chunk. The
 //! per-step overlap check, the per-chunk finiteness check and the elastic-energy gathers live
-//! with the steps they watch (`cpu.rs`, `oriented.rs`); this file owns the criterion
+//! with the steps they watch (`cpu/`, `oriented.rs`); this file owns the criterion
 //! (`EnergyBudget`) and the wall-speed bound it uses. The GPU engine reads only
 //! `max_overlap_ratio`: its status block carries no kinetic energy.
 

@@ -110,7 +110,7 @@ struct Gathered {
     nc: u32,
 }
 
-// The sphere path: each pair from i's side (gather.rs).
+// The sphere path: each pair from i's side (pair_pass.rs).
 fn gather_spheres(i: u32, me: Info) -> Gathered {
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);

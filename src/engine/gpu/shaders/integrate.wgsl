@@ -1,4 +1,4 @@
-// Velocity Verlet with the fused kick of cpu.rs: `kick_drift` kicks by dt/2 at a chunk's first
+// Velocity Verlet with the fused kick of cpu/rods.rs: `kick_drift` kicks by dt/2 at a chunk's first
 // step and by dt after (the previous step's closing half kick and this step's opening one),
 // drifts, wraps, flags sink deaths and list staleness; `close_kick` is the chunk's closing half
 // kick; `finish` checks finiteness and counts contacts. Oriented runs rotate in `kick_rotate`

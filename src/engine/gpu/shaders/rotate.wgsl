@@ -1,4 +1,4 @@
-// Rotation of oriented particles (spherocylinders): the rotational half of cpu.rs's fused-kick
+// Rotation of oriented particles (spherocylinders): the rotational half of cpu/rods.rs's fused-kick
 // velocity Verlet, as oriented::kick_rotate. L (lab frame) is kicked by the torque, the
 // orientation turns by the exact free rotor of a symmetric top with L held (shape/rigid.rs
 // rotate_free_symmetric), is renormalised, ω = R I⁻¹ Rᵀ L is refreshed, and the unit axis the
@@ -92,7 +92,7 @@ fn rotate_free_symmetric(q: vec4<f32>, l: vec3<f32>, inv: vec3<f32>, dt: f32) ->
 
 // After kick_drift, for oriented runs: kick L by the torque (dt/2 at a chunk's first step, dt
 // after), turn freely for dt, refresh ω and the axis; then flag a list rebuild when the ends may
-// have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu| (as cpu.rs).
+// have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu| (as cpu/rods.rs).
 @compute @workgroup_size(WG)
 fn kick_rotate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;

@@ -1,5 +1,5 @@
 //! Force kernels of the CPU engine. `PairContext` and `SumContext` are the sphere step: one
-//! evaluation per pair of the half lists, then a fixed-order sum per particle (`cpu.rs`).
+//! evaluation per pair of the half lists, then a fixed-order sum per particle (`cpu/passes.rs`).
 //! `ForceContext` is the per-particle gather over full lists, each particle summing its own
 //! contacts and rewriting only its own history rows: what contact records and the elastic
 //! energy read between chunks, and the door to `oriented.rs` for spherocylinders.
