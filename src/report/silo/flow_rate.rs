@@ -1,0 +1,259 @@
+//! Fig. 3 of the silo paper: Q(D) per f with the fit of Eq. (1) (Janda) and D_min(f), with a
+//! Beverloo line for reference.
+
+use std::path::Path;
+
+use anyhow::Result;
+use rusqlite::Connection;
+
+use crate::observe::fits::{beverloo_fit, janda_fit, JandaFit};
+use crate::report::campaign::CampaignRef;
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{
+    combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value, CiSource,
+    DischargeRow, FlowPoint,
+};
+use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
+
+/// Used for Beverloo only when no job parameter gives gravity; the table says so.
+const STANDARD_GRAVITY_M_PER_S2: f64 = 9.806_65;
+
+/// One rotation frequency's flow rates and their Eq. (1) fit.
+pub(crate) struct JandaRow {
+    /// f, Hz.
+    pub f_hz: f64,
+    /// The combined points at this f, sorted by D.
+    pub points: Vec<FlowPoint>,
+    /// The fit; None with fewer than 3 orifices.
+    pub fit: Option<JandaFit>,
+    /// Whether the fit weighted points by 1/CI².
+    pub weighted: bool,
+}
+
+/// Fits Eq. (1) per f. Points are weighted by 1/CI² when every point at that f has a positive
+/// CI (Q spans an order of magnitude over D, so equal weights would ignore the small orifices).
+pub(crate) fn janda_rows(points: &[FlowPoint]) -> Vec<JandaRow> {
+    distinct(points.iter().map(|p| p.f_hz))
+        .into_iter()
+        .map(|f_hz| {
+            let pts: Vec<FlowPoint> = points
+                .iter()
+                .filter(|p| same_value(p.f_hz, f_hz))
+                .cloned()
+                .collect();
+            let d: Vec<f64> = pts.iter().map(|p| p.d_m).collect();
+            let q: Vec<f64> = pts.iter().map(|p| p.q).collect();
+            let w: Option<Vec<f64>> = pts
+                .iter()
+                .map(|p| {
+                    p.ci.filter(|c| c.is_finite() && *c > 0.0)
+                        .map(|c| 1.0 / (c * c))
+                })
+                .collect();
+            let fit = janda_fit(&d, &q, w.as_deref());
+            JandaRow {
+                f_hz,
+                points: pts,
+                fit,
+                weighted: w.is_some(),
+            }
+        })
+        .collect()
+}
+
+/// Fig. 3: Q vs D per f with 95 % CIs and the Eq. (1) fits; second panel D_min = α2 ln α1 vs f.
+pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+    let rows = done_discharge_rows(conn, campaign.id)?;
+    let points = combine_replicas(&rows);
+    let fits = janda_rows(&points);
+
+    let mut q_panel = Panel::new(Axis::linear("D (mm)"), Axis::linear("Q (kg/s)"));
+    q_panel.title = Some("Q vs D; lines: Q = C (1 − α1 e^(−D/α2)) D^(5/2)".into());
+    let mut dmin_panel = Panel::new(
+        Axis::linear("f (Hz)"),
+        Axis::linear("D_min = α2 ln α1 (mm)"),
+    );
+    dmin_panel.title = Some("D_min vs f".into());
+    dmin_panel.legend = Legend::Hidden;
+    let mut fit_table = Table::new(&[
+        "f_Hz",
+        "n_D",
+        "C_kg/(s·m^2.5)",
+        "alpha1",
+        "alpha2_mm",
+        "D_min_mm",
+        "D_min/d",
+        "rms_kg/s",
+        "weights",
+    ]);
+    let mut q_table = Table::new(&[
+        "f_Hz",
+        "D_mm",
+        "D/d",
+        "Q_kg/s",
+        "ci95_kg/s",
+        "ci95_from",
+        "replicas",
+        "Q_fit_kg/s",
+    ]);
+    let mut csv = Table::new(&[
+        "rotation_frequency_hz",
+        "orifice_diameter_m",
+        "particle_diameter_m",
+        "q_kg_per_s",
+        "q_ci95_kg_per_s",
+        "q_ci95_source",
+        "replicas",
+        "janda_q_kg_per_s",
+        "janda_c",
+        "janda_alpha1",
+        "janda_alpha2_m",
+        "janda_d_min_m",
+    ]);
+    let (mut dmin_f, mut dmin_mm) = (Vec::new(), Vec::new());
+    for (color, row) in fits.iter().enumerate() {
+        let fit = row.fit.as_ref();
+        let d_mm: Vec<f64> = row.points.iter().map(|p| p.d_m * 1e3).collect();
+        let q: Vec<f64> = row.points.iter().map(|p| p.q).collect();
+        let err: Vec<Option<f64>> = row.points.iter().map(|p| p.ci).collect();
+        let label = format!("f = {} Hz", short(row.f_hz));
+        q_panel
+            .series
+            .push(Series::points(Some(label), color, d_mm.clone(), q).with_errors(err));
+        if let Some(fit) = fit {
+            let (lo, hi) = (row.points[0].d_m, row.points[row.points.len() - 1].d_m);
+            let curve: Vec<(f64, f64)> = (0..=120)
+                .map(|i| lo + (hi - lo) * f64::from(i) / 120.0)
+                .map(|d| (d * 1e3, fit.predict(d)))
+                .filter(|p| p.1 >= 0.0)
+                .collect();
+            let (x, y) = curve.into_iter().unzip();
+            q_panel.series.push(Series::line(None, color, x, y));
+            if let Some(d_min) = fit.d_min_m {
+                dmin_f.push(row.f_hz);
+                dmin_mm.push(d_min * 1e3);
+            }
+        }
+        let particle_d = row.points.first().map(|p| p.particle_d_m);
+        fit_table.push(vec![
+            short(row.f_hz),
+            row.points.len().to_string(),
+            sci(fit.map(|f| f.c), 4),
+            fixed(fit.map(|f| f.alpha1), 4),
+            fixed(fit.map(|f| f.alpha2_m * 1e3), 4),
+            fixed(fit.and_then(|f| f.d_min_m).map(|d| d * 1e3), 3),
+            fixed(
+                fit.and_then(|f| f.d_min_m)
+                    .zip(particle_d)
+                    .map(|(a, b)| a / b),
+                3,
+            ),
+            sci(fit.map(|f| f.rms_residual_kg_per_s), 2),
+            match (fit, row.weighted) {
+                (None, _) => "no fit (< 3 D)".into(),
+                (Some(f), weighted) => {
+                    let mut w = String::from(if weighted { "1/ci95^2" } else { "equal" });
+                    // Three parameters through three points test nothing of Eq. (1); an α2 at
+                    // the end of its search range is not determined by the data.
+                    if row.points.len() == 3 {
+                        w += "; 3 D for 3 parameters";
+                    }
+                    if f.alpha2_at_bound {
+                        w += "; alpha2 at its search bound";
+                    }
+                    w
+                }
+            },
+        ]);
+        for p in &row.points {
+            let q_fit = fit.map(|f| f.predict(p.d_m));
+            q_table.push(vec![
+                short(p.f_hz),
+                mm(p.d_m),
+                fixed(Some(p.d_over_particle()), 2),
+                sci(Some(p.q), 4),
+                sci(p.ci, 2),
+                ci_source_name(p.ci_source).into(),
+                p.replicas.to_string(),
+                sci(q_fit, 4),
+            ]);
+            csv.push(vec![
+                csv_num(Some(p.f_hz)),
+                csv_num(Some(p.d_m)),
+                csv_num(Some(p.particle_d_m)),
+                csv_num(Some(p.q)),
+                csv_num(p.ci),
+                ci_source_name(p.ci_source).into(),
+                p.replicas.to_string(),
+                csv_num(q_fit),
+                csv_num(fit.map(|f| f.c)),
+                csv_num(fit.map(|f| f.alpha1)),
+                csv_num(fit.map(|f| f.alpha2_m)),
+                csv_num(fit.and_then(|f| f.d_min_m)),
+            ]);
+        }
+    }
+    dmin_panel
+        .series
+        .push(Series::points(None, 0, dmin_f, dmin_mm));
+    let fig = Figure {
+        title: Some(format!(
+            "Fig. 3: flow rate vs orifice diameter, campaign {}",
+            campaign.name
+        )),
+        panels: vec![q_panel, dmin_panel],
+        columns: 2,
+        panel_size: (800, 600),
+    };
+    let mut text = String::from(
+        "Janda fit Q = C (1 - alpha1 exp(-D/alpha2)) D^(5/2), per rotation frequency\n",
+    );
+    text.push_str(&fit_table.to_text());
+    text.push_str(
+        "\nflow rates (mean over replicas; ci95 from their spread when >= 2, else the job's own)\n",
+    );
+    text.push_str(&q_table.to_text());
+    text.push('\n');
+    text.push_str(&beverloo_line(&rows, &points));
+    Ok(Drawn {
+        text,
+        files: write_all(&fig, &csv, out_dir, "fig3")?,
+    })
+}
+
+fn ci_source_name(source: CiSource) -> &'static str {
+    match source {
+        CiSource::ReplicaSpread => "replicas",
+        CiSource::SingleJob => "job",
+    }
+}
+
+/// The Beverloo fit at f = 0 as one line of text, or why there is none.
+fn beverloo_line(rows: &[DischargeRow], points: &[FlowPoint]) -> String {
+    let still: Vec<&FlowPoint> = points.iter().filter(|p| same_value(p.f_hz, 0.0)).collect();
+    if still.len() < 3 {
+        return format!(
+            "Beverloo fit at f = 0 Hz: needs >= 3 orifices with Q at f = 0, have {}\n",
+            still.len()
+        );
+    }
+    let (g, g_note) = match rows.iter().find_map(|r| gravity_m_per_s2(&r.params_json)) {
+        Some(g) => (g, "from params_json"),
+        None => (
+            STANDARD_GRAVITY_M_PER_S2,
+            "standard value: no gravity in params_json",
+        ),
+    };
+    let d: Vec<f64> = still.iter().map(|p| p.d_m).collect();
+    let q: Vec<f64> = still.iter().map(|p| p.q).collect();
+    let (pd, rho) = (still[0].particle_d_m, still[0].bulk_density_kg_per_m3);
+    match beverloo_fit(&d, &q, pd, rho, g) {
+        Some(b) => format!(
+            "Beverloo fit at f = 0 Hz, Q = C rho_b sqrt(g) (D - k d)^(5/2): C = {:.4}, k = {:.3} \
+             (n = {}, d = {} mm, rho_b = {:.0} kg/m^3, g = {:.3} m/s^2 {g_note}, rms = {:.2e} kg/s)\n",
+            b.c, b.k, b.n, mm(pd), rho, g, b.rms_residual_kg_per_s
+        ),
+        None => "Beverloo fit at f = 0 Hz: no fit (Q does not grow with D)\n".into(),
+    }
+}
