@@ -832,7 +832,7 @@ fn contact_with_a_plane() {
     }
 }
 
-/// Replica of the CPU engine's sphere–sphere contact (`engine/cpu.rs`, `ForceContext::particle`).
+/// Replica of the CPU engine's sphere–sphere contact (`engine/cpu/`, `ForceContext::particle`).
 /// Normal, overlap and the two lever arms of a contact.
 type SphereContact<R> = (V3<R>, R, V3<R>, V3<R>);
 

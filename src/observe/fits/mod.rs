@@ -1,0 +1,19 @@
+//! Pure numerical fits used on discharge results: straight lines, the Student t quantile and
+//! confidence intervals of a mean, the Janda law Q = C (1 − α1 e^{−D/α2}) D^{5/2} (Eq. 1 of the
+//! silo paper) and the Beverloo law Q = C ρ_b √g (D − k d)^{5/2}.
+//!
+//! Everything here takes slices and returns plain values; nothing reads the database or the
+//! simulation state. Inputs are SI (metres, kg/s); the doc of each field gives its unit.
+
+mod beverloo;
+mod janda;
+mod line;
+mod minimise;
+mod stats;
+#[cfg(test)]
+mod tests;
+
+pub use beverloo::{beverloo_c_at_k, beverloo_fit, BeverlooFit};
+pub use janda::{janda_fit, JandaFit};
+pub use line::{linear_fit, LinearFit};
+pub use stats::{mean_ci95, student_t_975};
