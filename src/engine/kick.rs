@@ -6,10 +6,9 @@ use std::any::TypeId;
 
 use multiversion::multiversion;
 
-use super::cpu::{ALIVE, DYING};
 use super::grid::Periodic;
 use super::kinematics::Kin;
-use super::pair_pass::Props;
+use super::particle::{Props, Status};
 use super::real::{Real, V3};
 
 /// What every particle's kick and drift reads besides its own arrays.
@@ -32,7 +31,7 @@ pub(super) struct KickBlock<'a, R: Real> {
     pub(super) kin: &'a mut [Kin<R>],
     pub(super) force: &'a mut [V3<R>],
     pub(super) torque: &'a mut [V3<R>],
-    pub(super) alive: &'a mut [u8],
+    pub(super) alive: &'a mut [Status],
     pub(super) nc: &'a mut [u32],
     pub(super) props: &'a [Props<R>],
 }
@@ -49,7 +48,7 @@ pub(super) struct Kicked<R: Real> {
 impl<R: Real> Kick<R> {
     /// Kicks (and with `drift`, drifts) the block's live, mobile particles; a particle no longer
     /// alive gets zero force, torque and contact count. A particle that drifts below the sink
-    /// becomes DYING and stops interacting (`Kin::bury`).
+    /// becomes `Dying` and stops interacting (`Kin::bury`).
     pub(super) fn block(&self, b: KickBlock<'_, R>) -> Kicked<R> {
         #[cfg(target_arch = "x86_64")]
         if TypeId::of::<R>() == TypeId::of::<f32>() {
@@ -121,7 +120,7 @@ fn kick_in<R: Real, const ROT: bool, const DRIFT: bool>(
 /// force, torque and contact count; a fixed one is skipped; `step` kicks (and with `DRIFT`
 /// drifts and wraps) each live, mobile one, given its force, torque (zero without rotation)
 /// and constants, and returns its squared speed. After the drift a particle below `sink_z`
-/// becomes DYING and stops interacting (`Kin::bury`).
+/// becomes `Dying` and stops interacting (`Kin::bury`).
 #[inline(always)]
 fn each<R: Real, const ROT: bool, const DRIFT: bool>(
     b: KickBlock<'_, R>,
@@ -140,7 +139,7 @@ fn each<R: Real, const ROT: bool, const DRIFT: bool>(
     let torque = &mut b.torque[..if ROT { count } else { 0 }];
     let (mut died, mut v_max2, mut fullest) = (false, R::zero(), 0u32);
     for (l, kl) in kin.iter_mut().enumerate() {
-        if alive[l] != ALIVE {
+        if alive[l] != Status::Alive {
             force[l] = V3::zero();
             if ROT {
                 torque[l] = V3::zero();
@@ -159,7 +158,7 @@ fn each<R: Real, const ROT: bool, const DRIFT: bool>(
             continue;
         }
         if kl.pos.z < sink_z {
-            alive[l] = DYING;
+            alive[l] = Status::Dying;
             kl.bury();
             died = true;
         }

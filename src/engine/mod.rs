@@ -15,6 +15,7 @@ pub mod memory;
 mod oriented;
 mod pair_lanes;
 mod pair_pass;
+mod particle;
 pub mod real;
 pub mod shape;
 mod skin;

@@ -14,6 +14,7 @@
 
 use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord};
 use super::history::{wall_key, Rows};
+use super::particle::Status;
 use super::real::{Real, V3};
 use super::shape::{angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder};
 use super::state::State;
@@ -73,8 +74,7 @@ pub(super) fn close_kick<R: Real>(s: &mut State<R>, half: R) {
 pub(super) struct OrientedContext<'a, R: Real> {
     pub s: &'a State<R>,
     pub neighbours: &'a [u32],
-    pub alive: &'a [u8],
-    pub alive_flag: u8,
+    pub alive: &'a [Status],
     pub law_pp: &'a super::contact::LawKernel<R>,
     pub law_pw: &'a super::contact::LawKernel<R>,
     pub walls: &'a [super::walls::WallKernel<R>],
@@ -96,14 +96,14 @@ impl<R: Real> OrientedContext<'_, R> {
     /// stored. The watchdog's, once per chunk.
     pub fn elastic_energy(&self, i: usize) -> f64 {
         let s = self.s;
-        if self.alive[i] != self.alive_flag {
+        if self.alive[i] != Status::Alive {
             return 0.0;
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let mut e = 0.0;
         for &j in self.neighbours {
             let j = j as usize;
-            if self.alive[j] != self.alive_flag || (fixed_i && s.inv_mass[j] == R::zero()) {
+            if self.alive[j] != Status::Alive || (fixed_i && s.inv_mass[j] == R::zero()) {
                 continue;
             }
             let (a, b) = if s.id[i] < s.id[j] { (i, j) } else { (j, i) };
@@ -150,14 +150,14 @@ impl<R: Real> OrientedContext<'_, R> {
         let mut max_ov = R::zero();
         let mut nc = 0u32;
         let mut full = false;
-        if self.alive[i] != self.alive_flag {
+        if self.alive[i] != Status::Alive {
             return (f, t, max_ov, nc, full);
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let two = R::from_f64(2.0);
         for &j in self.neighbours {
             let j = j as usize;
-            if self.alive[j] != self.alive_flag {
+            if self.alive[j] != Status::Alive {
                 continue;
             }
             let fixed_j = s.inv_mass[j] == R::zero();

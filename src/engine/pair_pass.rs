@@ -5,12 +5,12 @@
 //! energy read between chunks, and the door to `oriented.rs` for spherocylinders.
 
 use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
-use super::cpu::ALIVE;
 use super::grid::{NeighbourList, Periodic};
 use super::history::{wall_key, Rows};
 use super::kinematics::{Kin, Separation};
 use super::oriented::OrientedContext;
 use super::pair_lanes::{self, LaneInput, LaneOutput, CHUNK, LANES};
+use super::particle::{Props, Status};
 use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
@@ -20,7 +20,7 @@ use multiversion::multiversion;
 pub(super) struct ForceContext<'a, R: Real> {
     pub(super) s: &'a State<R>,
     pub(super) list: &'a NeighbourList<R>,
-    pub(super) alive: &'a [u8],
+    pub(super) alive: &'a [Status],
     pub(super) law_pp: &'a LawKernel<R>,
     pub(super) law_pw: &'a LawKernel<R>,
     pub(super) walls: &'a [WallKernel<R>],
@@ -37,7 +37,6 @@ impl<'a, R: Real> ForceContext<'a, R> {
             s: self.s,
             neighbours: &self.list.index[i * self.list.stride..i * self.list.stride + cnt],
             alive: self.alive,
-            alive_flag: ALIVE,
             law_pp: self.law_pp,
             law_pw: self.law_pw,
             walls: self.walls,
@@ -50,7 +49,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
     /// it), all of each wall's, with the springs as stored. The watchdog's, once per chunk.
     pub(super) fn elastic_energy(&self, i: usize) -> f64 {
         let s = self.s;
-        if self.alive[i] != ALIVE {
+        if self.alive[i] != Status::Alive {
             return 0.0;
         }
         let (pi, ri) = (s.pos[i], s.radius[i]);
@@ -60,7 +59,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         let mut e = 0.0;
         for &j in row {
             let j = j as usize;
-            if self.alive[j] != ALIVE || (fixed_i && s.inv_mass[j] == R::zero()) {
+            if self.alive[j] != Status::Alive || (fixed_i && s.inv_mass[j] == R::zero()) {
                 continue;
             }
             let rj = s.radius[j];
@@ -100,7 +99,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         let mut max_ov = R::zero();
         let mut nc = 0u32;
         let mut full = false;
-        if self.alive[i] != ALIVE {
+        if self.alive[i] != Status::Alive {
             return (f, t, max_ov, nc, full);
         }
         let pi = s.pos[i];
@@ -113,7 +112,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         let row = &self.list.index[i * self.list.stride..i * self.list.stride + cnt];
         for &j in row {
             let j = j as usize;
-            if self.alive[j] != ALIVE {
+            if self.alive[j] != Status::Alive {
                 continue;
             }
             // Fixed particles feel no force: skip pairs of two fixed ones entirely.
@@ -261,17 +260,6 @@ pub(super) struct Reaction<R: Real> {
     pub(super) f: V3<R>,
     pub(super) t: V3<R>,
     pub(super) j: u32,
-}
-
-/// Per-particle constants the per-particle pass reads besides the motion record (`Kin`, which
-/// carries radius and mass), packed in one array.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct Props<R: Real> {
-    pub(super) inv_m: R,
-    pub(super) inv_i: R,
-    /// 1 / (2r): overlap ratios without a division per contact.
-    pub(super) inv_d: R,
 }
 
 /// Particles per task of the sphere passes. Fixed, not derived from the thread count: which

@@ -3,10 +3,11 @@
 
 use rayon::prelude::*;
 
-use super::{CpuEngine, ALIVE, MIN_LEN};
+use super::{CpuEngine, MIN_LEN};
 use crate::engine::contact::{elastic_energy, ContactRecord};
 use crate::engine::history::Rows;
 use crate::engine::pair_pass::ForceContext;
+use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 
 impl<R: Real> CpuEngine<R> {
@@ -89,7 +90,7 @@ impl<R: Real> CpuEngine<R> {
                 .into_par_iter()
                 .with_min_len(MIN_LEN)
                 .map(|i| {
-                    if self.alive[i] != ALIVE {
+                    if self.alive[i] != Status::Alive {
                         return 0.0;
                     }
                     let (pi, ri) = (s.pos[i], s.radius[i]);
@@ -97,7 +98,7 @@ impl<R: Real> CpuEngine<R> {
                     let entries = half.start[i] as usize..half.start[i + 1] as usize;
                     for (&j, slot) in half.nbr[entries.clone()].iter().zip(&ps[entries]) {
                         let j = j as usize;
-                        if self.alive[j] != ALIVE {
+                        if self.alive[j] != Status::Alive {
                             continue;
                         }
                         let rj = s.radius[j];

@@ -4,12 +4,13 @@
 use rayon::prelude::*;
 
 use super::passes::{block_bounds, scaled, split_blocks};
-use super::{CpuEngine, ALIVE, MIN_LEN};
+use super::{CpuEngine, MIN_LEN};
 use crate::engine::backend::EngineError;
 use crate::engine::grid;
 use crate::engine::history::{wall_key, History, EMPTY};
 use crate::engine::kinematics;
-use crate::engine::pair_pass::{PairSlot, Props};
+use crate::engine::pair_pass::PairSlot;
+use crate::engine::particle::{Props, Status};
 use crate::engine::real::{Real, V3};
 
 impl<R: Real> CpuEngine<R> {
@@ -110,7 +111,7 @@ impl<R: Real> CpuEngine<R> {
         self.pool
             .install(|| grid::build_half(state, &periodic, skin, half));
         let n = self.state.len();
-        self.alive = vec![ALIVE; n];
+        self.alive = vec![Status::Alive; n];
         let s = &self.state;
         self.props = (0..n)
             .map(|i| Props {

@@ -38,7 +38,8 @@ use super::contact::{ContactRecord, LawKernel};
 use super::grid::{self, HalfList, NeighbourList, Periodic};
 use super::history::MAX_SLOTS;
 use super::kinematics::Kin;
-use super::pair_pass::{PairScratch, PairSlot, Props};
+use super::pair_pass::{PairScratch, PairSlot};
+use super::particle::{Props, Status};
 use super::real::{Real, V3};
 use super::state::State;
 use super::team::Team;
@@ -47,9 +48,6 @@ pub use super::watchdog::Watchdog;
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
-pub(super) const ALIVE: u8 = 1;
-pub(super) const DYING: u8 = 2;
-const DEAD: u8 = 0;
 
 /// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
 pub const HISTORY_SLOTS: usize = 16;
@@ -99,8 +97,8 @@ pub struct CpuEngine<R: Real> {
     props: Vec<Props<R>>,
     /// History slots per particle of the state's table.
     slots: usize,
-    /// ALIVE, or DYING (fell through the sink this step, to be reported) or DEAD.
-    alive: Vec<u8>,
+    /// Alive, or dying (fell through the sink this step, to be reported) or dead.
+    alive: Vec<Status>,
     // Scratch, per particle: new force, new torque, contact count.
     f_new: Vec<V3<R>>,
     t_new: Vec<V3<R>>,
@@ -176,15 +174,15 @@ impl<R: Real> CpuEngine<R> {
         let list = &mut self.list;
         self.pool
             .install(|| grid::build(state, &periodic, skin, list));
-        self.alive = vec![ALIVE; self.state.len()];
+        self.alive = vec![Status::Alive; self.state.len()];
     }
 
     /// Drops dead particles from the state (order preserved).
     fn compact(&mut self) {
-        if self.alive.len() == self.state.len() && self.alive.iter().any(|&a| a != ALIVE) {
-            let keep: Vec<bool> = self.alive.iter().map(|&a| a == ALIVE).collect();
+        if self.alive.len() == self.state.len() && self.alive.iter().any(|&a| a != Status::Alive) {
+            let keep: Vec<bool> = self.alive.iter().map(|&a| a == Status::Alive).collect();
             self.state.retain(&keep);
-            self.alive = vec![ALIVE; self.state.len()];
+            self.alive = vec![Status::Alive; self.state.len()];
             self.list.ref_pos.clear();
             self.half.ref_pos.clear();
         }
@@ -196,13 +194,13 @@ impl<R: Real> CpuEngine<R> {
         let s = &self.state;
         let mut buried = 0;
         for i in 0..s.len() {
-            if self.alive[i] == DYING {
+            if self.alive[i] == Status::Dying {
                 removed.push(SinkEvent {
                     id: s.id[i],
                     mass_kg: s.mass[i].to_f64(),
                     time_s,
                 });
-                self.alive[i] = DEAD;
+                self.alive[i] = Status::Dead;
                 buried += 1;
             }
         }
@@ -267,7 +265,7 @@ impl<R: Real> Backend for CpuEngine<R> {
 
     fn upload(&mut self, state: &State<f64>) {
         self.state = state.convert();
-        self.alive = vec![ALIVE; self.state.len()];
+        self.alive = vec![Status::Alive; self.state.len()];
         self.list = NeighbourList::default();
         self.half = HalfList::default();
         self.slots = self.state.history.slots;

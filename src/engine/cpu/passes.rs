@@ -1,9 +1,10 @@
 //! The sphere step's passes over fixed blocks of particles: the pair pass, the near-pair pick,
 //! the per-particle sums fused with the kick and drift, the exact skin test; block helpers.
 
-use super::{CpuEngine, ALIVE, DYING, NEAR};
+use super::{CpuEngine, NEAR};
 use crate::engine::kick::{Kick, KickBlock};
 use crate::engine::pair_pass::{PairBlock, PairContext, PairScratch, SumContext, BLOCK};
+use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 use std::sync::Mutex;
 
@@ -174,7 +175,7 @@ impl<R: Real> CpuEngine<R> {
                 let z = a + wall_list[a..].partition_point(|&i| (i as usize) < first + count);
                 for &i in &wall_list[a..z] {
                     let l = i as usize - first;
-                    if alive[l] != ALIVE {
+                    if alive[l] != Status::Alive {
                         continue;
                     }
                     let t = if rot { torque[l] } else { V3::zero() };
@@ -235,7 +236,7 @@ impl<R: Real> CpuEngine<R> {
                     .zip(&refs[range.clone()])
                     .zip(alive[range.clone()].iter().zip(&props[range]))
                 {
-                    if !matches!(a, ALIVE | DYING) || pr.inv_m == R::zero() {
+                    if !matches!(a, Status::Alive | Status::Dying) || pr.inv_m == R::zero() {
                         continue;
                     }
                     let p = k.pos;

@@ -3,11 +3,12 @@
 
 use rayon::prelude::*;
 
-use super::{CpuEngine, ALIVE, DYING, MIN_LEN};
+use super::{CpuEngine, MIN_LEN};
 use crate::engine::backend::{ChunkReport, EngineError, SinkEvent};
 use crate::engine::history::Rows;
 use crate::engine::oriented;
 use crate::engine::pair_pass::ForceContext;
+use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 use crate::engine::watchdog::EnergyBudget;
 
@@ -177,7 +178,7 @@ impl<R: Real> CpuEngine<R> {
                 .enumerate()
                 .with_min_len(MIN_LEN)
                 .map(|(i, ((v, x, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
-                    if im == R::zero() || *a != ALIVE {
+                    if im == R::zero() || *a != Status::Alive {
                         return (false, false);
                     }
                     *v += (f * im + g) * kick;
@@ -196,7 +197,7 @@ impl<R: Real> CpuEngine<R> {
                     );
                     let died = matches!(sink, Some(zs) if x.z < zs);
                     if died {
-                        *a = DYING;
+                        *a = Status::Dying;
                     }
                     // The ends of a rod move by at most |Δc| + (l/2)|Δu|.
                     let moved = stale || periodic.delta(refs[i], *x).norm() + turned > half_skin;
@@ -222,7 +223,7 @@ impl<R: Real> CpuEngine<R> {
                 .into_par_iter()
                 .with_min_len(MIN_LEN)
                 .for_each(|(v, &f, &im, &a)| {
-                    if im != R::zero() && a == ALIVE {
+                    if im != R::zero() && a == Status::Alive {
                         *v += (f * im + g) * half;
                     }
                 });

@@ -3,9 +3,10 @@
 
 use rayon::prelude::*;
 
-use super::{CpuEngine, ALIVE, DYING, MIN_LEN, NEAR, NEAR_LIMIT};
+use super::{CpuEngine, MIN_LEN, NEAR, NEAR_LIMIT};
 use crate::engine::backend::{ChunkReport, EngineError};
 use crate::engine::kinematics;
+use crate::engine::particle::Status;
 use crate::engine::real::Real;
 use crate::engine::skin::DisplacementBound;
 use crate::engine::watchdog::EnergyBudget;
@@ -49,7 +50,7 @@ impl<R: Real> CpuEngine<R> {
         let mut live = self.mobile_count();
         let mut died = self.open_spheres(half);
         let alive = &self.alive;
-        kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == ALIVE);
+        kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == Status::Alive);
         let (skin, dt) = (self.skin.to_f64(), self.config.dt_s);
         let half_skin = self.skin * R::from_f64(0.5);
         let (mut moved, max_moved, scale) = self.measure_displacements(false, half_skin);
@@ -157,7 +158,7 @@ impl<R: Real> CpuEngine<R> {
                 .into_par_iter()
                 .with_min_len(MIN_LEN)
                 .map(|(v, x, &f, &im, a)| {
-                    if im == R::zero() || *a != ALIVE {
+                    if im == R::zero() || *a != Status::Alive {
                         return false;
                     }
                     *v += (f * im + g) * kick;
@@ -165,7 +166,7 @@ impl<R: Real> CpuEngine<R> {
                     periodic.wrap(x);
                     let died = matches!(sink, Some(zs) if x.z < zs);
                     if died {
-                        *a = DYING;
+                        *a = Status::Dying;
                     }
                     died
                 })

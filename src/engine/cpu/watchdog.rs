@@ -1,8 +1,9 @@
 //! What the CPU engine hands the watchdog: the energy budget at a chunk's start and the
 //! check that every live particle's motion is finite.
 
-use super::{CpuEngine, ALIVE};
+use super::CpuEngine;
 use crate::engine::backend::EngineError;
+use crate::engine::particle::Status;
 use crate::engine::real::Real;
 use crate::engine::watchdog::{wall_speed, EnergyBudget};
 
@@ -44,7 +45,7 @@ impl<R: Real> CpuEngine<R> {
     pub(super) fn check_finite(&self) -> Result<(), EngineError> {
         let s = &self.state;
         for i in 0..s.len() {
-            if self.alive[i] != ALIVE {
+            if self.alive[i] != Status::Alive {
                 continue;
             }
             let what = if !s.pos[i].is_finite() {
