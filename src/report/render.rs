@@ -108,7 +108,7 @@ fn drawer(scene: &str, figure: &str) -> Option<DrawFn> {
         ("silo", "fig8") => silo_fields::fig8,
         ("silo", "fig9") => silo_fields::fig9,
         ("silo", "fig10") => silo_fields::fig10,
-        ("silo", "fig11") => silo_fields::fig11,
+        ("silo", "fig11") => super::silo::orifice_pressure::fig11,
         ("chute", "fig2") => chute::fig2,
         ("chute", "fig3") => chute::fig3,
         ("chute", "fig4") => chute::fig4,

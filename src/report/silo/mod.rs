@@ -8,6 +8,7 @@ pub(crate) mod fields;
 mod flow_rate;
 mod normalise;
 mod normalised_q;
+pub(crate) mod orifice_pressure;
 #[cfg(test)]
 mod tests;
 

@@ -1,0 +1,181 @@
+//! Fig. 11 of the silo paper: ⟨p^k⟩ in the cylinder of radius and height D/2 above the orifice
+//! vs f per D, over each job's flowing samples (clogged intervals left out).
+
+use std::path::Path;
+
+use anyhow::Result;
+use rusqlite::Connection;
+
+use crate::observe::fits::mean_ci95;
+use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
+use crate::report::campaign::CampaignRef;
+use crate::report::drawn::{write_all, Drawn};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{distinct, same_value};
+use crate::report::table::{csv_num, mm, short, Table};
+use crate::store::fields::load_field_series;
+use crate::store::silo_reads::clog_intervals;
+
+use super::fields::field_jobs;
+
+/// One job's ⟨p^k⟩ in the orifice cylinder over its flowing samples, with the 95 % CI of the
+/// mean from batch means (10 contiguous batches: samples 0.05 s apart are correlated).
+/// Samples inside a clog (the `clogs` table) are left out: the paper averages flowing states.
+fn orifice_pk(conn: &Connection, job_id: i64) -> Result<Option<(f64, Option<f64>, usize)>> {
+    let Some((series, _)) = load_field_series(conn, job_id, ORIFICE_KINETIC_PRESSURE)? else {
+        return Ok(None);
+    };
+    let clogs = clog_intervals(conn, job_id)?;
+    let flowing: Vec<f64> = series
+        .iter()
+        .filter(|(t, _)| {
+            !clogs
+                .iter()
+                .any(|c| *t >= c.start_s && *t <= c.start_s + c.duration_s)
+        })
+        .map(|(_, v)| *v)
+        .collect();
+    if flowing.is_empty() {
+        return Ok(None);
+    }
+    let n = flowing.len();
+    let batches = 10.min(n);
+    let means: Vec<f64> = (0..batches)
+        .map(|b| {
+            let part = &flowing[b * n / batches..(b + 1) * n / batches];
+            part.iter().sum::<f64>() / part.len() as f64
+        })
+        .collect();
+    let mean = flowing.iter().sum::<f64>() / n as f64;
+    Ok(Some((mean, mean_ci95(&means).map(|m| m.1), n)))
+}
+
+/// Fig. 11: ⟨p^k⟩ in the orifice cylinder vs f per D, (a) in Pa, (b) normalised by its value at
+/// f = 1 Hz (or at the lowest f present when 1 Hz is absent, as the caption then says); error
+/// bars are 95 % CIs (replicas combined: their mean, CI from the replica spread when there are
+/// several).
+pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+    let jobs = field_jobs(conn, c)?;
+    let ds = distinct(jobs.iter().map(|j| j.d_m));
+    let fs_all = distinct(jobs.iter().map(|j| j.f_hz));
+    let one_hz = fs_all.iter().any(|f| same_value(*f, 1.0));
+    let f_ref = if one_hz { 1.0 } else { fs_all[0] };
+    let mut abs = Panel::new(Axis::linear("f (Hz)"), Axis::linear("⟨p^k⟩ (Pa)"));
+    let mut rel = Panel::new(
+        Axis::linear("f (Hz)"),
+        Axis::linear(format!("⟨p^k⟩ / ⟨p^k⟩(f = {} Hz)", short(f_ref))),
+    );
+    let mut csv = Table::new(&[
+        "d_m",
+        "f_hz",
+        "pk_pa",
+        "pk_ci95_pa",
+        "jobs",
+        "samples",
+        "pk_over_ref",
+        "pk_over_ref_ci95",
+    ]);
+    for (k, &d) in ds.iter().enumerate() {
+        let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
+        let mut pts = Vec::new();
+        for &f in &fs {
+            let mut per_job = Vec::new();
+            let mut samples = 0;
+            for j in jobs
+                .iter()
+                .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
+            {
+                if let Some((m, ci, n)) = orifice_pk(conn, j.job_id)? {
+                    per_job.push((m, ci));
+                    samples += n;
+                }
+            }
+            if per_job.is_empty() {
+                continue;
+            }
+            let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
+            let (mean, ci) = match mean_ci95(&values) {
+                Some((m, ci)) => (m, Some(ci)),
+                None => (values[0], per_job[0].1),
+            };
+            pts.push((f, mean, ci, per_job.len(), samples));
+        }
+        let reference = pts
+            .iter()
+            .find(|p| same_value(p.0, f_ref))
+            .map(|p| (p.1, p.2));
+        let label = Some(format!("D = {} mm", mm(d)));
+        abs.series.push(
+            Series::points(
+                label.clone(),
+                k,
+                pts.iter().map(|p| p.0).collect(),
+                pts.iter().map(|p| p.1).collect(),
+            )
+            .with_errors(pts.iter().map(|p| p.2).collect()),
+        );
+        let mut rx = Vec::new();
+        let mut ry = Vec::new();
+        let mut re = Vec::new();
+        for p in &pts {
+            let (ratio, err) = match reference {
+                Some((r, rci)) if r > 0.0 => {
+                    let ratio = p.1 / r;
+                    // Relative CIs in quadrature; the reference point itself is 1 by construction.
+                    let err = if same_value(p.0, f_ref) {
+                        Some(0.0)
+                    } else {
+                        match (p.2, rci) {
+                            (Some(e), Some(er)) => {
+                                Some(ratio * ((e / p.1).powi(2) + (er / r).powi(2)).sqrt())
+                            }
+                            _ => None,
+                        }
+                    };
+                    (Some(ratio), err)
+                }
+                _ => (None, None),
+            };
+            if let Some(r) = ratio {
+                rx.push(p.0);
+                ry.push(r);
+                re.push(err);
+            }
+            csv.push(vec![
+                csv_num(Some(d)),
+                short(p.0),
+                csv_num(Some(p.1)),
+                csv_num(p.2),
+                p.3.to_string(),
+                p.4.to_string(),
+                csv_num(ratio),
+                csv_num(err),
+            ]);
+        }
+        rel.series
+            .push(Series::points(label, k, rx, ry).with_errors(re));
+    }
+    abs.title = Some("(a) ⟨p^k⟩ in the cylinder r ≤ R, |z| ≤ R/2".into());
+    abs.legend = Legend::Hidden; // the colours are (b)'s legend
+    rel.title = Some(if one_hz {
+        "(b) normalised by f = 1 Hz".into()
+    } else {
+        format!(
+            "(b) normalised by the lowest f present, {} Hz (no 1 Hz job)",
+            short(f_ref)
+        )
+    });
+    let fig = Figure {
+        title: Some(
+            "fig11: mean kinetic pressure at the orifice vs f, 95 % CI (flowing samples)".into(),
+        ),
+        panels: vec![abs, rel],
+        columns: 2,
+        panel_size: (520, 400),
+    };
+    let files = write_all(&fig, &csv, out, "fig11")?;
+    Ok(Drawn {
+        text: csv.to_text(),
+        files,
+    })
+}
