@@ -6,6 +6,7 @@ pub mod chute;
 pub mod fill;
 pub mod fill_rods;
 pub mod silo;
+mod silo_checks;
 
 pub use chute::{ChuteParams, ChuteScene};
 pub use silo::{SiloParams, SiloScene};
