@@ -2,8 +2,6 @@
 //! complete, into velocity and angular velocity) and, at a step's opening, its drift (position,
 //! periodic wrap, the sink), over one block of motion records.
 
-use std::any::TypeId;
-
 use multiversion::multiversion;
 
 use super::grid::Periodic;
@@ -51,7 +49,7 @@ impl<R: Real> Kick<R> {
     /// becomes `Dying` and stops interacting (`Kin::bury`).
     pub(super) fn block(&self, b: KickBlock<'_, R>) -> Kicked<R> {
         #[cfg(target_arch = "x86_64")]
-        if TypeId::of::<R>() == TypeId::of::<f32>() {
+        if crate::engine::simd::is_f32::<R>() {
             /// SAFETY: only for R = f32: each cast is then to the type the value has.
             unsafe fn cast<R: Real>(b: KickBlock<'_, R>) -> KickBlock<'_, f32> {
                 unsafe {
@@ -179,33 +177,18 @@ fn each<R: Real, const ROT: bool, const DRIFT: bool>(
 /// in the same order as the generic loop, so the same bits (the bench checksums).
 #[cfg(target_arch = "x86_64")]
 mod quads {
-    use std::arch::x86_64::*;
-
     use multiversion::multiversion;
 
     use super::{Kick, KickBlock, Kicked};
     use crate::engine::grid::Periodic;
-    use crate::engine::kinematics::v3_of;
     use crate::engine::real::V3;
+    use crate::engine::simd::F32x4;
 
     /// A particle that left the box: out of line, so that the loop keeps its registers.
     #[cold]
     #[inline(never)]
     fn wrap(periodic: &Periodic<f32>, pos: &mut V3<f32>) {
         periodic.wrap(pos);
-    }
-
-    /// `v` as a 4-vector with a zero fourth place.
-    #[inline(always)]
-    fn quad(v: &V3<f32>) -> __m128 {
-        let p = (v as *const V3<f32>).cast::<f32>();
-        // SAFETY: SSE is part of the x86-64 baseline; `V3<f32>` is repr(C) [x, y, z]: 8 bytes
-        // at p and 4 at p + 2, within the vector. (x, y, 0, 0) and (z, 0, 0, 0) give
-        // (x, y, z, 0).
-        unsafe {
-            let xy = _mm_castpd_ps(_mm_load_sd(p.cast::<f64>()));
-            _mm_movelh_ps(xy, _mm_load_ss(p.add(2)))
-        }
     }
 
     /// `kick_in` for f32. Compiled also for AVX2 (three-operand forms), like the generic loop.
@@ -216,49 +199,40 @@ mod quads {
     ) -> Kicked<f32> {
         // The fourth places get + 0 (zero gravity, force and torque components, a zero time
         // step), which leaves r, m and the pad as they were.
-        let g = quad(&k.g);
+        let g = F32x4::from_v3(&k.g);
         let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
         let (xb, yb) = (
             k.periodic.x.unwrap_or((ninf, inf)),
             k.periodic.y.unwrap_or((ninf, inf)),
         );
-        // SAFETY: SSE is part of the x86-64 baseline.
-        let (dt, kick, lo, hi) = unsafe {
-            (
-                _mm_setr_ps(k.dt, k.dt, k.dt, 0.0),
-                _mm_set1_ps(k.kick),
-                // The box along the periodic axes (the others unbounded): a position inside
-                // it needs no wrap, the test one compare per bound for all axes.
-                _mm_setr_ps(xb.0, yb.0, ninf, ninf),
-                _mm_setr_ps(xb.1, yb.1, inf, inf),
-            )
-        };
+        let (dt, kick) = (F32x4::new(k.dt, k.dt, k.dt, 0.0), F32x4::splat(k.kick));
+        // The box along the periodic axes (the others unbounded): a position inside it needs
+        // no wrap, the test one compare per bound for all axes.
+        let lo = F32x4::new(xb.0, yb.0, ninf, ninf);
+        let hi = F32x4::new(xb.1, yb.1, inf, inf);
         super::each::<f32, ROT, DRIFT>(b, k.sink_z, |kl, f, t, pr| {
             let rec = (kl as *mut super::Kin<f32>).cast::<f32>();
-            // SAFETY: SSE is part of the x86-64 baseline; `Kin<f32>` is repr(C, align(16)) of
-            // three 16-byte 4-vectors at offsets 0, 16 and 32 (`Kin`), so each load and
-            // store is aligned and within the record.
-            unsafe {
-                if ROT {
-                    let s = _mm_set1_ps(pr.inv_i * k.kick);
-                    let w = _mm_add_ps(_mm_load_ps(rec.add(8)), _mm_mul_ps(quad(&t), s));
-                    _mm_store_ps(rec.add(8), w);
-                }
-                let a = _mm_add_ps(_mm_mul_ps(quad(&f), _mm_set1_ps(pr.inv_m)), g);
-                let v = _mm_add_ps(_mm_load_ps(rec.add(4)), _mm_mul_ps(a, kick));
-                _mm_store_ps(rec.add(4), v);
-                if DRIFT {
-                    let p = _mm_add_ps(_mm_load_ps(rec), _mm_mul_ps(v, dt));
-                    _mm_store_ps(rec, p);
-                    let inside = _mm_and_ps(_mm_cmpge_ps(p, lo), _mm_cmplt_ps(p, hi));
-                    if _mm_movemask_ps(inside) != 0b1111 {
-                        wrap(&k.periodic, &mut kl.pos);
-                    }
-                }
-                // |v|² as `V3::norm2` sums it: (x² + y²) + z².
-                let vv = v3_of(_mm_mul_ps(v, v));
-                vv.x + vv.y + vv.z
+            // SAFETY (each load and store): `Kin<f32>` is repr(C, align(16)) of three 16-byte
+            // 4-vectors at offsets 0, 16 and 32 (`Kin`), so each is aligned and within the
+            // record.
+            if ROT {
+                let s = F32x4::splat(pr.inv_i * k.kick);
+                let w = unsafe { F32x4::load(rec.add(8)) } + F32x4::from_v3(&t) * s;
+                unsafe { w.store(rec.add(8)) };
             }
+            let a = F32x4::from_v3(&f) * F32x4::splat(pr.inv_m) + g;
+            let v = unsafe { F32x4::load(rec.add(4)) } + a * kick;
+            unsafe { v.store(rec.add(4)) };
+            if DRIFT {
+                let p = unsafe { F32x4::load(rec) } + v * dt;
+                unsafe { p.store(rec) };
+                if !(p.ge(lo) & p.lt(hi)).all() {
+                    wrap(&k.periodic, &mut kl.pos);
+                }
+            }
+            // |v|² as `V3::norm2` sums it: (x² + y²) + z².
+            let vv = (v * v).xyz();
+            vv.x + vv.y + vv.z
         })
     }
 }

@@ -5,10 +5,10 @@
 //! the state's arrays are stale; `CpuEngine` copies them back before anything else reads the
 //! state (a re-sort, the chunk's end, an error report).
 
-use std::any::TypeId;
-
 use super::grid::Image;
 use super::real::{Real, V3};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{self, F32x4};
 use super::state::State;
 
 /// One sphere's motion, and the two constants the pair pass needs of a partner. Radius, mass
@@ -69,7 +69,7 @@ impl<R: Real> Separation<R> {
     #[inline(always)]
     pub(super) fn of<const PERIODIC: bool>(&self, ki: &Kin<R>, kj: &Kin<R>) -> (V3<R>, R) {
         #[cfg(target_arch = "x86_64")]
-        if TypeId::of::<R>() == TypeId::of::<f32>() {
+        if simd::is_f32::<R>() {
             // SAFETY: R is f32.
             let (s, ki, kj) = unsafe {
                 (
@@ -95,44 +95,31 @@ impl<R: Real> Separation<R> {
 impl Separation<f32> {
     #[inline(always)]
     fn of_f32<const PERIODIC: bool>(&self, ki: &Kin<f32>, kj: &Kin<f32>) -> (V3<f32>, f32) {
-        use std::arch::x86_64::*;
-        // SAFETY: SSE is part of the x86-64 baseline; a `Kin<f32>` is 16-byte aligned and
-        // starts with its position and r (16 bytes); `half`, `neg_half` and `len` are [f32; 4].
-        unsafe {
-            let pi = _mm_load_ps((ki as *const Kin<f32>).cast::<f32>());
-            let pj = _mm_load_ps((kj as *const Kin<f32>).cast::<f32>());
-            let mut d = _mm_sub_ps(pi, pj);
-            if PERIODIC {
-                // As `Image::delta`: d − (up − down), up = l where d > l/2, down = l where
-                // d < −l/2 (z and the fourth place: never, d − 0 is d).
-                let len = _mm_loadu_ps(self.len.as_ptr());
-                let up = _mm_and_ps(_mm_cmpgt_ps(d, _mm_loadu_ps(self.half.as_ptr())), len);
-                let down = _mm_and_ps(_mm_cmplt_ps(d, _mm_loadu_ps(self.neg_half.as_ptr())), len);
-                d = _mm_sub_ps(d, _mm_sub_ps(up, down));
-            }
-            let dd = _mm_mul_ps(d, d);
-            // (x² + y²) + z², as `V3::norm2`.
-            let d2 = _mm_cvtss_f32(_mm_add_ss(
-                _mm_add_ss(dd, _mm_shuffle_ps::<0b01>(dd, dd)),
-                _mm_movehl_ps(dd, dd),
-            ));
-            (v3_of(d), d2)
+        // SAFETY: a `Kin<f32>` is 16-byte aligned and starts with its position and r (16
+        // bytes).
+        let (pi, pj) = unsafe { (F32x4::load(ki.quad(0)), F32x4::load(kj.quad(0))) };
+        let mut d = pi - pj;
+        if PERIODIC {
+            // As `Image::delta`: d − (up − down), up = l where d > l/2, down = l where
+            // d < −l/2 (z and the fourth place: never, d − 0 is d).
+            let len = F32x4::from_array(&self.len);
+            let up = d.gt(F32x4::from_array(&self.half)) & len;
+            let down = d.lt(F32x4::from_array(&self.neg_half)) & len;
+            d = d - (up - down);
         }
+        // (x² + y²) + z², as `V3::norm2`.
+        (d.xyz(), (d * d).sum_xyz())
     }
 }
 
-/// The first three places of a 4-vector (the record's x, y, z).
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(super) fn v3_of(q: std::arch::x86_64::__m128) -> V3<f32> {
-    use std::arch::x86_64::*;
-    // SAFETY: SSE is part of the x86-64 baseline.
-    unsafe {
-        V3::new(
-            _mm_cvtss_f32(q),
-            _mm_cvtss_f32(_mm_shuffle_ps::<0b01>(q, q)),
-            _mm_cvtss_f32(_mm_movehl_ps(q, q)),
-        )
+impl Kin<f32> {
+    /// The record's `k`-th 4-vector (0: position and r, 1: velocity and m, 2: angular
+    /// velocity and the pad), 16-byte aligned (`F32x4::load`, `F32x4::store`).
+    #[inline(always)]
+    pub(super) fn quad(&self, k: usize) -> *const f32 {
+        debug_assert!(k < 3);
+        (self as *const Self).cast::<f32>().wrapping_add(4 * k)
     }
 }
 

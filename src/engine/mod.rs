@@ -18,6 +18,8 @@ mod pair_pass;
 mod particle;
 pub mod real;
 pub mod shape;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 mod skin;
 pub mod state;
 mod team;

@@ -9,13 +9,11 @@
 
 use multiversion::multiversion;
 
-use std::any::TypeId;
-
 use super::contact::LawKernel;
-#[cfg(target_arch = "x86_64")]
-use super::kinematics::v3_of;
 use super::kinematics::Kin;
 use super::real::{Real, V3};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{self, F32x4};
 
 /// Pairs per group.
 pub(super) const LANES: usize = 8;
@@ -111,26 +109,25 @@ impl<R: Real> Place<'_, R> {
     #[inline(always)]
     pub(super) fn motion(&mut self, d: V3<R>, ki: &Kin<R>, kj: &Kin<R>) {
         #[cfg(target_arch = "x86_64")]
-        if TypeId::of::<R>() == TypeId::of::<f32>() {
-            use std::arch::x86_64::*;
+        if simd::is_f32::<R>() {
             Self::set3(&mut self.inp.d, self.t, d);
             let t = self.t;
             // SAFETY: R is f32.
             let (inp, ki, kj) = unsafe {
                 (
                     &mut *(self.inp as *mut LaneInput<R>).cast::<LaneInput<f32>>(),
-                    (ki as *const Kin<R>).cast::<f32>(),
-                    (kj as *const Kin<R>).cast::<f32>(),
+                    &*(ki as *const Kin<R>).cast::<Kin<f32>>(),
+                    &*(kj as *const Kin<R>).cast::<Kin<f32>>(),
                 )
             };
-            let put = |c: &mut [Column<f32>; 3], q: __m128| Place::set3(c, t, v3_of(q));
-            // SAFETY: SSE is part of the x86-64 baseline; a `Kin<f32>` is 16-byte aligned with
-            // its velocity at place 4 and its angular velocity at place 8.
+            let put = |c: &mut [Column<f32>; 3], q: F32x4| Place::set3(c, t, q.xyz());
+            // SAFETY: a `Kin<f32>` is 16-byte aligned with its velocity at place 4 and its
+            // angular velocity at place 8 (`Kin::quad`).
             unsafe {
-                put(&mut inp.vi, _mm_load_ps(ki.add(4)));
-                put(&mut inp.vj, _mm_load_ps(kj.add(4)));
-                put(&mut inp.wi, _mm_load_ps(ki.add(8)));
-                put(&mut inp.wj, _mm_load_ps(kj.add(8)));
+                put(&mut inp.vi, F32x4::load(ki.quad(1)));
+                put(&mut inp.vj, F32x4::load(kj.quad(1)));
+                put(&mut inp.wi, F32x4::load(ki.quad(2)));
+                put(&mut inp.wj, F32x4::load(kj.quad(2)));
             }
             return;
         }
