@@ -49,9 +49,9 @@ impl<R: Real> Periodic<R> {
 /// The minimum image along the periodic axes. Positions are wrapped into the box, so |b − a| < L
 /// and one shift is the minimum image: no `floor` (a libm call on baseline x86-64). The box
 /// lengths are precomputed (zero along an axis that is not periodic, which leaves it untouched)
-/// and the shift is chosen by selects, not branches (the options and comparisons were 30
-/// instructions per pair in the innermost loop): d − (−l) is d + l and d − 0 is d, the same bits
-/// as a branch would give.
+/// and the shift is chosen by selects, not branches (options and comparisons would sit in the
+/// innermost loop, once per pair): d − (−l) is d + l and d − 0 is d, the same bits as a branch
+/// would give.
 #[derive(Clone, Copy, Debug)]
 pub struct Image<R: Real> {
     len: [R; 2],
@@ -428,8 +428,7 @@ pub fn build_half<R: Real>(
     let (pos, rad, inv_mass) = (&state.pos[..n], &grid.reach[..n], &state.inv_mass[..n]);
     let image = periodic.image();
     // The most candidates one particle can have: 27 cells of the fullest cell's count, and
-    // fewer than N. (A row that grows instead, by a test per candidate, cost 1.7 % more
-    // instructions on the flowing chute-bed.)
+    // fewer than N. (A row that grows instead pays a test per candidate.)
     let most = (27 * fullest.unwrap_or(0) as usize).min(n);
     let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(HALF_BLOCK))
         .into_par_iter()

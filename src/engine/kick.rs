@@ -170,9 +170,8 @@ fn each<R: Real, const ROT: bool, const DRIFT: bool>(
 }
 
 /// The f32 kick on x86-64 with each record's three 4-vectors (`Kin`: position and r, velocity
-/// and m, angular velocity and a pad) in 4-wide SSE operations: the generic loop's scalar code
-/// on 12-byte vectors cost about 100 instructions per particle (cachegrind, flowing chute-bed),
-/// and LLVM's vectorizer, given the same in 4-wide arrays, merged the vectors into 8-wide
+/// and m, angular velocity and a pad) in 4-wide SSE operations: the generic loop compiles to
+/// scalar code on 12-byte vectors, and LLVM's vectorizer, given the same in 4-wide arrays, merged the vectors into 8-wide
 /// operations with more blends and shuffles than it saved. Per component the same operations
 /// in the same order as the generic loop, so the same bits (the bench checksums).
 #[cfg(target_arch = "x86_64")]

@@ -34,7 +34,7 @@ pub(super) struct Column<R: Real> {
     groups: [[R; LANES]; GROUPS],
     /// Unused. Without it the columns would start a power of two (1 or 2 KiB) apart, so that
     /// place t of all 22 columns would fall into two to four sets of the 8-way first-level
-    /// cache and evict each other (f64 ran 25–30 % slower).
+    /// cache and evict each other.
     _pad: [R; LANES],
 }
 

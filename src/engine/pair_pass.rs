@@ -265,9 +265,8 @@ pub(super) struct Reaction<R: Real> {
 /// Particles per task of the sphere passes. Fixed, not derived from the thread count: which
 /// pairs hand their reaction over to a later block, and so the order of each particle's force
 /// sum, depends on it. 2048 rather than 1024: fewer pairs cross blocks (a same-block or
-/// cross-block partner is a branch the predictor often loses), measured on the settled silo-bed
-/// at 3·10⁴, two threads: 1.60 → 1.84·10⁷ particle-steps/s (4096: 1.90·10⁷, but too few blocks
-/// to share out at 10⁴). A constant, and a power of two: the pair pass finds a partner's block
+/// cross-block partner is a branch the predictor often loses); not 4096, which leaves too few
+/// blocks to share out among threads in small runs. A constant, and a power of two: the pair pass finds a partner's block
 /// with a shift, not a division.
 pub(super) const BLOCK: usize = 2048;
 const _: () = assert!(BLOCK.is_power_of_two());
@@ -394,7 +393,7 @@ impl<R: Real> PairContext<'_, R> {
     /// belongs to one block, so any split over threads writes the same bits.
     pub(super) fn block(&self, b: PairBlock<'_, R>, scratch: &mut PairScratch<R>) -> R {
         // Without periodic axes the minimum image is the plain difference: the folds would be
-        // a tenth of the distance test's instructions for nothing (the same bits). Each case
+        // work in the distance test for nothing (the same bits). Each case
         // compiled apart, so that neither pays for the other's branch.
         let periodic = self.periodic.x.is_some() || self.periodic.y.is_some();
         match (periodic, scratch.sparse) {
@@ -408,9 +407,8 @@ impl<R: Real> PairContext<'_, R> {
 
 /// `PairContext::block`, with `PERIODIC` for whether any axis is periodic and `SPARSE` for
 /// `scratch.sparse`. Compiled also for AVX2 and chosen at run time: three-operand instructions
-/// need fewer register copies and spills (cachegrind, N = 3·10⁴: this pass −8.8 % instructions
-/// on the flowing chute-bed, −5.8 % on the settled silo-bed). No AVX-512 clone, unlike the
-/// lanes: valgrind cannot count one and the clock here scatters too much to time it. Rust never
+/// need fewer register copies and spills than the generic form. No AVX-512 clone, unlike the
+/// lanes: its gain here could not be measured. Rust never
 /// fuses a multiply and an add, so every clone computes the same bits.
 #[multiversion(targets("x86_64+avx2+avx"))]
 fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
@@ -486,7 +484,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             // (`grid::build_half` indexes a vector of that length by each partner when it
             // builds the transpose, so a larger one would have panicked there), and
             // `CpuEngine::pair_pass` asserts that `kin` holds that many records. The bounds
-            // checks were 4 of the test's ~60 instructions per entry.
+            // checks would run once per entry in the hottest loop.
             let (ki, kj) = unsafe { (ctx.kin.get_unchecked(o), ctx.kin.get_unchecked(j)) };
             // From j to i.
             let (d, dist2) = sep.of::<PERIODIC>(ki, kj);

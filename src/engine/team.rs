@@ -1,8 +1,8 @@
 //! A team of threads for the sphere step's two passes: the calling thread plus `threads − 1`
 //! helpers that stay awake (spinning) between passes, so that each of the thousands of passes
 //! per second does not pay a futex wake-up. rayon parks its idle workers within microseconds,
-//! and waking them cost about a third of the second core's time (measured with perf on
-//! silo-bed, N = 3·10⁴, 2 threads: one worker busy 60 % of the time, the other 40 %).
+//! and waking them took a large share of the second core's time, leaving the workers unevenly
+//! busy.
 //!
 //! `run(tasks, f)` evaluates f(0) … f(tasks − 1), each exactly once, on whichever thread claims
 //! it, and returns the results in task order: what a task computes cannot depend on the thread

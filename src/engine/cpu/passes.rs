@@ -169,7 +169,7 @@ impl<R: Real> CpuEngine<R> {
                 let mut ov_max = R::zero();
                 // First the walls, for the block's spheres in `wall_list`, in their own loop:
                 // inlined into the kick, the wall sum's values pushed the kick's out of
-                // registers (a third of its instructions were stack loads and stores). Same
+                // registers, into stack loads and stores. Same
                 // order of each particle's sum: pairs, reactions, walls.
                 let a = wall_list.partition_point(|&i| (i as usize) < first);
                 let z = a + wall_list[a..].partition_point(|&i| (i as usize) < first + count);
@@ -225,7 +225,7 @@ impl<R: Real> CpuEngine<R> {
         let (kin, alive, props) = (&self.kin, &self.alive, &self.props);
         let n = kin.len();
         // A plain loop per block on the team: with the pick's margin this runs every few steps,
-        // and the rayon filter-map-reduce it replaces cost a quarter more (cachegrind).
+        // and the rayon filter-map-reduce it replaces cost more per call.
         let (beyond, d2_max, scale) = self
             .team
             .run(n.div_ceil(BLOCK), |b| {
