@@ -6,6 +6,7 @@ pub mod config;
 pub mod contact;
 pub mod cpu;
 pub mod effects;
+mod force_gather;
 pub mod gpu;
 pub mod grid;
 pub mod history;

@@ -5,8 +5,8 @@ use rayon::prelude::*;
 
 use super::{CpuEngine, MIN_LEN};
 use crate::engine::contact::{elastic_energy, ContactRecord};
+use crate::engine::force_gather::ForceContext;
 use crate::engine::history::Rows;
-use crate::engine::pair_pass::ForceContext;
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 

@@ -5,9 +5,9 @@ use rayon::prelude::*;
 
 use super::{CpuEngine, MIN_LEN};
 use crate::engine::backend::{ChunkReport, EngineError, SinkEvent};
+use crate::engine::force_gather::ForceContext;
 use crate::engine::history::Rows;
 use crate::engine::oriented;
-use crate::engine::pair_pass::ForceContext;
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 use crate::engine::watchdog::EnergyBudget;
