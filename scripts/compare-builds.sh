@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Alternates two sweep binaries on the same settled beds (f32, 2 threads) and prints every run:
+#   bash scripts/compare-builds.sh OLD_BIN NEW_BIN [N] [STEPS] [ROUNDS]
+# Both use the beds kept in ./bench-beds (made by the first run's --settle), so they time the same
+# state; equal checksums say they computed the same bits. Compare the ratio of medians, not the
+# absolute figures (this VM's speed drifts 20-40 % over minutes).
+set -euo pipefail
+old=$1 new=$2 n=${3:-30000} steps=${4:-300} rounds=${5:-4}
+for r in $(seq "$rounds"); do
+  for bin in "$old" "$new"; do
+    for scene in chute-bed silo-bed; do
+      line=$("$bin" bench --scene "$scene" --settle --particles "$n" --steps "$steps" \
+        --precision f32 --threads 2 --no-store 2>&1 | grep "particle-steps/s" | tail -1)
+      echo "round $r  $bin  $line"
+    done
+  done
+done
