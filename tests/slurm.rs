@@ -13,12 +13,13 @@
 //! root or without apt-get and Slurm, the test says so and skips, except under CI=true, where it
 //! fails. The cluster is stopped even when the test fails (a Drop guard).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use rusqlite::types::Value as Sql;
-use rusqlite::{Connection, OpenFlags};
+use common::cli::{count, read_db, rows, stderr, stdout, write_campaign};
 use serde_json::{json, Value};
 use tempfile::TempDir;
 
@@ -163,14 +164,6 @@ fn skip() -> bool {
     }
 }
 
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
 fn ok(o: Output, what: &str) -> Output {
     assert!(
         o.status.success(),
@@ -204,45 +197,6 @@ fn campaign(name: &str, orifices: &[f64], frequencies: &[f64]) -> Value {
         "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
         "run": { "precision": "f64", "checkpoint_interval_s": 0.05 }
     })
-}
-
-fn write_campaign(dir: &Path, file: &str, c: &Value) -> PathBuf {
-    let p = dir.join(file);
-    std::fs::write(&p, serde_json::to_string_pretty(c).unwrap()).unwrap();
-    p
-}
-
-fn read_db(db: &Path) -> Connection {
-    Connection::open_with_flags(db, OpenFlags::SQLITE_OPEN_READ_ONLY).unwrap()
-}
-
-fn count(db: &Path, sql: &str) -> i64 {
-    read_db(db).query_row(sql, [], |r| r.get(0)).unwrap()
-}
-
-/// Every row of a query, reals as their IEEE-754 bits: equal renderings are bitwise equal.
-fn rows(db: &Path, sql: &str) -> Vec<Vec<String>> {
-    let conn = read_db(db);
-    let mut q = conn.prepare(sql).unwrap();
-    let n = q.column_count();
-    let out = q
-        .query_map([], |r| {
-            (0..n)
-                .map(|k| {
-                    Ok(match r.get::<_, Sql>(k)? {
-                        Sql::Real(x) => format!("{x:e} [{:016x}]", x.to_bits()),
-                        Sql::Integer(i) => format!("int {i}"),
-                        Sql::Text(t) => format!("text {t}"),
-                        Sql::Null => "null".into(),
-                        Sql::Blob(b) => format!("blob {b:?}"),
-                    })
-                })
-                .collect::<rusqlite::Result<Vec<String>>>()
-        })
-        .unwrap()
-        .collect::<rusqlite::Result<Vec<_>>>()
-        .unwrap();
-    out
 }
 
 /// The results tables, keyed by job hash (row ids may differ between databases).
