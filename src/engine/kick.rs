@@ -8,6 +8,7 @@ use super::grid::Periodic;
 use super::kinematics::Kin;
 use super::particle::{Props, Status};
 use super::real::{Real, V3};
+use super::verlet;
 
 /// What every particle's kick and drift reads besides its own arrays.
 #[derive(Clone, Copy)]
@@ -105,10 +106,9 @@ fn kick_in<R: Real, const ROT: bool, const DRIFT: bool>(
         if ROT {
             kl.omega += t * (pr.inv_i * kick);
         }
-        kl.vel += (f * pr.inv_m + g) * kick;
+        verlet::kick(&mut kl.vel, f, pr.inv_m, g, kick);
         if DRIFT {
-            kl.pos += kl.vel * dt;
-            periodic.wrap(&mut kl.pos);
+            verlet::drift(&mut kl.pos, kl.vel, dt, &periodic);
         }
         kl.vel.norm2()
     })

@@ -24,6 +24,7 @@ mod simd;
 mod skin;
 pub mod state;
 mod team;
+mod verlet;
 pub mod walls;
 pub mod watchdog;
 

@@ -291,7 +291,7 @@ fn contact<R: Real, const HERTZ: bool>(
     let bi = -(n * li);
     let bj = n * lj;
     let v_rel = (vi + wi.cross(bi)) - (vj + wj.cross(bj));
-    // contact_force (contact/force.rs), with its branches as selects.
+    // contact_force (contact/hertz_mindlin.rs), with its branches as selects.
     let vn = v_rel.dot(n);
     let sq = if HERTZ {
         (ri * rj / sum * overlap).sqrt()

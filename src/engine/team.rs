@@ -76,6 +76,18 @@ impl Team {
         }
     }
 
+    /// f(b, block b) for each of `blocks` (each a disjoint piece of the arrays a pass writes)
+    /// on the team; the results in block order. Each block sits behind its own lock, taken
+    /// only by the one task that owns it, so it is never contended.
+    pub fn run_blocks<B: Send, T: Send>(
+        &mut self,
+        blocks: Vec<B>,
+        f: impl Fn(usize, &mut B) -> T + Sync,
+    ) -> Vec<T> {
+        let cells: Vec<Mutex<B>> = blocks.into_iter().map(Mutex::new).collect();
+        self.run(cells.len(), |b| f(b, &mut cells[b].lock().unwrap()))
+    }
+
     /// f(0) … f(tasks − 1) on the team; the results in task order.
     pub fn run<T: Send>(&mut self, tasks: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
         let results: Vec<Mutex<Option<T>>> = (0..tasks).map(|_| Mutex::new(None)).collect();

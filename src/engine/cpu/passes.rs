@@ -6,7 +6,6 @@ use crate::engine::kick::{Kick, KickBlock};
 use crate::engine::pair_pass::{PairBlock, PairContext, PairScratch, SumContext, BLOCK};
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
-use std::sync::Mutex;
 
 impl<R: Real> CpuEngine<R> {
     // ---- Spheres: half lists, one evaluation per pair, fixed-order per-particle sums. ----
@@ -38,12 +37,10 @@ impl<R: Real> CpuEngine<R> {
             .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
         // One task per block, claimed by whichever team thread is free (the blocks' work
-        // differs: walls, free surface); each block's slices behind an uncontended lock.
-        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
+        // differs: walls, free surface).
         self.team
-            .run(cells.len(), |b| {
-                let mut guard = cells[b].lock().unwrap();
-                let ((((slots, force), torque), nc), scratch) = &mut *guard;
+            .run_blocks(blocks, |b, block| {
+                let ((((slots, force), torque), nc), scratch) = block;
                 let block = PairBlock {
                     first: parts[b],
                     slots,
@@ -90,10 +87,8 @@ impl<R: Real> CpuEngine<R> {
             .zip(self.pair_scratch.iter_mut())
             .collect::<Vec<_>>();
         let (owner, nbr) = (&self.half.owner, &self.half.nbr);
-        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
-        self.team.run(cells.len(), |b| {
-            let mut guard = cells[b].lock().unwrap();
-            let (slots, scratch) = &mut *guard;
+        self.team.run_blocks(blocks, |b, block| {
+            let (slots, scratch) = block;
             let owner = &owner[entries[b]..entries[b + 1]];
             ctx.pick(
                 parts[b]..parts[b + 1],
@@ -112,9 +107,8 @@ impl<R: Real> CpuEngine<R> {
     /// Completes each particle's force and torque (own share from the pair pass, then the
     /// reactions where it is the partner in entry order, then its walls: a fixed order) in
     /// `state.force`/`torque`, then kicks by `kick` and, with `drift`, drifts (the next step's
-    /// opening). Returns (some particle died, the largest squared speed of a drifted particle,
-    /// largest wall overlap, most contacts of one particle).
-    pub(super) fn sum_kick_drift(&mut self, kick: R, drift: bool) -> (bool, R, R, u32) {
+    /// opening).
+    pub(super) fn sum_kick_drift(&mut self, kick: R, drift: bool) -> Swept<R> {
         let n = self.state.len();
         let nw = self.walls.len();
         let (dt, g, periodic, sink) = (self.dt, self.gravity, self.periodic, self.sink_z);
@@ -155,11 +149,9 @@ impl<R: Real> CpuEngine<R> {
             periodic,
             sink_z: sink.unwrap_or(R::from_f64(f64::NEG_INFINITY)),
         };
-        let cells: Vec<Mutex<_>> = blocks.into_iter().map(Mutex::new).collect();
         self.team
-            .run(cells.len(), |b| {
-                let mut guard = cells[b].lock().unwrap();
-                let (((((kin, force), torque), alive), nc), wsp) = &mut *guard;
+            .run_blocks(blocks, |b, block| {
+                let (((((kin, force), torque), alive), nc), wsp) = block;
                 let first = parts[b];
                 ctx.reactions(first, force, torque, nc, rot);
                 // The whole-particle arrays cut to the block (the kick cuts its own).
@@ -202,19 +194,21 @@ impl<R: Real> CpuEngine<R> {
                     nc,
                     props,
                 });
-                (k.died, k.v_max2, ov_max, k.fullest)
+                Swept {
+                    died: k.died,
+                    v_max2: k.v_max2,
+                    wall_overlap: ov_max,
+                    fullest: k.fullest,
+                }
             })
             .into_iter()
-            .fold((false, R::zero(), R::zero(), 0), |p, q| {
-                (p.0 || q.0, p.1.max(q.1), p.2.max(q.2), p.3.max(q.3))
-            })
+            .fold(Swept::default(), Swept::merge)
     }
 
     /// The exact skin test on the packed motion: whether a particle that drifted this step
     /// (alive, or fallen through the sink this step; not fixed) lies more than `limit` from
-    /// `refs` (where the lists were built: half the skin; or the last pick), the largest such
-    /// displacement and the largest coordinate magnitude (for `DisplacementBound`).
-    pub(super) fn measure_displacements(&mut self, from_pick: bool, limit: R) -> (bool, f64, f64) {
+    /// `refs` (where the lists were built: half the skin; or the last pick).
+    pub(super) fn measure_displacements(&mut self, from_pick: bool, limit: R) -> Displacements {
         let image = self.periodic.image();
         let half2 = limit * limit;
         let refs = if from_pick {
@@ -226,8 +220,7 @@ impl<R: Real> CpuEngine<R> {
         let n = kin.len();
         // A plain loop per block on the team: with the pick's margin this runs every few steps,
         // and the rayon filter-map-reduce it replaces cost more per call.
-        let (beyond, d2_max, scale) = self
-            .team
+        self.team
             .run(n.div_ceil(BLOCK), |b| {
                 let range = b * BLOCK..((b + 1) * BLOCK).min(n);
                 let (mut beyond, mut d2_max, mut scale) = (false, 0.0f64, 0.0f64);
@@ -245,13 +238,70 @@ impl<R: Real> CpuEngine<R> {
                     d2_max = d2_max.max(d2.to_f64());
                     scale = scale.max(p.x.abs().max(p.y.abs()).max(p.z.abs()).to_f64());
                 }
-                (beyond, d2_max, scale)
+                Displacements {
+                    beyond,
+                    max: d2_max.sqrt(),
+                    scale,
+                }
             })
             .into_iter()
-            .fold((false, 0.0f64, 0.0f64), |a, b| {
-                (a.0 || b.0, a.1.max(b.1), a.2.max(b.2))
-            });
-        (beyond, d2_max.sqrt(), scale)
+            .fold(Displacements::default(), Displacements::merge)
+    }
+}
+
+/// What a step's sums, kick and drift found, over every block.
+#[derive(Clone, Copy)]
+pub(super) struct Swept<R: Real> {
+    /// Some particle fell through the sink.
+    pub(super) died: bool,
+    /// The largest squared speed of a drifted particle.
+    pub(super) v_max2: R,
+    /// The largest wall overlap ratio.
+    pub(super) wall_overlap: R,
+    /// The most contacts of one particle.
+    pub(super) fullest: u32,
+}
+
+impl<R: Real> Default for Swept<R> {
+    fn default() -> Self {
+        Self {
+            died: false,
+            v_max2: R::zero(),
+            wall_overlap: R::zero(),
+            fullest: 0,
+        }
+    }
+}
+
+impl<R: Real> Swept<R> {
+    fn merge(self, o: Self) -> Self {
+        Self {
+            died: self.died || o.died,
+            v_max2: self.v_max2.max(o.v_max2),
+            wall_overlap: self.wall_overlap.max(o.wall_overlap),
+            fullest: self.fullest.max(o.fullest),
+        }
+    }
+}
+
+/// The exact skin test's findings (`DisplacementBound` takes the last two).
+#[derive(Clone, Copy, Default)]
+pub(super) struct Displacements {
+    /// Some particle lies beyond the limit.
+    pub(super) beyond: bool,
+    /// The largest displacement, m.
+    pub(super) max: f64,
+    /// The largest coordinate magnitude, m.
+    pub(super) scale: f64,
+}
+
+impl Displacements {
+    fn merge(self, o: Self) -> Self {
+        Self {
+            beyond: self.beyond || o.beyond,
+            max: self.max.max(o.max),
+            scale: self.scale.max(o.scale),
+        }
     }
 }
 

@@ -10,6 +10,7 @@ use crate::engine::history::Rows;
 use crate::engine::oriented;
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
+use crate::engine::verlet;
 use crate::engine::watchdog::EnergyBudget;
 
 impl<R: Real> CpuEngine<R> {
@@ -181,9 +182,8 @@ impl<R: Real> CpuEngine<R> {
                     if im == R::zero() || *a != Status::Alive {
                         return (false, false);
                     }
-                    *v += (f * im + g) * kick;
-                    *x += *v * dt;
-                    periodic.wrap(x);
+                    verlet::kick(v, f, im, g, kick);
+                    verlet::drift(x, *v, dt, &periodic);
                     let turned = oriented::kick_rotate(
                         q,
                         l,
@@ -224,7 +224,7 @@ impl<R: Real> CpuEngine<R> {
                 .with_min_len(MIN_LEN)
                 .for_each(|(v, &f, &im, &a)| {
                     if im != R::zero() && a == Status::Alive {
-                        *v += (f * im + g) * half;
+                        verlet::kick(v, f, im, g, half);
                     }
                 });
             if s.oriented {

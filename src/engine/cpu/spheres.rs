@@ -9,6 +9,7 @@ use crate::engine::kinematics;
 use crate::engine::particle::Status;
 use crate::engine::real::Real;
 use crate::engine::skin::DisplacementBound;
+use crate::engine::verlet;
 use crate::engine::watchdog::EnergyBudget;
 
 impl<R: Real> CpuEngine<R> {
@@ -51,18 +52,8 @@ impl<R: Real> CpuEngine<R> {
         let mut died = self.open_spheres(half);
         let alive = &self.alive;
         kinematics::gather_from(&mut self.kin, &self.state, |i| alive[i] == Status::Alive);
-        let (skin, dt) = (self.skin.to_f64(), self.config.dt_s);
-        let half_skin = self.skin * R::from_f64(0.5);
-        let (mut moved, max_moved, scale) = self.measure_displacements(false, half_skin);
-        let mut bound = DisplacementBound::new(skin, max_moved, scale, R::EPSILON);
-        // The pair pass tests only the entries picked within the near margin; they are picked
-        // again before a particle has moved `NEAR_LIMIT` of that margin since the last pick.
-        let near = skin * NEAR;
-        let near_limit = self.skin * R::from_f64(NEAR * NEAR_LIMIT);
-        // Its exact measurement is taken from 0.9 of that (`DisplacementBound` measures at 0.45
-        // of the skin it is given), not at it: otherwise every later step would measure.
-        let mut near_bound =
-            DisplacementBound::new(near * NEAR_LIMIT * 2.0 * 0.9, 0.0, scale, R::EPSILON);
+        let mut watch = SkinWatch::new(self);
+        let mut moved = watch.opened;
         let mut repick = true;
         for k in 0..steps {
             let t_next = self.state.time + self.config.dt_s;
@@ -71,50 +62,31 @@ impl<R: Real> CpuEngine<R> {
             }
             if moved {
                 self.rebuild_half(true);
-                bound.rebuilt();
+                watch.bound.rebuilt();
                 repick = true;
             }
             if repick {
                 self.pick_pairs();
-                near_bound.rebuilt();
-                repick = false;
+                watch.near_bound.rebuilt();
             }
             let ov_pairs = self.pair_pass();
             let step = self.state.step;
             self.state.time = t_next;
             self.state.step += 1;
             let last = k + 1 == steps;
-            let (d, v_max2, ov_walls, fullest) = if last {
+            let swept = if last {
                 self.sum_kick_drift(half, false)
             } else {
                 self.sum_kick_drift(self.dt, true)
             };
-            // The exact skin test only when the bound nears half the skin (skin.rs).
-            let mut m = false;
-            if !last && bound.drifted(v_max2.to_f64().sqrt(), dt) {
-                let (beyond, max_moved, scale) = self.measure_displacements(false, half_skin);
-                m = beyond;
-                bound.measured(max_moved, scale + skin);
-            }
-            if !last && !m && near_bound.drifted(v_max2.to_f64().sqrt(), dt) {
-                let (beyond, max_moved, scale) = self.measure_displacements(true, near_limit);
-                repick = beyond;
-                near_bound.measured(max_moved, scale + near);
-            }
-            // The history table would not hold this step's contacts: fail now, at the step
-            // where it happens (as the GPU does), not when the chunk writes the table back.
-            if self.slots > 0 && fullest as usize > self.slots {
-                let i = (0..self.state.len())
-                    .find(|&i| self.contacts[i] as usize > self.slots)
-                    .unwrap_or(0);
-                return Err(EngineError::HistoryFull {
-                    id: self.state.id[i],
-                    slots: self.slots,
-                    step,
-                });
-            }
-            (died, moved) = (d, m);
-            let ov = ov_pairs.max(ov_walls).to_f64();
+            (moved, repick) = if last {
+                (false, false)
+            } else {
+                self.skin_tests(&mut watch, swept.v_max2.to_f64().sqrt())
+            };
+            self.check_history_room(swept.fullest, step)?;
+            died = swept.died;
+            let ov = ov_pairs.max(swept.wall_overlap).to_f64();
             if ov > self.watchdog.max_overlap_ratio {
                 return Err(EngineError::Overlap {
                     ratio: ov,
@@ -127,6 +99,43 @@ impl<R: Real> CpuEngine<R> {
             report.particle_steps += live;
         }
         Ok(())
+    }
+
+    /// After a step's drift: whether the lists must be rebuilt (a particle moved half the skin
+    /// since they were built) and, if not, whether the near pairs must be picked again (one
+    /// moved `NEAR_LIMIT` of the near margin since the last pick). Each exact measurement runs
+    /// only when its bound, advanced by the fastest speed, says it might be due (skin.rs).
+    fn skin_tests(&mut self, watch: &mut SkinWatch<R>, v_max: f64) -> (bool, bool) {
+        let dt = self.config.dt_s;
+        if watch.bound.drifted(v_max, dt) {
+            let d = self.measure_displacements(false, watch.half_skin);
+            watch.bound.measured(d.max, d.scale + watch.skin);
+            if d.beyond {
+                return (true, false);
+            }
+        }
+        if watch.near_bound.drifted(v_max, dt) {
+            let d = self.measure_displacements(true, watch.near_limit);
+            watch.near_bound.measured(d.max, d.scale + watch.near);
+            return (false, d.beyond);
+        }
+        (false, false)
+    }
+
+    /// Fails at the step where the history table would not hold this step's contacts (as the
+    /// GPU does), not when the chunk writes the table back.
+    fn check_history_room(&self, fullest: u32, step: u64) -> Result<(), EngineError> {
+        if self.slots == 0 || fullest as usize <= self.slots {
+            return Ok(());
+        }
+        let i = (0..self.state.len())
+            .find(|&i| self.contacts[i] as usize > self.slots)
+            .unwrap_or(0);
+        Err(EngineError::HistoryFull {
+            id: self.state.id[i],
+            slots: self.slots,
+            step,
+        })
     }
 
     /// Spheres, at a chunk's opening: kick by `kick`, then drift; flags particles that fell
@@ -161,9 +170,8 @@ impl<R: Real> CpuEngine<R> {
                     if im == R::zero() || *a != Status::Alive {
                         return false;
                     }
-                    *v += (f * im + g) * kick;
-                    *x += *v * dt;
-                    periodic.wrap(x);
+                    verlet::kick(v, f, im, g, kick);
+                    verlet::drift(x, *v, dt, &periodic);
                     let died = matches!(sink, Some(zs) if x.z < zs);
                     if died {
                         *a = Status::Dying;
@@ -172,5 +180,44 @@ impl<R: Real> CpuEngine<R> {
                 })
                 .reduce(|| false, |p, q| p || q)
         })
+    }
+}
+
+/// The two displacement bounds of a chunk of sphere steps: the lists' (half the skin since they
+/// were built) and the near pairs' (`NEAR_LIMIT` of the near margin since the last pick).
+struct SkinWatch<R: Real> {
+    bound: DisplacementBound,
+    near_bound: DisplacementBound,
+    skin: f64,
+    near: f64,
+    half_skin: R,
+    near_limit: R,
+    /// Some particle lay beyond half the skin at the chunk's opening.
+    opened: bool,
+}
+
+impl<R: Real> SkinWatch<R> {
+    /// Measures the opening drift against the lists' reference positions.
+    fn new(engine: &mut CpuEngine<R>) -> Self {
+        let skin = engine.skin.to_f64();
+        let half_skin = engine.skin * R::from_f64(0.5);
+        let d = engine.measure_displacements(false, half_skin);
+        let near = skin * NEAR;
+        // The near bound measures from 0.9 of its limit (`DisplacementBound` measures at 0.45
+        // of the skin it is given), not at it: otherwise every later step would measure.
+        Self {
+            bound: DisplacementBound::new(skin, d.max, d.scale, R::EPSILON),
+            near_bound: DisplacementBound::new(
+                near * NEAR_LIMIT * 2.0 * 0.9,
+                0.0,
+                d.scale,
+                R::EPSILON,
+            ),
+            skin,
+            near,
+            half_skin,
+            near_limit: engine.skin * R::from_f64(NEAR * NEAR_LIMIT),
+            opened: d.beyond,
+        }
     }
 }

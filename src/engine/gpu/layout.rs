@@ -228,7 +228,7 @@ pub struct WallGpu {
 }
 
 impl WallGpu {
-    /// The same conversion as `Wall::kernel::<f32>()` (whose fields are private to walls.rs).
+    /// The same conversion as `Wall::kernel::<f32>()` (whose fields are private to engine/walls/).
     pub fn of(w: &Wall) -> Self {
         let f = |x: f64| x as f32;
         let rot = match w.rotation {

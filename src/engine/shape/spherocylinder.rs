@@ -1,7 +1,7 @@
 //! The spherocylinder: a segment of length l along the body z axis swept by a ball of radius
 //! d/2, total length L = l + d, aspect ratio ξ = L/d (ξ = 1 is a sphere). Owns its mass and
 //! inertia and its contacts with another spherocylinder, a sphere (the chute's rough base) and a
-//! plane wall, as pure functions of the geometry; not the force law (`contact::force`), the
+//! plane wall, as pure functions of the geometry; not the force law (`contact::hertz_mindlin`), the
 //! neighbour search or the state arrays.
 //!
 //! Contacts follow the sphere convention of the CPU engine, so ξ = 1 gives the sphere result bit

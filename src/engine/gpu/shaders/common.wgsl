@@ -1,7 +1,7 @@
 // Shared by every kernel: the records of layout.rs, the uniform parameters and the periodic
 // minimum image. The generated prelude before this file defines WG, MAX_SLOTS, MAX_WALLS, EMPTY,
 // WALL_KEY and the ST_* status words. Arithmetic is written in the CPU engine's order
-// (contact/force.rs, grid.rs, cpu/) so that f32 results agree to rounding.
+// (contact/hertz_mindlin.rs, grid.rs, cpu/) so that f32 results agree to rounding.
 
 // The run's effects, fixed when the pipelines are built (pipelines.rs, `Specialization`): the
 // shader compiler drops every branch a run does not need, as the CPU engine skips those kernels.

@@ -1,5 +1,5 @@
 // Contact forces, gathered per particle (each particle computes the forces on itself from its
-// full list: no float atomics), with the contact law of contact/force.rs and the history rows of
+// full list: no float atomics), with the contact law of contact/hertz_mindlin.rs and the history rows of
 // history.rs: the old rows are read into private memory, looked up by partner key, and rewritten
 // packed with only the contacts that exist this step (particles in list order, then walls).
 // Oriented runs gather with segment geometry (rods.wgsl).
@@ -55,7 +55,7 @@ fn rows_close(i: u32) {
     }
 }
 
-// The force on i (contact_force in contact/force.rs); updates the tangential spring in place.
+// The force on i (contact_force in contact/hertz_mindlin.rs); updates the tangential spring in place.
 fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: f32, m_eff: f32,
                  spring: ptr<function, vec3<f32>>) -> vec3<f32> {
     let vn = dot3(v_rel, n);

@@ -1,6 +1,6 @@
 // Contacts of oriented particles (spherocylinders; spheres among them have l = 0): the segment
 // geometry of shape/segment.rs, the pair and plane contacts of shape/spherocylinder.rs, the wall
-// contacts of walls.rs `touch_oriented` and the gather of oriented.rs, in the CPU's operation
+// contacts of walls/mod.rs `touch_oriented` and the gather of oriented.rs, in the CPU's operation
 // order. No recursion and no unbounded loop: every branch of the closest-point search is a
 // straight formula.
 //
@@ -217,7 +217,7 @@ fn contact_plane(c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32, point: vec3<f32>,
     return out;
 }
 
-// walls.rs touch_oriented: planes exact; other walls take the deepest of the axis' two end
+// walls/mod.rs touch_oriented: planes exact; other walls take the deepest of the axis' two end
 // spheres and its centre sphere (the first of equals).
 fn touch_oriented(w: Wall, c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32) -> RodWallContact {
     if (w.kind == 0u) {

@@ -1,4 +1,4 @@
-// Walls (walls.rs): infinite plane, inside of a vertical finite cylinder, horizontal plate with a
+// Walls (walls/): infinite plane, inside of a vertical finite cylinder, horizontal plate with a
 // circular orifice whose rim is a real edge; a rotating wall contributes its surface velocity.
 
 @group(0) @binding(1) var<uniform> walls: Walls;

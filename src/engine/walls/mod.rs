@@ -3,6 +3,10 @@
 //! axis: the geometry is unchanged, only its surface velocity enters the contact, so friction
 //! drags particles along (the silo's rotating bottom).
 
+mod cylinder;
+mod orifice_plate;
+mod plane;
+
 use serde::{Deserialize, Serialize};
 
 use super::contact::ContactInput;
@@ -172,76 +176,9 @@ impl<R: Real> WallKernel<R> {
     #[inline]
     pub fn touch(&self, p: V3<R>, rad: R) -> Option<WallContact<R>> {
         let (normal, dist, point) = match self.kind {
-            0 => {
-                let d = (p - self.a).dot(self.b);
-                if d >= rad {
-                    return None;
-                }
-                (self.b, d, p - self.b * d)
-            }
-            1 => {
-                if p.z < self.z0 || p.z > self.z1 {
-                    return None;
-                }
-                let dx = p.x - self.a.x;
-                let dy = p.y - self.a.y;
-                let rr2 = dx * dx + dy * dy;
-                // Well inside: no contact, without the square root (every particle, every step).
-                // The margin keeps the decision at the surface to the exact test below.
-                let inner = self.r - rad;
-                if inner > R::zero() && rr2 < inner * inner * R::from_f64(0.999) {
-                    return None;
-                }
-                let rr = rr2.sqrt();
-                let d = self.r - rr;
-                if d >= rad || rr <= R::zero() {
-                    return None;
-                }
-                let n = V3::new(-dx / rr, -dy / rr, R::zero());
-                (
-                    n,
-                    d,
-                    V3::new(
-                        self.a.x + dx / rr * self.r,
-                        self.a.y + dy / rr * self.r,
-                        p.z,
-                    ),
-                )
-            }
-            _ => {
-                let dz = p.z - self.z0;
-                if dz.abs() >= rad {
-                    return None;
-                }
-                let dx = p.x - self.a.x;
-                let dy = p.y - self.a.y;
-                let rr = (dx * dx + dy * dy).sqrt();
-                if rr >= self.r {
-                    // Over the solid part: the plate's face, from whichever side.
-                    let s = if dz >= R::zero() { R::one() } else { -R::one() };
-                    (
-                        V3::new(R::zero(), R::zero(), s),
-                        dz.abs(),
-                        V3::new(p.x, p.y, self.z0),
-                    )
-                } else {
-                    // Over the hole: the nearest solid point is on the rim (a real edge).
-                    if rr <= R::zero() {
-                        return None;
-                    }
-                    let q = V3::new(
-                        self.a.x + dx / rr * self.r,
-                        self.a.y + dy / rr * self.r,
-                        self.z0,
-                    );
-                    let d = p - q;
-                    let dist = d.norm();
-                    if dist >= rad || dist <= R::zero() {
-                        return None;
-                    }
-                    (d * (R::one() / dist), dist, q)
-                }
-            }
+            0 => plane::touch(self, p, rad)?,
+            1 => cylinder::touch(self, p, rad)?,
+            _ => orifice_plate::touch(self, p, rad)?,
         };
         let wall_velocity = if self.omega != R::zero() {
             // v = Ω ẑ × (q − c)
