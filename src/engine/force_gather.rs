@@ -57,7 +57,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
             }
             let rj = s.radius[j];
             let sum = ri + rj;
-            let dist2 = self.periodic.delta(s.pos[j], pi).norm2();
+            let dist2 = s.separation(self.periodic, j, i).norm2();
             if dist2 >= sum * sum {
                 continue;
             }
@@ -67,7 +67,9 @@ impl<'a, R: Real> ForceContext<'a, R> {
         }
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
-                if let Some(wc) = wall.touch(pi, ri) {
+                if let Some(wc) =
+                    wall.touch_split(pi, s.pos_lo.get(i).copied().unwrap_or_default(), ri)
+                {
                     let spring = s.history.spring_of(i, wall_key(w));
                     e += elastic_energy(self.law_pw, wc.overlap, ri, spring).to_f64();
                 }
@@ -113,7 +115,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
             if fixed_i && fixed_j {
                 continue;
             }
-            let d = self.periodic.delta(s.pos[j], pi); // from j to i
+            let d = s.separation(self.periodic, j, i); // from j to i
             let rj = s.radius[j];
             let dist2 = d.norm2();
             let sum = ri + rj;
@@ -174,7 +176,9 @@ impl<'a, R: Real> ForceContext<'a, R> {
         }
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
-                if let Some(wc) = wall.touch(pi, ri) {
+                if let Some(wc) =
+                    wall.touch_split(pi, s.pos_lo.get(i).copied().unwrap_or_default(), ri)
+                {
                     let (bi, c) = wc.sphere_input(ri, mi, vi, wi);
                     let key = wall_key(w);
                     let fc = match rows.as_deref_mut() {

@@ -34,6 +34,28 @@ impl<R: Real> Periodic<R> {
         }
     }
 
+    /// Whether p lies in the box along the periodic axes (then `wrap` leaves it).
+    #[inline(always)]
+    pub fn inside(&self, p: V3<R>) -> bool {
+        let within = |x: R, b: Option<(R, R)>| b.is_none_or(|(lo, hi)| x >= lo && x < hi);
+        within(p.x, self.x) && within(p.y, self.y)
+    }
+
+    /// The same box in f64.
+    pub fn to_f64(&self) -> Periodic<f64> {
+        let c = |b: Option<(R, R)>| b.map(|(lo, hi)| (lo.to_f64(), hi.to_f64()));
+        Periodic {
+            x: c(self.x),
+            y: c(self.y),
+        }
+    }
+
+    /// What `wrap` adds to p along x and y (z never wraps).
+    pub fn wrap_shift(&self, p: V3<R>) -> V3<R> {
+        let shift = |x: R, b: Option<(R, R)>| b.map_or(R::zero(), |(lo, hi)| shift1(x, lo, hi));
+        V3::new(shift(p.x, self.x), shift(p.y, self.y), R::zero())
+    }
+
     /// Wraps a position into the box (the `floor` only for a particle more than a box away).
     #[inline(always)]
     pub fn wrap(&self, p: &mut V3<R>) {
@@ -67,7 +89,12 @@ impl<R: Real> Image<R> {
     /// Minimum-image separation b − a (positions wrapped into the box).
     #[inline(always)]
     pub fn delta(&self, a: V3<R>, b: V3<R>) -> V3<R> {
-        let d = b - a;
+        self.fold(b - a)
+    }
+
+    /// The minimum image of a separation d between two positions wrapped into the box.
+    #[inline(always)]
+    pub fn fold(&self, d: V3<R>) -> V3<R> {
         let fold = |d: R, k: usize| {
             let (l, h) = (self.len[k], self.half[k]);
             let up = if d > h { l } else { R::zero() };
@@ -86,6 +113,20 @@ fn wrap1<R: Real>(x: R, lo: R, hi: R) -> R {
         x
     } else {
         cross1(x, lo, hi)
+    }
+}
+
+/// The whole number of box lengths `wrap1` adds to x (−l, 0, l or a multiple).
+fn shift1<R: Real>(x: R, lo: R, hi: R) -> R {
+    let l = hi - lo;
+    if x >= lo && x < hi {
+        R::zero()
+    } else if x >= hi && x < hi + l {
+        -l
+    } else if x < lo && x >= lo - l {
+        l
+    } else {
+        -(l * ((x - lo) / l).floor())
     }
 }
 

@@ -108,7 +108,7 @@ fn kick_in<R: Real, const ROT: bool, const DRIFT: bool>(
         }
         verlet::kick(&mut kl.vel, f, pr.inv_m, g, kick);
         if DRIFT {
-            verlet::drift(&mut kl.pos, kl.vel, dt, &periodic);
+            verlet::drift(&mut kl.pos, &mut kl.lo, kl.vel, dt, &periodic);
         }
         kl.vel.norm2()
     })
@@ -179,16 +179,8 @@ mod quads {
     use multiversion::multiversion;
 
     use super::{Kick, KickBlock, Kicked};
-    use crate::engine::grid::Periodic;
-    use crate::engine::real::V3;
     use crate::engine::simd::F32x4;
-
-    /// A particle that left the box: out of line, so that the loop keeps its registers.
-    #[cold]
-    #[inline(never)]
-    fn wrap(periodic: &Periodic<f32>, pos: &mut V3<f32>) {
-        periodic.wrap(pos);
-    }
+    use crate::engine::verlet;
 
     /// `kick_in` for f32. Compiled also for AVX2 (three-operand forms), like the generic loop.
     #[multiversion(targets("x86_64+avx2+avx"))]
@@ -211,8 +203,8 @@ mod quads {
         let hi = F32x4::new(xb.1, yb.1, inf, inf);
         super::each::<f32, ROT, DRIFT>(b, k.sink_z, |kl, f, t, pr| {
             let rec = (kl as *mut super::Kin<f32>).cast::<f32>();
-            // SAFETY (each load and store): `Kin<f32>` is repr(C, align(16)) of three 16-byte
-            // 4-vectors at offsets 0, 16 and 32 (`Kin`), so each is aligned and within the
+            // SAFETY (each load and store): `Kin<f32>` is repr(C, align(64)) of four 16-byte
+            // 4-vectors at offsets 0, 16, 32 and 48 (`Kin`), so each is aligned and within the
             // record.
             if ROT {
                 let s = F32x4::splat(pr.inv_i * k.kick);
@@ -223,10 +215,19 @@ mod quads {
             let v = unsafe { F32x4::load(rec.add(4)) } + a * kick;
             unsafe { v.store(rec.add(4)) };
             if DRIFT {
-                let p = unsafe { F32x4::load(rec) } + v * dt;
-                unsafe { p.store(rec) };
+                // `position::drift`: the step and the rest, added to the position by TwoSum.
+                let rest = unsafe { F32x4::load(rec.add(12)) };
+                let x = unsafe { F32x4::load(rec) };
+                let step = v * dt + rest;
+                let p = x + step;
+                let bb = p - x;
+                let e = (x - (p - bb)) + (step - bb);
+                unsafe {
+                    p.store(rec);
+                    e.store(rec.add(12));
+                }
                 if !(p.ge(lo) & p.lt(hi)).all() {
-                    wrap(&k.periodic, &mut kl.pos);
+                    verlet::wrap_split(&k.periodic, &mut kl.pos, &mut kl.lo);
                 }
             }
             // |v|² as `V3::norm2` sums it: (x² + y²) + z².

@@ -6,6 +6,7 @@
 //! state (a re-sort, the chunk's end, an error report).
 
 use super::grid::Image;
+use super::position;
 use super::real::{Real, V3};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{self, F32x4};
@@ -18,8 +19,9 @@ use super::state::State;
 /// one 16-byte piece, and the kick updates each vector with its fourth place in one 4-wide
 /// operation (`kick.rs`). A particle that no longer interacts (it fell through the sink) has a
 /// NaN radius: every distance test with it is false (a comparison with NaN is), so the test
-/// reads no flag and takes no branch on one.
-#[repr(C, align(16))]
+/// reads no flag and takes no branch on one. The fourth 4-vector holds the rest of the position
+/// where `Real::SPLIT_POSITIONS` (zero otherwise): 64 bytes in f32, one cache line.
+#[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Kin<R: Real> {
     pub(super) pos: V3<R>,
@@ -31,6 +33,10 @@ pub(super) struct Kin<R: Real> {
     pub(super) omega: V3<R>,
     /// Unused: the fourth place of `omega`'s 4-vector.
     _pad: R,
+    /// The rest of the position below the precision of `pos` (`position.rs`).
+    pub(super) lo: V3<R>,
+    /// Zero: the fourth place of `lo`'s 4-vector (the drift adds it to r's place).
+    _pad_lo: R,
 }
 
 impl<R: Real> Kin<R> {
@@ -64,8 +70,9 @@ impl<R: Real> Separation<R> {
     }
 
     /// The separation d from j to i (minimum image when `PERIODIC`) and |d|², each component
-    /// and the sum as `Image::delta` and `V3::norm2` compute them (the same bits). In f32 on
-    /// x86-64 from the records' first 4-vectors (position and r) in 4-wide SSE operations.
+    /// and the sum as `position::separation`, `Image::fold` and `V3::norm2` compute them (the
+    /// same bits). In f32 on x86-64 from the records' first and fourth 4-vectors (position and
+    /// r, the position's rest) in 4-wide SSE operations.
     #[inline(always)]
     pub(super) fn of<const PERIODIC: bool>(&self, ki: &Kin<R>, kj: &Kin<R>) -> (V3<R>, R) {
         #[cfg(target_arch = "x86_64")]
@@ -82,11 +89,8 @@ impl<R: Real> Separation<R> {
             // SAFETY: R is f32.
             return unsafe { (std::mem::transmute_copy(&d), std::mem::transmute_copy(&d2)) };
         }
-        let d = if PERIODIC {
-            self.image.delta(kj.pos, ki.pos)
-        } else {
-            ki.pos - kj.pos
-        };
+        let d = position::separation(kj.pos, kj.lo, ki.pos, ki.lo);
+        let d = if PERIODIC { self.image.fold(d) } else { d };
         (d, d.norm2())
     }
 }
@@ -97,8 +101,10 @@ impl Separation<f32> {
     fn of_f32<const PERIODIC: bool>(&self, ki: &Kin<f32>, kj: &Kin<f32>) -> (V3<f32>, f32) {
         // SAFETY: a `Kin<f32>` is 16-byte aligned and starts with its position and r (16
         // bytes).
+        // The rests' fourth places are zero: d's is ri − rj, unused.
         let (pi, pj) = unsafe { (F32x4::load(ki.quad(0)), F32x4::load(kj.quad(0))) };
-        let mut d = pi - pj;
+        let (li, lj) = unsafe { (F32x4::load(ki.quad(3)), F32x4::load(kj.quad(3))) };
+        let mut d = (pi - pj) + (li - lj);
         if PERIODIC {
             // As `Image::delta`: d − (up − down), up = l where d > l/2, down = l where
             // d < −l/2 (z and the fourth place: never, d − 0 is d).
@@ -115,10 +121,11 @@ impl Separation<f32> {
 #[cfg(target_arch = "x86_64")]
 impl Kin<f32> {
     /// The record's `k`-th 4-vector (0: position and r, 1: velocity and m, 2: angular
-    /// velocity and the pad), 16-byte aligned (`F32x4::load`, `F32x4::store`).
+    /// velocity and the pad, 3: the position's rest and a zero), 16-byte aligned
+    /// (`F32x4::load`, `F32x4::store`).
     #[inline(always)]
     pub(super) fn quad(&self, k: usize) -> *const f32 {
-        debug_assert!(k < 3);
+        debug_assert!(k < 4);
         (self as *const Self).cast::<f32>().wrapping_add(4 * k)
     }
 }
@@ -134,7 +141,9 @@ pub(super) fn gather_from<R: Real>(
     kin.extend((0..s.len()).map(|i| {
         let mut k = Kin {
             pos: s.pos[i],
+            lo: s.pos_lo.get(i).copied().unwrap_or_default(),
             _pad: R::zero(),
+            _pad_lo: R::zero(),
             vel: s.vel[i],
             omega: if s.rotation { s.omega[i] } else { V3::zero() },
             r: s.radius[i],
@@ -157,6 +166,10 @@ pub(super) fn scatter_to<R: Real>(kin: &[Kin<R>], s: &mut State<R>) {
     for (k, (p, v)) in kin.iter().zip(s.pos.iter_mut().zip(s.vel.iter_mut())) {
         *p = k.pos;
         *v = k.vel;
+    }
+    if R::SPLIT_POSITIONS {
+        s.pos_lo.clear();
+        s.pos_lo.extend(kin.iter().map(|k| k.lo));
     }
     if s.rotation {
         for (k, w) in kin.iter().zip(s.omega.iter_mut()) {

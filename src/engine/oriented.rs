@@ -109,7 +109,7 @@ impl<R: Real> OrientedContext<'_, R> {
             let (a, b) = if s.id[i] < s.id[j] { (i, j) } else { (j, i) };
             let (sa, sb) = (self.shape(a), self.shape(b));
             let Some(pc) = contact_spherocylinders(
-                self.periodic.delta(s.pos[b], s.pos[a]),
+                s.separation(self.periodic, b, a),
                 s.orientation[a].axis_z(),
                 &sa,
                 s.orientation[b].axis_z(),
@@ -167,7 +167,7 @@ impl<R: Real> OrientedContext<'_, R> {
             // Canonical order: a has the lower id.
             let i_is_a = s.id[i] < s.id[j];
             let (a, b) = if i_is_a { (i, j) } else { (j, i) };
-            let d = self.periodic.delta(s.pos[b], s.pos[a]); // c_a − c_b
+            let d = s.separation(self.periodic, b, a); // c_a − c_b
             let (sa, sb) = (self.shape(a), self.shape(b));
             let Some(pc) = contact_spherocylinders(
                 d,

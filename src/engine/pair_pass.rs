@@ -448,7 +448,7 @@ impl<R: Real> SumContext<'_, R> {
         .chain(far);
         for w in walls {
             let (wall, ws) = (&self.walls[w as usize], &mut wall_springs[w as usize]);
-            let Some(wc) = wall.touch(pk, rk) else {
+            let Some(wc) = wall.touch_split(pk, k.lo, rk) else {
                 *ws = V3::zero();
                 continue;
             };

@@ -27,6 +27,9 @@ pub trait Real:
     const NAME: &'static str;
     /// The spacing of the type's numbers just above one.
     const EPSILON: f64;
+    /// Whether positions are kept as two numbers, `pos + pos_lo` (`position.rs`): f32 is too
+    /// coarse at a scene's coordinates to add a slow particle's step to.
+    const SPLIT_POSITIONS: bool;
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sqrt(self) -> Self;
@@ -58,6 +61,7 @@ pub trait Real:
 impl Real for f32 {
     const NAME: &'static str = "f32";
     const EPSILON: f64 = f32::EPSILON as f64;
+    const SPLIT_POSITIONS: bool = true;
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x as f32
@@ -87,6 +91,7 @@ impl Real for f32 {
 impl Real for f64 {
     const NAME: &'static str = "f64";
     const EPSILON: f64 = f64::EPSILON;
+    const SPLIT_POSITIONS: bool = false;
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x

@@ -3,7 +3,9 @@
 //! (velocity Verlet's first half-kick needs them) and the contact-history table. Scratch buffers
 //! (neighbour lists, cell grid) live in the backend, not here.
 
+use super::grid::Periodic;
 use super::history::History;
+use super::position::{separation, split_v3, to_f64_v3};
 use super::real::{Real, V3};
 use super::shape::{angular_momentum, angular_velocity, Quat, Spherocylinder};
 
@@ -13,7 +15,11 @@ use super::shape::{angular_momentum, angular_velocity, Quat, Spherocylinder};
 pub struct State<R: Real> {
     /// Stable particle identity (survives sorting and removal); contact history is keyed by it.
     pub id: Vec<u32>,
+    /// Positions, or with `Real::SPLIT_POSITIONS` their nearest `R` (`position.rs`).
     pub pos: Vec<V3<R>>,
+    /// With `Real::SPLIT_POSITIONS`, the rest of each position (|lo| ≤ half the spacing of `R`
+    /// at `pos`); otherwise empty. A state without it (from the GPU) has zero rests.
+    pub pos_lo: Vec<V3<R>>,
     pub vel: Vec<V3<R>>,
     /// Force of the last evaluation (N), used by the first half-kick of velocity Verlet.
     pub force: Vec<V3<R>>,
@@ -61,6 +67,7 @@ impl<R: Real> State<R> {
             half_length: Vec::new(),
             id: Vec::new(),
             pos: Vec::new(),
+            pos_lo: Vec::new(),
             vel: Vec::new(),
             force: Vec::new(),
             radius: Vec::new(),
@@ -91,6 +98,46 @@ impl<R: Real> State<R> {
         self.pos.is_empty()
     }
 
+    /// Appends a position, split where `R` splits positions.
+    fn push_position(&mut self, x: [f64; 3]) {
+        let (hi, lo) = split_v3(x);
+        self.pos.push(hi);
+        if R::SPLIT_POSITIONS {
+            self.pos_lo.resize(self.pos.len() - 1, V3::zero());
+            self.pos_lo.push(lo);
+        }
+    }
+
+    /// Position i in f64 (hi + lo for a split position).
+    pub fn position_f64(&self, i: usize) -> [f64; 3] {
+        match self.pos_lo.get(i) {
+            Some(&lo) if R::SPLIT_POSITIONS => to_f64_v3(self.pos[i], lo),
+            _ => self.pos[i].to_f64(),
+        }
+    }
+
+    /// The separation from particle a to particle b, c_b − c_a (minimum image), as precise as
+    /// its own size allows where positions are split.
+    #[inline(always)]
+    pub fn separation(&self, periodic: &Periodic<R>, a: usize, b: usize) -> V3<R> {
+        let lo = |k: usize| self.pos_lo.get(k).copied().unwrap_or_default();
+        periodic
+            .image()
+            .fold(separation(self.pos[a], lo(a), self.pos[b], lo(b)))
+    }
+
+    /// Each split position as `split` gives it back from f64 (what a download and an upload
+    /// make of it); nothing where positions are not split.
+    pub fn canonical_positions(&mut self) {
+        if !R::SPLIT_POSITIONS {
+            return;
+        }
+        self.pos_lo.resize(self.pos.len(), V3::zero());
+        for (hi, lo) in self.pos.iter_mut().zip(self.pos_lo.iter_mut()) {
+            (*hi, *lo) = split_v3(to_f64_v3(*hi, *lo));
+        }
+    }
+
     /// Adds a sphere of density `rho`. A `fixed` particle never moves (rough base).
     #[allow(clippy::too_many_arguments)]
     pub fn push_sphere(
@@ -108,7 +155,7 @@ impl<R: Real> State<R> {
         }
         let m = rho * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
         self.id.push(id);
-        self.pos.push(V3::from_f64(pos));
+        self.push_position(pos);
         self.vel.push(V3::from_f64(vel));
         self.force.push(V3::zero());
         self.radius.push(R::from_f64(radius));
@@ -142,7 +189,7 @@ impl<R: Real> State<R> {
         let m = shape.mass(rho);
         let inertia = shape.inertia(rho);
         self.id.push(id);
-        self.pos.push(V3::from_f64(pos));
+        self.push_position(pos);
         self.vel.push(V3::from_f64(vel));
         self.force.push(V3::zero());
         self.radius.push(R::from_f64(shape.radius));
@@ -203,6 +250,7 @@ impl<R: Real> State<R> {
         }
         take(&mut self.id, order);
         take(&mut self.pos, order);
+        take(&mut self.pos_lo, order);
         take(&mut self.vel, order);
         take(&mut self.force, order);
         take(&mut self.radius, order);
@@ -271,9 +319,17 @@ impl<R: Real> State<R> {
         fn cv<A: Real, B: Real>(v: &[V3<A>]) -> Vec<V3<B>> {
             v.iter().map(|x| V3::from_f64(x.to_f64())).collect()
         }
+        let (pos, pos_lo): (Vec<V3<S>>, Vec<V3<S>>) = (0..self.len())
+            .map(|i| split_v3(self.position_f64(i)))
+            .unzip();
         State {
             id: self.id.clone(),
-            pos: cv(&self.pos),
+            pos,
+            pos_lo: if S::SPLIT_POSITIONS {
+                pos_lo
+            } else {
+                Vec::new()
+            },
             vel: cv(&self.vel),
             force: cv(&self.force),
             radius: c(&self.radius),

@@ -103,7 +103,7 @@ impl<R: Real> CpuEngine<R> {
                         }
                         let rj = s.radius[j];
                         let sum = ri + rj;
-                        let dist2 = self.periodic.delta(s.pos[j], pi).norm2();
+                        let dist2 = s.separation(&self.periodic, j, i).norm2();
                         if dist2 >= sum * sum {
                             continue;
                         }
@@ -117,7 +117,11 @@ impl<R: Real> CpuEngine<R> {
                     }
                     if props[i].inv_m != R::zero() {
                         for (w, wall) in self.walls.iter().enumerate() {
-                            if let Some(wc) = wall.touch(pi, ri) {
+                            if let Some(wc) = wall.touch_split(
+                                pi,
+                                s.pos_lo.get(i).copied().unwrap_or_default(),
+                                ri,
+                            ) {
                                 let sp = self.wall_springs[i * nw + w];
                                 e += elastic_energy(&self.law_pw, wc.overlap, ri, sp).to_f64();
                             }

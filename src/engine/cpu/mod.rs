@@ -112,7 +112,10 @@ pub struct CpuEngine<R: Real> {
 
 impl<R: Real> CpuEngine<R> {
     /// A new engine; `threads` = 0 uses all cores.
-    pub fn new(config: EngineConfig, state: State<R>, threads: usize) -> Self {
+    pub fn new(config: EngineConfig, mut state: State<R>, threads: usize) -> Self {
+        // Every run keeps a rest per position (zero where positions are not split), so that the
+        // integration loops zip the same arrays in every precision.
+        state.pos_lo.resize(state.len(), V3::zero());
         let pool: std::sync::Arc<rayon::ThreadPool> = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -237,6 +240,9 @@ impl<R: Real> Backend for CpuEngine<R> {
             pool.install(|| self.advance_rods(steps, &mut report, &mut budget, check_energy))?;
         }
         self.check_finite()?;
+        // What a checkpoint would write and read back, so that a resumed run goes on with the
+        // same bits (`position.rs`).
+        self.state.canonical_positions();
         // Dead particles leave the state before anyone sees it (observers, checkpoints).
         let n_before = self.state.len();
         self.compact();
@@ -263,6 +269,7 @@ impl<R: Real> Backend for CpuEngine<R> {
 
     fn upload(&mut self, state: &State<f64>) {
         self.state = state.convert();
+        self.state.pos_lo.resize(self.state.len(), V3::zero());
         self.alive = vec![Status::Alive; self.state.len()];
         self.list = NeighbourList::default();
         self.half = HalfList::default();

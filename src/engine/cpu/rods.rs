@@ -162,6 +162,7 @@ impl<R: Real> CpuEngine<R> {
                 (
                     s.vel.par_iter_mut(),
                     s.pos.par_iter_mut(),
+                    s.pos_lo.par_iter_mut(),
                     s.force.par_iter(),
                     s.inv_mass.par_iter(),
                     alive.par_iter_mut(),
@@ -178,12 +179,12 @@ impl<R: Real> CpuEngine<R> {
                 .into_par_iter()
                 .enumerate()
                 .with_min_len(MIN_LEN)
-                .map(|(i, ((v, x, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
+                .map(|(i, ((v, x, lo, &f, &im, a), (q, l, w, &t, &ii, &h)))| {
                     if im == R::zero() || *a != Status::Alive {
                         return (false, false);
                     }
                     verlet::kick(v, f, im, g, kick);
-                    verlet::drift(x, *v, dt, &periodic);
+                    verlet::drift(x, lo, *v, dt, &periodic);
                     let turned = oriented::kick_rotate(
                         q,
                         l,

@@ -160,18 +160,19 @@ impl<R: Real> CpuEngine<R> {
             (
                 s.vel.par_iter_mut(),
                 s.pos.par_iter_mut(),
+                s.pos_lo.par_iter_mut(),
                 s.force.par_iter(),
                 s.inv_mass.par_iter(),
                 alive.par_iter_mut(),
             )
                 .into_par_iter()
                 .with_min_len(MIN_LEN)
-                .map(|(v, x, &f, &im, a)| {
+                .map(|(v, x, lo, &f, &im, a)| {
                     if im == R::zero() || *a != Status::Alive {
                         return false;
                     }
                     verlet::kick(v, f, im, g, kick);
-                    verlet::drift(x, *v, dt, &periodic);
+                    verlet::drift(x, lo, *v, dt, &periodic);
                     let died = matches!(sink, Some(zs) if x.z < zs);
                     if died {
                         *a = Status::Dying;

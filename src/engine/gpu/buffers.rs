@@ -16,6 +16,7 @@ use super::grid::GridSpec;
 use super::layout::{binding, Info, Load, Params, RodGpu, Slot, WallGpu, MAX_WALLS, STATUS_WORDS};
 use crate::engine::backend::EngineError;
 use crate::engine::history::History;
+use crate::engine::position::split_v3;
 use crate::engine::real::V3;
 use crate::engine::shape::Quat;
 use crate::engine::state::State;
@@ -24,6 +25,8 @@ use crate::engine::state::State;
 #[derive(Clone, Debug, Default)]
 pub struct Packed {
     pub pos_r: Vec<[f32; 4]>,
+    /// The rest of each position below f32's spacing at it (`position.rs`), fourth place zero.
+    pub pos_lo: Vec<[f32; 4]>,
     pub vel_im: Vec<[f32; 4]>,
     pub omega: Vec<[f32; 4]>,
     pub info: Vec<Info>,
@@ -79,7 +82,18 @@ pub fn pack(s: &State<f64>) -> Packed {
     let n = s.len();
     let zero = V3::zero();
     Packed {
-        pos_r: (0..n).map(|i| f4(&s.pos[i], s.radius[i])).collect(),
+        pos_r: (0..n)
+            .map(|i| {
+                let (hi, _) = split_v3::<f32>(s.pos[i].to_f64());
+                [hi.x, hi.y, hi.z, s.radius[i] as f32]
+            })
+            .collect(),
+        pos_lo: (0..n)
+            .map(|i| {
+                let (_, lo) = split_v3::<f32>(s.pos[i].to_f64());
+                [lo.x, lo.y, lo.z, 0.0]
+            })
+            .collect(),
         vel_im: (0..n).map(|i| f4(&s.vel[i], s.inv_mass[i])).collect(),
         omega: (0..n)
             .map(|i| f4(s.omega.get(i).unwrap_or(&zero), 0.0))
@@ -135,7 +149,8 @@ pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) ->
             continue;
         }
         s.id.push(info.id);
-        s.pos.push(v(&p.pos_r[i]));
+        let (hi, lo) = (v(&p.pos_r[i]), p.pos_lo.get(i).map_or(V3::zero(), v));
+        s.pos.push(hi + lo);
         s.radius.push(p.pos_r[i][3] as f64);
         s.vel.push(v(&p.vel_im[i]));
         s.inv_mass.push(p.vel_im[i][3] as f64);
@@ -214,7 +229,8 @@ impl GpuBuffers {
         let n = p.pos_r.len();
         let slots = params.slots as usize;
         let oriented = p.oriented();
-        // Oriented runs: a second block of n records in pos_r and ref_pos (module doc).
+        // Oriented runs: a second block of n records in pos_r and ref_pos (module doc); every
+        // run: a last block of n position rests in pos_r.
         let blocks: u64 = if oriented { 2 } else { 1 };
         let max = dev.limits.max_storage_buffer_binding_size;
         let check = |what: &str, bytes: u64| -> Result<(), EngineError> {
@@ -232,7 +248,7 @@ impl GpuBuffers {
         check("history", (n * slots * 16) as u64)?;
         check("neighbour list", nbr_words * 4)?;
         check("load", n as u64 * 32)?;
-        check("position", blocks * n as u64 * 16)?;
+        check("position", (blocks + 1) * n as u64 * 16)?;
         check("rod", p.rod.len() as u64 * 48)?;
         let d = &dev.device;
         let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
@@ -265,6 +281,8 @@ impl GpuBuffers {
             pos_r: {
                 let mut data = p.pos_r.clone();
                 data.extend(p.shapes());
+                data.extend(&p.pos_lo);
+                data.resize(((blocks + 1) as usize) * n, [0.0; 4]);
                 init("pos_r", bytemuck::cast_slice(&data), STORAGE)
             },
             vel_im: init("vel_im", bytemuck::cast_slice(&p.vel_im), STORAGE),
@@ -321,6 +339,15 @@ impl GpuBuffers {
         }
     }
 
+    /// The block of pos_r that holds the position rests (after the shapes of oriented runs).
+    fn rest_block(&self) -> u64 {
+        if self.oriented {
+            2
+        } else {
+            1
+        }
+    }
+
     /// Reads the particle buffers back.
     ///
     /// # Errors
@@ -330,7 +357,7 @@ impl GpuBuffers {
         let parts = read(
             dev,
             &[
-                (&self.pos_r, n * 16),
+                (&self.pos_r, self.rest_block() * n * 16 + n * 16),
                 (&self.vel_im, n * 16),
                 (&self.omega, n * 16),
                 (&self.info, n * 16),
@@ -340,7 +367,10 @@ impl GpuBuffers {
             ],
         )?;
         Ok(Packed {
-            pos_r: bytemuck::pod_collect_to_vec(&parts[0]),
+            pos_r: bytemuck::pod_collect_to_vec(&parts[0][..self.n * 16]),
+            pos_lo: bytemuck::pod_collect_to_vec(
+                &parts[0][self.rest_block() as usize * self.n * 16..],
+            ),
             vel_im: bytemuck::pod_collect_to_vec(&parts[1]),
             omega: bytemuck::pod_collect_to_vec(&parts[2]),
             info: bytemuck::pod_collect_to_vec(&parts[3]),

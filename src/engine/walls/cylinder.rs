@@ -5,14 +5,20 @@ use super::WallKernel;
 use crate::engine::real::{Real, V3};
 
 /// A sphere's (centre `p`, radius `rad`) contact with the cylinder: (normal, distance, point).
+/// `rel` is the centre's offset from `k.a` (`position::relative`), `p` the centre itself (for
+/// the contact point, which only sets the wall's surface velocity).
 #[inline(always)]
-pub(super) fn touch<R: Real>(k: &WallKernel<R>, p: V3<R>, rad: R) -> Option<(V3<R>, R, V3<R>)> {
+pub(super) fn touch<R: Real>(
+    k: &WallKernel<R>,
+    rel: V3<R>,
+    p: V3<R>,
+    rad: R,
+) -> Option<(V3<R>, R, V3<R>)> {
     Some({
         if p.z < k.z0 || p.z > k.z1 {
             return None;
         }
-        let dx = p.x - k.a.x;
-        let dy = p.y - k.a.y;
+        let (dx, dy) = (rel.x, rel.y);
         let rr2 = dx * dx + dy * dy;
         // Well inside: no contact, without the square root (every particle, every step).
         // The margin keeps the decision at the surface to the exact test below.

@@ -10,6 +10,7 @@ mod plane;
 use serde::{Deserialize, Serialize};
 
 use super::contact::ContactInput;
+use super::position;
 use super::real::{Real, V3};
 use super::shape::{contact_plane, PlaneContact, Spherocylinder};
 
@@ -84,6 +85,8 @@ impl<R: Real> WallContact<R> {
 #[derive(Clone, Copy, Debug)]
 pub struct WallKernel<R: Real> {
     kind: u8,
+    /// The anchor that centre offsets are taken from: a point of a plane, the cylinder's axis
+    /// at z = 0, the orifice's centre.
     a: V3<R>,
     b: V3<R>,
     r: R,
@@ -175,10 +178,18 @@ impl<R: Real> WallKernel<R> {
     /// The contact of a sphere (centre `p`, radius `rad`) with this wall, if they overlap.
     #[inline]
     pub fn touch(&self, p: V3<R>, rad: R) -> Option<WallContact<R>> {
+        self.touch_split(p, V3::zero(), rad)
+    }
+
+    /// `touch` for a split position (`p` + `lo`: `position.rs`): the centre's offset from the
+    /// wall's anchor is formed as precisely as a separation of two particles.
+    #[inline]
+    pub(crate) fn touch_split(&self, p: V3<R>, lo: V3<R>, rad: R) -> Option<WallContact<R>> {
+        let rel = position::relative(p, lo, self.a);
         let (normal, dist, point) = match self.kind {
-            0 => plane::touch(self, p, rad)?,
-            1 => cylinder::touch(self, p, rad)?,
-            _ => orifice_plate::touch(self, p, rad)?,
+            0 => plane::touch(self, rel, p, rad)?,
+            1 => cylinder::touch(self, rel, p, rad)?,
+            _ => orifice_plate::touch(self, rel, p, rad)?,
         };
         let wall_velocity = if self.omega != R::zero() {
             // v = Ω ẑ × (q − c)

@@ -123,7 +123,39 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 
 // Minimum-image separation b − a (Periodic::delta).
 fn min_image(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    var d = b - a;
+    return fold(b - a);
+}
+
+// The separation b − a of two split positions (hi, lo), folded to the minimum image
+// (position::separation).
+fn separation(a: vec3<f32>, a_lo: vec3<f32>, b: vec3<f32>, b_lo: vec3<f32>) -> vec3<f32> {
+    return fold((b - a) + (b_lo - a_lo));
+}
+
+// a + b = s + e exactly (position::two_sum); returned as (s, e) in one struct.
+struct TwoSum {
+    s: vec3<f32>,
+    e: vec3<f32>,
+}
+
+fn two_sum(a: vec3<f32>, b: vec3<f32>) -> TwoSum {
+    var r: TwoSum;
+    r.s = opaque(a + b);
+    let bb = opaque(r.s - a);
+    r.e = (a - (r.s - bb)) + (b - bb);
+    return r;
+}
+
+// x, hidden from the shader compiler's algebra: WGSL cannot mark arithmetic exact, and a
+// compiler free to use x − (x − a) = a would fold TwoSum's error term to zero. The condition
+// is false whenever a kernel runs (it has particles), but the compiler cannot know it.
+fn opaque(x: vec3<f32>) -> vec3<f32> {
+    return select(x, vec3<f32>(0.0), params.n == 0u);
+}
+
+// The minimum image of a separation d.
+fn fold(d0: vec3<f32>) -> vec3<f32> {
+    var d = d0;
     if (PERIODIC_X) {
         let l = params.box_len_x;
         d.x = d.x - l * floor(d.x / l + 0.5);
@@ -137,14 +169,19 @@ fn min_image(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 
 // A position wrapped into the periodic box (Periodic::wrap).
 fn wrap(p: vec3<f32>) -> vec3<f32> {
-    var q = p;
+    return p + wrap_shift(p);
+}
+
+// What the wrap adds to p: a whole number of box lengths along each periodic axis.
+fn wrap_shift(p: vec3<f32>) -> vec3<f32> {
+    var q = vec3<f32>(0.0);
     if (PERIODIC_X) {
         let l = params.box_len_x;
-        q.x = q.x - l * floor((q.x - params.box_lo_x) / l);
+        q.x = -l * floor((p.x - params.box_lo_x) / l);
     }
     if (PERIODIC_Y) {
         let l = params.box_len_y;
-        q.y = q.y - l * floor((q.y - params.box_lo_y) / l);
+        q.y = -l * floor((p.y - params.box_lo_y) / l);
     }
     return q;
 }
@@ -166,6 +203,12 @@ fn slot_at(i: u32, s: u32) -> u32 {
 // sphere kernel.
 fn shape_at(i: u32) -> u32 {
     return params.n + i;
+}
+
+// Every run keeps, after those blocks, a block of n records with the rest of each position
+// below f32's spacing at it (position.rs; the fourth place zero).
+fn lo_at(i: u32) -> u32 {
+    return select(1u, 2u, ORIENTED) * params.n + i;
 }
 
 // Real::max and Real::min of the CPU engine (real.rs): the comparison decides, so a NaN argument

@@ -119,6 +119,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
     let use_rows = HISTORY;
     let p4 = pos_r[i];
     let pi = p4.xyz;
+    let lo_i = pos_r[lo_at(i)].xyz;
     let ri = p4.w;
     let mi = me.mass;
     let v4 = vel_im[i];
@@ -139,7 +140,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
         let fixed_j = vj4.w == 0.0;
         if (fixed_i && fixed_j) { continue; }
         let pj4 = pos_r[j];
-        let d = min_image(pj4.xyz, pi); // from j to i
+        let d = separation(pj4.xyz, pos_r[lo_at(j)].xyz, pi, lo_i); // from j to i
         let rj = pj4.w;
         let dist2 = dot3(d, d);
         let sum = ri + rj;
@@ -178,7 +179,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
     }
     if (WALLS && !fixed_i) {
         for (var w = 0u; w < params.n_walls; w++) {
-            let wc = wall_touch(walls.w[w], pi, ri);
+            let wc = wall_touch_split(walls.w[w], pi, lo_i, ri);
             if (!wc.hit) { continue; }
             let n = wc.normal;
             let bi = -(n * (ri - wc.overlap * 0.5));

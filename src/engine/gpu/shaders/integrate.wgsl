@@ -29,9 +29,20 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     let im = vi.w;
     if (im == 0.0 || info[i].alive == 0u) { return; }
     let v = vi.xyz + (load[i].force.xyz * im + gravity()) * kick;
-    let x = wrap(pos_r[i].xyz + v * params.dt);
+    // The split drift (position::drift), then the wrap's shift added the same way.
+    let moved = two_sum(pos_r[i].xyz, v * params.dt + pos_r[lo_at(i)].xyz);
+    var x = moved.s;
+    var lo = moved.e;
+    let shift = wrap_shift(x);
+    if (any(shift != vec3<f32>(0.0))) {
+        let w = two_sum(x, shift);
+        let back = two_sum(w.s, w.e + lo);
+        x = back.s;
+        lo = back.e;
+    }
     vel_im[i] = vec4<f32>(v, im);
     pos_r[i] = vec4<f32>(x, pos_r[i].w);
+    pos_r[lo_at(i)] = vec4<f32>(lo, 0.0);
     if (SINK && x.z < params.sink_z) {
         info[i].alive = 0u;
         let e = atomicAdd(&status[ST_DEATHS], 1u);

@@ -285,7 +285,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         let pb = pos_r[b];
         let sa = pos_r[shape_at(a)];
         let sb = pos_r[shape_at(b)];
-        let d = min_image(pb.xyz, pa.xyz); // c_a − c_b
+        let d = separation(pb.xyz, pos_r[lo_at(b)].xyz, pa.xyz, pos_r[lo_at(a)].xyz); // c_a − c_b
         let pc = contact_pair(d, sa.xyz, sa.w, pa.w, sb.xyz, sb.w, pb.w);
         if (!pc.hit) { continue; }
         let va = vel_im[a];

@@ -13,21 +13,28 @@ struct WallContact {
 
 // The contact of a sphere (centre p, radius rad) with wall w, as WallKernel::touch.
 fn wall_touch(w: Wall, p: vec3<f32>, rad: f32) -> WallContact {
+    return wall_touch_split(w, p, vec3<f32>(0.0), rad);
+}
+
+// wall_touch for a split position p + lo (position.rs): the centre's offset from the wall's
+// anchor a is formed as (p − a) + lo, as WallKernel::touch_split.
+fn wall_touch_split(w: Wall, p: vec3<f32>, lo: vec3<f32>, rad: f32) -> WallContact {
     var out: WallContact;
+    let rel = (p - w.a.xyz) + lo;
     out.hit = false;
     var normal: vec3<f32>;
     var dist: f32;
     var point: vec3<f32>;
     if (w.kind == 0u) {
-        let d = dot3(p - w.a.xyz, w.b.xyz);
+        let d = dot3(rel, w.b.xyz);
         if (d >= rad) { return out; }
         normal = w.b.xyz;
         dist = d;
         point = p - w.b.xyz * d;
     } else if (w.kind == 1u) {
         if (p.z < w.z0 || p.z > w.z1) { return out; }
-        let dx = p.x - w.a.x;
-        let dy = p.y - w.a.y;
+        let dx = rel.x;
+        let dy = rel.y;
         let rr = sqrt(dx * dx + dy * dy);
         let d = w.r - rr;
         if (d >= rad || rr <= 0.0) { return out; }
@@ -35,10 +42,11 @@ fn wall_touch(w: Wall, p: vec3<f32>, rad: f32) -> WallContact {
         dist = d;
         point = vec3<f32>(w.a.x + dx / rr * w.r, w.a.y + dy / rr * w.r, p.z);
     } else {
-        let dz = p.z - w.z0;
+        // The anchor is the orifice's centre on the plate (a.z = z0).
+        let dz = rel.z;
         if (abs(dz) >= rad) { return out; }
-        let dx = p.x - w.a.x;
-        let dy = p.y - w.a.y;
+        let dx = rel.x;
+        let dy = rel.y;
         let rr = sqrt(dx * dx + dy * dy);
         if (rr >= w.r) {
             // Over the solid part: the plate's face, from whichever side.
@@ -49,7 +57,7 @@ fn wall_touch(w: Wall, p: vec3<f32>, rad: f32) -> WallContact {
             // Over the hole: the nearest solid point is on the rim.
             if (rr <= 0.0) { return out; }
             let q = vec3<f32>(w.a.x + dx / rr * w.r, w.a.y + dy / rr * w.r, w.z0);
-            let d = p - q;
+            let d = vec3<f32>(rel.x - dx / rr * w.r, rel.y - dy / rr * w.r, rel.z);
             let dd = sqrt(dot3(d, d));
             if (dd >= rad || dd <= 0.0) { return out; }
             normal = d * (1.0 / dd);
