@@ -67,9 +67,24 @@ impl JobSpec {
         let mut v = serde_json::to_value(self).expect("serializable");
         if let Value::Object(m) = &mut v {
             m.remove("observers");
+            // Where the scene sits is not physics: a moved scene starts from the same packing.
+            for scene in ["silo", "chute"] {
+                if let Some(Value::Object(p)) = m.get_mut(scene) {
+                    p.remove("origin_m");
+                }
+            }
         }
         let h = Sha256::digest(serde_json::to_string(&v).expect("serializable").as_bytes());
         u64::from_le_bytes(h[..8].try_into().expect("8 bytes"))
+    }
+
+    /// Where the job's scene sits in the lab frame (`origin_m` of its scene).
+    pub fn origin_m(&self) -> [f64; 3] {
+        match (&self.silo, &self.chute) {
+            (Some(p), _) => p.origin_m,
+            (_, Some(p)) => p.origin_m,
+            _ => [0.0; 3],
+        }
     }
 
     /// The silo parameters of a silo job.
@@ -130,10 +145,14 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         SceneKind::Silo => serde_json::to_value(SiloParams::default()),
         SceneKind::Chute => serde_json::to_value(ChuteParams::default()),
     };
-    let known: Map<String, Value> = match defaults {
+    let mut known: Map<String, Value> = match defaults {
         Ok(Value::Object(m)) => m,
         _ => Map::new(),
     };
+    // Left out of the parameters at its default (`scene::at_origin`), still a parameter.
+    known
+        .entry("origin_m")
+        .or_insert_with(|| Value::from(vec![0.0; 3]));
     // `precision` may also be swept (an accuracy study compares f64 with f32); it overrides
     // `run.precision` for its jobs. So may `backend` ("cpu" or "gpu"), and observer settings
     // named by their path ("observers.chute.cg_width_over_length").

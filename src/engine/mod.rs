@@ -25,6 +25,7 @@ mod simd;
 mod skin;
 pub mod state;
 mod team;
+pub mod translated;
 mod verlet;
 pub mod walls;
 pub mod watchdog;

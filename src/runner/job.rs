@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::backend::{self, BackendChoice};
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
+use crate::engine::translated::{self, Translated};
 use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::snapshots::SnapshotWriter;
 use crate::store::jobs::{self, JobRow, Lease};
@@ -217,13 +218,26 @@ pub fn run<S: Study>(
         }
     };
     let spec = study.spec();
-    let mut engine: Box<dyn Backend> = match backend::build(
-        backend::for_job(spec, ctx.backend),
-        spec.precision,
-        study.engine_config(),
-        &state,
-        ctx.threads,
-    ) {
+    let origin = spec.origin_m();
+    let built = if origin == [0.0; 3] {
+        backend::build(
+            backend::for_job(spec, ctx.backend),
+            spec.precision,
+            study.engine_config(),
+            &state,
+            ctx.threads,
+        )
+    } else {
+        backend::build(
+            backend::for_job(spec, ctx.backend),
+            spec.precision,
+            translated::config(&study.engine_config(), origin),
+            &translated::state(&state, origin),
+            ctx.threads,
+        )
+        .map(|e| Box::new(Translated::new(e, origin)) as Box<dyn Backend>)
+    };
+    let mut engine = match built {
         Ok(e) => e,
         Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
     };

@@ -100,6 +100,11 @@ pub struct ChuteParams {
     pub skin_ratio: f64,
     /// Replica index (seed).
     pub replica: u32,
+    /// Moves the whole scene by this vector in the lab frame (m; default the origin). Nothing
+    /// physical changes and the seed ignores it: a check that results do not depend on where
+    /// the scene sits (the engine's rounding). The shared fill stage runs at the origin.
+    #[serde(skip_serializing_if = "crate::scene::at_origin")]
+    pub origin_m: [f64; 3],
 }
 
 impl Default for ChuteParams {
@@ -131,6 +136,7 @@ impl Default for ChuteParams {
             measure_time_s: 50.0,
             skin_ratio: 0.2,
             replica: 0,
+            origin_m: [0.0; 3],
         }
     }
 }

@@ -10,3 +10,9 @@ mod silo_checks;
 
 pub use chute::{ChuteParams, ChuteScene};
 pub use silo::{SiloParams, SiloScene};
+
+/// Whether a scene's `origin_m` is the default (then it is left out of the job's parameters,
+/// so that jobs from before the parameter keep their hashes).
+pub fn at_origin(o: &[f64; 3]) -> bool {
+    *o == [0.0; 3]
+}

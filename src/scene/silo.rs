@@ -73,6 +73,11 @@ pub struct SiloParams {
     pub skin_ratio: f64,
     /// Replica index: different replicas get different seeds, hence different packings.
     pub replica: u32,
+    /// Moves the whole scene by this vector in the lab frame (m; default the origin). Nothing
+    /// physical changes and the seed ignores it: a check that results do not depend on where
+    /// the scene sits (the engine's rounding). The shared fill stage runs at the origin.
+    #[serde(skip_serializing_if = "crate::scene::at_origin")]
+    pub origin_m: [f64; 3],
 }
 
 impl Default for SiloParams {
@@ -104,6 +109,7 @@ impl Default for SiloParams {
             stop_remaining_fraction: 0.15,
             skin_ratio: 0.2,
             replica: 0,
+            origin_m: [0.0; 3],
         }
     }
 }
@@ -191,6 +197,7 @@ impl SiloParams {
             reinsert: false,
             discharge_time_s: 0.0,
             stop_remaining_fraction: 0.0,
+            origin_m: [0.0; 3],
             ..self.clone()
         }
     }
