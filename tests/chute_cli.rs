@@ -301,3 +301,45 @@ fn observer_only_differences_follow_the_same_trajectory() {
         lags(2)
     );
 }
+
+/// ξ = 1 is a sphere: the job runs on the sphere engine (no orientations, half lists), `plan`
+/// says so and times it with the sphere bench, and its chute tables fill as for rods, with
+/// d⊥ = d. ξ = 1.01 stays a spherocylinder.
+#[test]
+fn a_chute_of_spheres_runs_on_the_sphere_engine() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(campaign(d)).unwrap()).unwrap();
+    c["base"]["aspect_ratio"] = json!(1.0);
+    let file = d.join("spheres.json");
+    std::fs::write(&file, c.to_string()).unwrap();
+    let out = ok(&run(d, &["plan", file.to_str().unwrap()]));
+    assert!(out.contains("\"shape\":\"sphere\""), "{out}");
+    assert!(out.contains("--scene chute-bed"), "{out}");
+    let db = d.join("sweep.db");
+    let args = launch_args(&file, &db);
+    ok(&run(
+        d,
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+    ));
+    let conn = Connection::open(&db).unwrap();
+    let (d_perp, length): (f64, f64) = conn
+        .query_row("SELECT d_perp_m, 0.125 FROM chute_summary", [], |r| {
+            Ok((r.get(0)?, r.get(1)?))
+        })
+        .unwrap();
+    assert!(
+        (d_perp - length).abs() < 1e-12,
+        "d⊥ = {d_perp} for spheres of d = {length}"
+    );
+    let blocks: i64 = conn
+        .query_row("SELECT COUNT(*) FROM chute_blocks", [], |r| r.get(0))
+        .unwrap();
+    assert!(blocks > 0, "no D(z) blocks");
+
+    c["base"]["aspect_ratio"] = json!(1.01);
+    std::fs::write(&file, c.to_string()).unwrap();
+    let out = ok(&run(d, &["plan", file.to_str().unwrap()]));
+    assert!(out.contains("\"shape\":\"spherocylinder\""), "{out}");
+}

@@ -98,7 +98,7 @@ pub fn memory_estimate(job: &JobSpec) -> MemoryEstimate {
             let msd = job.observers.chute.as_ref().map_or(0.0, |c| {
                 flowing * msd_bytes_per_particle(c.max_lag_s, c.sample_interval_s)
             });
-            (flowing + base, true, msd)
+            (flowing + base, !p.spheres(), msd)
         }
     };
     let per = bytes_per_particle(real, oriented);

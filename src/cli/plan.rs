@@ -36,9 +36,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     };
     // The bench scene that resembles the campaign's: a settled Hertz bed for the silo (the
     // random bed of `--settle` where there is one, else the lattice start), flowing
-    // spherocylinders over a rough base for the chute.
+    // spherocylinders over a rough base for the chute (flowing spheres, chute-bed, when every
+    // job is ξ = 1: those run on the sphere engine).
     let (bench_scene, settled) = match file.scene {
         SceneKind::Silo => ("silo-bed", sweep::bench::settled_name("silo-bed")),
+        SceneKind::Chute if jobs.iter().all(|j| j.chute().spheres()) => ("chute-bed", None),
         SceneKind::Chute => ("chute-rods", None),
     };
     let conn = if a.db.db.exists() {
@@ -110,7 +112,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 j.label
             );
             if k == 0 {
-                let effects = Effects::of(&scene.engine_config(), true, true);
+                let effects = Effects::of(&scene.engine_config(), true, !j.chute().spheres());
                 println!("      effects: {}", serde_json::to_string(&effects)?);
             }
             continue;

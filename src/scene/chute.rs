@@ -334,6 +334,12 @@ impl ChuteParams {
             .expect("validated aspect ratio")
     }
 
+    /// Whether the particles are spheres (ξ = 1): they then run on the sphere engine (half
+    /// lists, no orientations), which simulates only what spheres need.
+    pub fn spheres(&self) -> bool {
+        self.shape().half_length == 0.0
+    }
+
     /// Particle mass m_p (kg).
     pub fn particle_mass(&self) -> f64 {
         self.shape().mass(self.particle_density_kg_per_m3)
@@ -474,8 +480,8 @@ impl ChuteScene {
         }
     }
 
-    /// The base spheres (fixed, ids from 0) and the poured gas of spherocylinders above them
-    /// (ids after the base), at rest. Flowing particles are those with inverse mass > 0.
+    /// The base spheres (fixed, ids from 0) and the poured gas of spherocylinders (spheres for
+    /// ξ = 1) above them (ids after the base), at rest. Flowing particles are those with inverse mass > 0.
     pub fn initial_state(&self, seed: u64) -> State<f64> {
         let p = &self.p;
         let (lx, ly) = p.box_size();
@@ -485,7 +491,12 @@ impl ChuteScene {
         } else {
             0
         };
-        let mut s = State::new_oriented(slots);
+        // Spheres (ξ = 1) need no orientations: the sphere engine, rotating under friction.
+        let mut s = if p.spheres() {
+            State::new(slots > 0, slots)
+        } else {
+            State::new_oriented(slots)
+        };
         let base = super::fill_rods::base_monolayer(lx, ly, rb, 0.0, p.base_coverage, seed);
         for (k, c) in base.iter().enumerate() {
             s.push_sphere(
@@ -509,6 +520,11 @@ impl ChuteScene {
         );
         let n0 = base.len() as u32;
         for (k, r) in rods.iter().enumerate() {
+            if p.spheres() {
+                let rho = p.particle_density_kg_per_m3;
+                s.push_sphere(n0 + k as u32, r.pos, [0.0; 3], shape.radius, rho, false);
+                continue;
+            }
             s.push_spherocylinder(
                 n0 + k as u32,
                 r.pos,
