@@ -75,6 +75,10 @@ pub struct ChuteParams {
     /// Normal restitution e_n (also used for the tangential damping, as the paper does).
     /// Not given in the paper; default 0.88.
     pub restitution: f64,
+    /// Tangential restitution e_t setting the tangential damping γ_t; null (default) uses e_n
+    /// as the paper does, 1 gives γ_t = 0 (LAMMPS `gran/hooke/history … dampflag 0`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tangential_restitution: Option<f64>,
     /// Particle–particle friction μ (and particle–base). Paper: 0.5.
     pub friction: f64,
     /// n_c = t_c / dt. Paper: 50.
@@ -124,6 +128,7 @@ impl Default for ChuteParams {
             stiffness_length: StiffnessLength::TotalLength,
             tangential_stiffness_ratio: 2.0 / 7.0,
             restitution: 0.88,
+            tangential_restitution: None,
             friction: 0.5,
             contact_steps: 50.0,
             base_radius_lengths: 0.5,
@@ -214,6 +219,14 @@ impl ChuteParams {
                 "restitution",
                 format!("expected 0 < e_n ≤ 1, got {}", self.restitution),
             );
+        }
+        if let Some(et) = self.tangential_restitution {
+            if !(et > 0.0 && et <= 1.0) {
+                err(
+                    "tangential_restitution",
+                    format!("expected 0 < e_t ≤ 1 (1: no tangential damping) or null, got {et}"),
+                );
+            }
         }
         if !(self.friction >= 0.0 && self.friction.is_finite()) {
             err("friction", format!("expected μ ≥ 0, got {}", self.friction));
@@ -387,7 +400,7 @@ impl ChuteParams {
                 kt_n_per_m: self.tangential_stiffness_ratio * kn,
             },
             restitution: self.restitution,
-            tangential_restitution: self.restitution,
+            tangential_restitution: self.tangential_restitution.unwrap_or(self.restitution),
             friction: self.friction,
         }
     }
@@ -554,6 +567,29 @@ mod tests {
         // 16 L × 16 L × 20 L at φ = 0.55 of ξ = 1.5 rods.
         let n = s.p.count();
         assert!(n > 9000 && n < 11000, "N = {n}");
+    }
+
+    /// e_t defaults to e_n (the paper); e_t = 1 switches the tangential damping off (LAMMPS
+    /// `dampflag 0`) and leaves the normal damping alone.
+    #[test]
+    fn tangential_damping_follows_its_restitution() {
+        let paper = ChuteParams::default().law().kernel::<f64>();
+        assert!(paper.damp_t > 0.0 && paper.damp_t == paper.damp_n);
+        let none = ChuteParams {
+            tangential_restitution: Some(1.0),
+            ..ChuteParams::default()
+        };
+        let k = none.law().kernel::<f64>();
+        assert_eq!(k.damp_t, 0.0);
+        assert_eq!(k.damp_n, paper.damp_n);
+        let bad = ChuteParams {
+            tangential_restitution: Some(1.5),
+            ..ChuteParams::default()
+        };
+        assert!(bad
+            .validate()
+            .iter()
+            .any(|e| e.field == "tangential_restitution"));
     }
 
     #[test]
