@@ -67,9 +67,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         }
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
-                if let Some(wc) =
-                    wall.touch_split(pi, s.pos_lo.get(i).copied().unwrap_or_default(), ri)
-                {
+                if let Some(wc) = wall.touch_split(pi, s.lo(i), ri) {
                     let spring = s.history.spring_of(i, wall_key(w));
                     e += elastic_energy(self.law_pw, wc.overlap, ri, spring).to_f64();
                 }
@@ -176,9 +174,7 @@ impl<'a, R: Real> ForceContext<'a, R> {
         }
         if !fixed_i {
             for (w, wall) in self.walls.iter().enumerate() {
-                if let Some(wc) =
-                    wall.touch_split(pi, s.pos_lo.get(i).copied().unwrap_or_default(), ri)
-                {
+                if let Some(wc) = wall.touch_split(pi, s.lo(i), ri) {
                     let (bi, c) = wc.sphere_input(ri, mi, vi, wi);
                     let key = wall_key(w);
                     let fc = match rows.as_deref_mut() {

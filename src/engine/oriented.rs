@@ -125,7 +125,7 @@ impl<R: Real> OrientedContext<'_, R> {
             let shape = self.shape(i);
             let axis = s.orientation[i].axis_z();
             for (w, wall) in self.walls.iter().enumerate() {
-                if let Some((pc, _)) = wall.touch_oriented(s.pos[i], axis, &shape) {
+                if let Some((pc, _)) = wall.touch_oriented(s.pos[i], s.lo(i), axis, &shape) {
                     let spring = s.history.spring_of(i, wall_key(w));
                     e += elastic_energy(self.law_pw, pc.overlap, shape.radius, spring).to_f64();
                 }
@@ -235,7 +235,9 @@ impl<R: Real> OrientedContext<'_, R> {
             let shape = self.shape(i);
             let axis = s.orientation[i].axis_z();
             for (w, wall) in self.walls.iter().enumerate() {
-                let Some((pc, wall_velocity)) = wall.touch_oriented(s.pos[i], axis, &shape) else {
+                let Some((pc, wall_velocity)) =
+                    wall.touch_oriented(s.pos[i], s.lo(i), axis, &shape)
+                else {
                     continue;
                 };
                 let v_rel = s.vel[i] + s.omega[i].cross(pc.arm) - wall_velocity;

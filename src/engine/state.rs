@@ -116,14 +116,19 @@ impl<R: Real> State<R> {
         }
     }
 
+    /// The rest of particle i's split position (zero where positions are not split).
+    #[inline(always)]
+    pub fn lo(&self, i: usize) -> V3<R> {
+        self.pos_lo.get(i).copied().unwrap_or_default()
+    }
+
     /// The separation from particle a to particle b, c_b − c_a (minimum image), as precise as
     /// its own size allows where positions are split.
     #[inline(always)]
     pub fn separation(&self, periodic: &Periodic<R>, a: usize, b: usize) -> V3<R> {
-        let lo = |k: usize| self.pos_lo.get(k).copied().unwrap_or_default();
         periodic
             .image()
-            .fold(separation(self.pos[a], lo(a), self.pos[b], lo(b)))
+            .fold(separation(self.pos[a], self.lo(a), self.pos[b], self.lo(b)))
     }
 
     /// Each split position as `split` gives it back from f64 (what a download and an upload

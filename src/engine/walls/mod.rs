@@ -210,19 +210,24 @@ impl<R: Real> WallKernel<R> {
     /// which gives a rod lying flat its contact under the centre). Cylinder and orifice plate
     /// take the deepest of the axis' two end spheres and its centre sphere: exact for a rod
     /// touching with one end, approximate for one lying along the surface (no scene of sweep puts
-    /// rods against those walls yet).
+    /// rods against those walls yet). `lo` is the rest of a split centre (`position.rs`).
     #[inline]
     pub fn touch_oriented(
         &self,
         c: V3<R>,
+        lo: V3<R>,
         axis: V3<R>,
         shape: &Spherocylinder<R>,
     ) -> Option<(PlaneContact<R>, V3<R>)> {
         if self.kind == 0 || shape.half_length == R::zero() {
-            let pc = if self.kind == 0 {
+            let pc = if self.kind == 0 && R::SPLIT_POSITIONS {
+                // The centre relative to the plane's point, as precise as a separation.
+                let rel = position::relative(c, lo, self.a);
+                contact_plane(rel, axis, shape, V3::zero(), self.b)?
+            } else if self.kind == 0 {
                 contact_plane(c, axis, shape, self.a, self.b)?
             } else {
-                let wc = self.touch(c, shape.radius)?;
+                let wc = self.touch_split(c, lo, shape.radius)?;
                 let arm = -(wc.normal * (shape.radius - wc.overlap * R::from_f64(0.5)));
                 return Some((
                     PlaneContact {
@@ -239,7 +244,7 @@ impl<R: Real> WallKernel<R> {
         let h = axis * shape.half_length;
         let mut best: Option<(PlaneContact<R>, V3<R>)> = None;
         for offset in [h, -h, V3::zero()] {
-            if let Some(wc) = self.touch(c + offset, shape.radius) {
+            if let Some(wc) = self.touch_split(c + offset, lo, shape.radius) {
                 if best.is_none_or(|(b, _)| wc.overlap > b.overlap) {
                     let arm = offset - wc.normal * (shape.radius - wc.overlap * R::from_f64(0.5));
                     best = Some((

@@ -219,9 +219,10 @@ fn contact_plane(c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32, point: vec3<f32>,
 
 // walls/mod.rs touch_oriented: planes exact; other walls take the deepest of the axis' two end
 // spheres and its centre sphere (the first of equals).
-fn touch_oriented(w: Wall, c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32) -> RodWallContact {
+// lo: the rest of the split centre (position.rs).
+fn touch_oriented(w: Wall, c: vec3<f32>, lo: vec3<f32>, u: vec3<f32>, hl: f32, r: f32) -> RodWallContact {
     if (w.kind == 0u) {
-        var pc = contact_plane(c, u, hl, r, w.a.xyz, w.b.xyz);
+        var pc = contact_plane((c - w.a.xyz) + lo, u, hl, r, vec3<f32>(0.0), w.b.xyz);
         if (pc.hit) {
             pc.wall_velocity = surface_velocity(w, c + pc.arm);
         }
@@ -230,7 +231,7 @@ fn touch_oriented(w: Wall, c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32) -> RodWa
     var best: RodWallContact;
     best.hit = false;
     if (hl == 0.0) {
-        let wc = wall_touch(w, c, r);
+        let wc = wall_touch_split(w, c, lo, r);
         if (wc.hit) {
             best.hit = true;
             best.normal = wc.normal;
@@ -248,7 +249,7 @@ fn touch_oriented(w: Wall, c: vec3<f32>, u: vec3<f32>, hl: f32, r: f32) -> RodWa
         } else if (k == 1u) {
             offset = -h;
         }
-        let wc = wall_touch(w, c + offset, r);
+        let wc = wall_touch_split(w, c + offset, lo, r);
         if (wc.hit && (!best.hit || wc.overlap > best.overlap)) {
             best.hit = true;
             best.normal = wc.normal;
@@ -329,7 +330,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         let ri = p4.w;
         let wi = omega[i].xyz;
         for (var w = 0u; w < params.n_walls; w++) {
-            let wc = touch_oriented(walls.w[w], p4.xyz, sh.xyz, sh.w, ri);
+            let wc = touch_oriented(walls.w[w], p4.xyz, pos_r[lo_at(i)].xyz, sh.xyz, sh.w, ri);
             if (!wc.hit) { continue; }
             let v_rel = v4.xyz + cross3(wi, wc.arm) - wc.wall_velocity;
             let key = WALL_KEY | w;
