@@ -434,7 +434,7 @@ pub(crate) fn accuracy(conn: &Connection, campaign: &CampaignRef, out_dir: &Path
     }
     let mut ov = Panel::new(Axis::log("wall time (s)"), Axis::log("largest overlap / d"));
     ov.title = Some("largest overlap vs cost".into());
-    ov.legend = Legend::UpperRight;
+    ov.legend = Legend::Outside;
     for (k, r) in runs.iter().enumerate() {
         if let Some(o) = r.max_overlap {
             let label = if k == r0 {

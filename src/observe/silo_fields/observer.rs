@@ -126,8 +126,10 @@ impl SiloFieldObserver {
         }
         if self.in_mean(t_s) {
             self.mean.add(&f, t_s);
-            let pk = self.cylinder_kinetic_pressure(&f);
-            self.orifice_kinetic_pressure.push((t_s, pk));
+            // No grid point in the cylinder: no value, rather than a 0 that reads as "at rest".
+            if let Some(pk) = self.cylinder_kinetic_pressure(&f) {
+                self.orifice_kinetic_pressure.push((t_s, pk));
+            }
             self.orifice_mass_flux.push((t_s, orifice_flux(&f)));
             if let Some(avg) = &mut self.mean_xyz {
                 let mut fx = GridFields::new(avg.grid);
@@ -146,9 +148,10 @@ impl SiloFieldObserver {
         }
     }
 
-    /// tr σᵏ averaged (by volume) over the grid points with r ≤ R and |z| ≤ R/2 (Pa); 0 when
-    /// none falls inside (an orifice narrower than the grid spacing).
-    fn cylinder_kinetic_pressure(&self, f: &GridFields) -> f64 {
+    /// tr σᵏ averaged (by volume) over the grid points with r ≤ R and |z| ≤ R/2 (Pa); None when
+    /// no grid point lies inside the orifice cylinder (an orifice narrower than the grid
+    /// spacing): there is nothing to average, and 0 would read as a bed at rest.
+    pub fn cylinder_kinetic_pressure(&self, f: &GridFields) -> Option<f64> {
         let g = &f.grid;
         let r = self.orifice_radius_m;
         let (mut sum, mut vol) = (0.0, 0.0);
@@ -161,11 +164,7 @@ impl SiloFieldObserver {
                 vol += v;
             }
         }
-        if vol > 0.0 {
-            sum / vol
-        } else {
-            0.0
-        }
+        (vol > 0.0).then(|| sum / vol)
     }
 }
 
@@ -183,4 +182,32 @@ fn orifice_flux(f: &GridFields) -> f64 {
             -f.momentum[3 * p + 2] * std::f64::consts::TAU * r * g.spacing_m[0]
         })
         .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn observer(orifice_m: f64, spacing_m: f64) -> SiloFieldObserver {
+        let silo = SiloParams {
+            orifice_diameter_m: orifice_m,
+            ..SiloParams::default()
+        };
+        let settings = SiloFieldSettings {
+            spacing_m: Some(spacing_m),
+            ..SiloFieldSettings::default()
+        };
+        SiloFieldObserver::new(&settings, &silo, 0.01)
+    }
+
+    #[test]
+    fn an_orifice_cylinder_without_grid_points_has_no_pressure_not_zero() {
+        // r points sit at (i + 1/2) h: with R = 5 mm < h/2 = 6 mm none is inside.
+        let coarse = observer(0.010, 0.012);
+        let empty = GridFields::new(coarse.mean.grid);
+        assert_eq!(coarse.cylinder_kinetic_pressure(&empty), None);
+        let fine = observer(0.010, 0.002);
+        let empty = GridFields::new(fine.mean.grid);
+        assert_eq!(fine.cylinder_kinetic_pressure(&empty), Some(0.0));
+    }
 }

@@ -71,7 +71,7 @@ fn profiles(
         "value_over_max",
     ]);
     let mut panel = Panel::new(x_axis(), y_axis());
-    panel.legend = Legend::UpperRight;
+    panel.legend = Legend::Outside;
     match xi {
         None => {
             text.push_str("no done job with a chute summary\n");

@@ -114,7 +114,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
     a.title = Some("(a) D/γ̇ vs d_⊥²".into());
     let mut b = Panel::new(Axis::linear("γ̇ d_⊥² (L²/s)"), Axis::linear("D (L²/s)"));
     b.title = Some("(b) D vs γ̇ d_⊥²".into());
-    b.legend = Legend::UpperLeft;
+    b.legend = Legend::Outside;
     let blocks_label = format!("blocks, {lo} H < z < {hi} H");
     a.series.push(Series::points(
         Some(blocks_label),

@@ -71,7 +71,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
     let mut panels = Vec::new();
     let mut skew = Panel::new(Axis::linear("z / L"), Axis::linear("skewness of v_z"));
     skew.title = Some("skewness vs height".into());
-    skew.legend = Legend::UpperRight;
+    skew.legend = Legend::Outside;
     for (k, job) in shown.iter().enumerate() {
         let l = job.total_length_m;
         let rows = blocks(conn, job.job_id)?;
@@ -79,7 +79,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         let picked = shown_indices(curves.len());
         let mut panel = Panel::new(Axis::linear("(v_z − ⟨v_z⟩) / σ"), Axis::log("PDF"));
         panel.title = Some(case_name(job));
-        panel.legend = Legend::LowerLeft;
+        panel.legend = Legend::Outside;
         let mut x_extent: f64 = 0.0;
         for (i, c) in curves.iter().enumerate() {
             let row = rows.iter().find(|r| r.block == c.block);
@@ -239,7 +239,7 @@ pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         let picked = shown_indices(curves.len());
         let mut lin = Panel::new(Axis::linear("r / L"), Axis::linear(y_label));
         lin.title = Some(case_name(job));
-        lin.legend = Legend::UpperRight;
+        lin.legend = Legend::Outside;
         let mut log = Panel::new(Axis::linear("r / L"), Axis::log(y_label));
         log.title = Some(format!(
             "{}, log y; lines: exp(−(r − r₀)/l)",

@@ -28,10 +28,27 @@ pub(super) struct FieldJob {
     pub(super) f_hz: f64,
     pub(super) particle_d_m: f64,
     pub(super) silo_radius_m: f64,
+    /// The job's flow rate; None when it clogged before one could be measured.
+    pub(super) q_kg_per_s: Option<f64>,
     pub(super) sets: Vec<FieldSet>,
 }
 
 impl FieldJob {
+    /// Whether some (r, z) grid point of the job's sets lies in the orifice cylinder r ≤ R,
+    /// |z| ≤ R/2 (R = D/2) over which fig11's ⟨p^k⟩ averages.
+    pub(super) fn grid_reaches_orifice_cylinder(&self) -> bool {
+        let r = 0.5 * self.d_m;
+        self.sets.iter().filter(|s| s.grid_kind == "rz").any(|s| {
+            let inside = |axis: usize, lo: f64, hi: f64| {
+                (0..s.shape[axis]).any(|i| {
+                    let c = s.coordinate(axis, i);
+                    c >= lo - 1e-12 && c <= hi + 1e-12
+                })
+            };
+            inside(0, 0.0, r) && inside(1, -0.5 * r, 0.5 * r)
+        })
+    }
+
     fn set(&self, name: &str) -> Option<&FieldSet> {
         self.sets.iter().find(|s| s.name == name)
     }
@@ -64,6 +81,7 @@ pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<Field
             f_hz: r.rotation_frequency_hz,
             particle_d_m: r.particle_diameter_m,
             silo_radius_m,
+            q_kg_per_s: r.q_kg_per_s,
             sets,
         });
     }
@@ -408,7 +426,7 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
         panels[2].series.push(Series::line(label, k, x, y2));
     }
     for p in &mut panels {
-        p.legend = Legend::UpperRight;
+        p.legend = Legend::Outside;
     }
     let fig = Figure {
         title: Some(format!(

@@ -11,8 +11,8 @@ use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{
-    combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value, CiSource,
-    DischargeRow, FlowPoint,
+    clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value,
+    CiSource, CloggedPoint, DischargeRow, FlowPoint,
 };
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
@@ -66,6 +66,7 @@ pub(crate) fn janda_rows(points: &[FlowPoint]) -> Vec<JandaRow> {
 pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let points = combine_replicas(&rows);
+    let clogged = clogged_points(&rows);
     let fits = janda_rows(&points);
 
     let mut q_panel = Panel::new(Axis::linear("D (mm)"), Axis::linear("Q (kg/s)"));
@@ -95,6 +96,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         "ci95_kg/s",
         "ci95_from",
         "replicas",
+        "clogged",
         "Q_fit_kg/s",
     ]);
     let mut csv = Table::new(&[
@@ -105,6 +107,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         "q_ci95_kg_per_s",
         "q_ci95_source",
         "replicas",
+        "clogged_runs",
         "janda_q_kg_per_s",
         "janda_c",
         "janda_alpha1",
@@ -176,6 +179,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 sci(p.ci, 2),
                 ci_source_name(p.ci_source).into(),
                 p.replicas.to_string(),
+                p.clogged_replicas.to_string(),
                 sci(q_fit, 4),
             ]);
             csv.push(vec![
@@ -186,6 +190,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 csv_num(p.ci),
                 ci_source_name(p.ci_source).into(),
                 p.replicas.to_string(),
+                p.clogged_replicas.to_string(),
                 csv_num(q_fit),
                 csv_num(fit.map(|f| f.c)),
                 csv_num(fit.map(|f| f.alpha1)),
@@ -194,6 +199,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
             ]);
         }
     }
+    mark_clogged(&mut q_panel, &clogged, &fits, &mut q_table, &mut csv);
     dmin_panel
         .series
         .push(Series::points(None, 0, dmin_f, dmin_mm));
@@ -220,6 +226,74 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         text,
         files: write_all(&fig, &csv, out_dir, "fig3")?,
     })
+}
+
+/// Crosses on the D axis for the (D, f) where every run clogged (in the colour of its f), a
+/// legend entry "clogged", and their rows in the tables (Q empty).
+fn mark_clogged(
+    panel: &mut Panel,
+    clogged: &[CloggedPoint],
+    fits: &[JandaRow],
+    q_table: &mut Table,
+    csv: &mut Table,
+) {
+    if clogged.is_empty() {
+        return;
+    }
+    let fs = distinct(
+        fits.iter()
+            .map(|r| r.f_hz)
+            .chain(clogged.iter().map(|c| c.f_hz)),
+    );
+    for (k, &f) in fs.iter().enumerate() {
+        // The colour of f's flow-rate series, so a cross says which f clogged.
+        let color = fits
+            .iter()
+            .position(|r| same_value(r.f_hz, f))
+            .unwrap_or(fits.len() + k);
+        let at: Vec<f64> = clogged
+            .iter()
+            .filter(|c| same_value(c.f_hz, f))
+            .map(|c| c.d_m * 1e3)
+            .collect();
+        if !at.is_empty() {
+            panel.series.push(Series::axis_marks(None, color, at, k));
+        }
+    }
+    panel.series.push(Series::axis_marks(
+        Some("clogged (no Q)".into()),
+        7,
+        Vec::new(),
+        0,
+    ));
+    for c in clogged {
+        q_table.push(vec![
+            short(c.f_hz),
+            mm(c.d_m),
+            fixed(Some(c.d_m / c.particle_d_m), 2),
+            "clogged".into(),
+            "-".into(),
+            "-".into(),
+            "0".into(),
+            c.runs.to_string(),
+            "-".into(),
+        ]);
+        csv.push(vec![
+            csv_num(Some(c.f_hz)),
+            csv_num(Some(c.d_m)),
+            csv_num(Some(c.particle_d_m)),
+            String::new(),
+            String::new(),
+            "clogged".into(),
+            "0".into(),
+            c.runs.to_string(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+        ]);
+    }
 }
 
 fn ci_source_name(source: CiSource) -> &'static str {

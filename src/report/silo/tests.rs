@@ -374,3 +374,58 @@ fn bad_figure_or_campaign_names_are_explained() {
         old.table
     );
 }
+
+/// A done job that clogged before Q could be measured: a summary with Q NULL.
+fn add_clogged_job(conn: &Connection, campaign: i64, d: f64, f: f64) {
+    let label = format!("orifice_diameter_m={d},rotation_frequency_hz={f},replica=0");
+    add_job(conn, campaign, &label, "done", d, f, None);
+    let job = conn.last_insert_rowid();
+    conn.execute(
+        "INSERT INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, \
+         particle_diameter_m, bulk_density_kg_per_m3, q_kg_per_s, q_ci95_kg_per_s, q_method, \
+         flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, \
+         permanently_clogged) VALUES (?1, ?2, ?3, ?4, ?5, NULL, NULL, 'synthetic', 0.1, 0.01, 3, 1, 2.9, 1)",
+        params![job, d, f, PARTICLE_D_M, BULK_DENSITY],
+    )
+    .expect("insert clogged summary");
+}
+
+#[test]
+fn clogged_runs_are_marked_not_dropped_and_never_values() {
+    let conn = synthetic_db(&[0.0, 0.5, 1.0]);
+    let id: i64 = conn
+        .query_row(
+            "SELECT id FROM campaigns WHERE name = 'rotating'",
+            [],
+            |r| r.get(0),
+        )
+        .expect("campaign");
+    // A small orifice that clogs at f = 0 (as the paper's D/d < 4.8).
+    add_clogged_job(&conn, id, 0.010, 0.0);
+    let dir = tempfile::tempdir().expect("tempdir");
+    for figure in ["fig3", "fig4", "fig5"] {
+        render_figure(&conn, figure, None, dir.path()).expect(figure);
+    }
+    let fig3 = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    let row = fig3
+        .lines()
+        .find(|l| l.starts_with("0,0.01,"))
+        .expect("a fig3 row for the clogged (D, f)");
+    assert!(row.contains(",clogged,") && row.contains(",,"), "{row}");
+    let svg = std::fs::read_to_string(dir.path().join("fig3.svg")).expect("svg");
+    assert!(
+        svg.contains("clogged (no Q)"),
+        "fig3 has no 'clogged' legend"
+    );
+    let svg = std::fs::read_to_string(dir.path().join("fig4.svg")).expect("svg");
+    assert!(
+        svg.contains("clogged (no Q)"),
+        "fig4 has no 'clogged' legend"
+    );
+    let fig4 = render_figure(&conn, "fig4", None, dir.path()).expect("fig4");
+    assert!(
+        fig4.table.contains("clogged: D = 10 mm") && fig4.table.contains("f = 0 Hz"),
+        "{}",
+        fig4.table
+    );
+}
