@@ -272,6 +272,7 @@ CREATE TABLE IF NOT EXISTS silo_field_series (
     t_s         REAL NOT NULL,     -- time since the orifice opened
     value       REAL NOT NULL,
     units       TEXT NOT NULL,
+    flowing     INTEGER,           -- 1 flowing, 0 inside a clog, NULL not recorded (schema < 6)
     PRIMARY KEY (job_id, name, t_s)
 );
 

@@ -76,8 +76,8 @@ fn launch_args<'a>(file: &'a str, db: &'a str) -> Vec<&'a str> {
 
 /// A field array as stored: (set name, field, bytes).
 type StoredArray = (String, String, Vec<u8>);
-/// A series row: (name, t, value).
-type StoredSeries = (String, f64, f64);
+/// A series row: (name, t, value, flowing).
+type StoredSeries = (String, f64, f64, Option<i64>);
 
 /// Every field array and series row of job 1, sorted.
 fn stored(db: &Path) -> (Vec<StoredArray>, Vec<StoredSeries>) {
@@ -95,11 +95,11 @@ fn stored(db: &Path) -> (Vec<StoredArray>, Vec<StoredSeries>) {
         .unwrap();
     let mut q = c
         .prepare(
-            "SELECT name, t_s, value FROM silo_field_series WHERE job_id = 1 ORDER BY name, t_s",
+            "SELECT name, t_s, value, flowing FROM silo_field_series WHERE job_id = 1 ORDER BY name, t_s",
         )
         .unwrap();
     let series = q
-        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))
         .unwrap()
         .collect::<Result<Vec<_>, _>>()
         .unwrap();
@@ -121,7 +121,7 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     let conn = sweep::store::open(&db).unwrap();
     let sets = list_field_sets(&conn, 1).unwrap();
     let names: Vec<&str> = sets.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["map_t0.200", "mean"]);
+    assert_eq!(names, ["map_t0.200", "mean", "mean_flowing"]);
     let mean = &sets[1];
     assert_eq!(mean.grid_kind, "rz");
     // Samples every 0.05 s from 0.1 s to 0.4 s: 7; the map's window 0.15..0.25 s: 3.
@@ -152,6 +152,13 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     assert_eq!(units, "Pa");
     assert_eq!(pk.len(), 7);
     assert!(pk.iter().all(|(_, v)| *v >= 0.0), "tr σᵏ ≥ 0: {pk:?}");
+    // The flowing mean holds exactly the samples flagged flowing in the series (same times).
+    let flags =
+        sweep::store::fields::load_flagged_series(&conn, 1, "orifice_kinetic_pressure").unwrap();
+    assert!(flags.iter().all(|s| s.flowing.is_some()), "{flags:?}");
+    let flowing = flags.iter().filter(|s| s.flowing == Some(true)).count();
+    assert!(flowing > 0, "a 20 mm orifice at 1 Hz flows: {flags:?}");
+    assert_eq!(sets[2].samples as usize, flowing, "{:?} {flags:?}", sets[2]);
 
     // `sweep fields --job 1` lists both sets and their fields with units.
     let o = cmd(
@@ -328,6 +335,7 @@ fn field_sets_round_trip_through_the_store() {
         "orifice_kinetic_pressure",
         "Pa",
         &[(0.5, 1.5), (0.55, 2.5)],
+        None,
     )
     .unwrap();
     let sets = list_field_sets(&src, job).unwrap();

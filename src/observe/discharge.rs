@@ -94,6 +94,27 @@ impl Discharge {
         t - self.exits.last().map_or(0.0, |e| e.0)
     }
 
+    /// Whether time `t` (since opening) lies in a flowing interval, as far as the exits known up
+    /// to `known_until` tell: Some(true) flowing, Some(false) inside a clog (a gap between exits
+    /// longer than `clog_after_s`, the rule of [`Discharge::summarize`]), None while the gap
+    /// around `t` is still open and shorter than that.
+    pub fn flowing_at(&self, t: f64, known_until: f64) -> Option<bool> {
+        let k = self.exits.partition_point(|e| e.0 <= t);
+        let prev = if k == 0 { 0.0 } else { self.exits[k - 1].0 };
+        let clog = self.settings.clog_after_s;
+        match self.exits.get(k) {
+            Some(next) => Some(next.0 - prev <= clog),
+            None if known_until - prev > clog => Some(false),
+            None => None,
+        }
+    }
+
+    /// [`Discharge::flowing_at`] once the run has ended at `t_end`: the last gap is a clog only
+    /// if it outlasted `clog_after_s`, as in [`Discharge::summarize`].
+    pub fn flowing_at_end(&self, t: f64, t_end: f64) -> bool {
+        self.flowing_at(t, t_end).unwrap_or(true)
+    }
+
     /// Whether the silo is permanently clogged at time t.
     pub fn permanently_clogged(&self, t: f64) -> bool {
         self.quiet_for(t) >= self.settings.permanent_clog_after_s
@@ -205,6 +226,38 @@ mod tests {
         assert!((q - 0.1).abs() < 0.003, "Q = {q}");
         assert!(!s.permanently_clogged);
         assert!((s.flowing_time_s - 10.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn samples_in_a_clog_are_not_flowing_and_open_gaps_wait() {
+        let mut d = Discharge::new(DischargeSettings::default());
+        for k in 1..=100 {
+            d.record_exit(f64::from(k) * 0.01, 1e-3);
+        }
+        // 1.0 s: last exit; a 1.5 s gap (a clog, > 0.5 s), then flow again.
+        assert_eq!(d.flowing_at(0.5, 1.2), Some(true));
+        assert_eq!(
+            d.flowing_at(1.2, 1.3),
+            None,
+            "gap still shorter than clog_after_s"
+        );
+        assert_eq!(d.flowing_at(1.2, 1.6), Some(false), "gap past clog_after_s");
+        d.record_exit(2.5, 1e-3);
+        assert_eq!(d.flowing_at(1.2, 2.5), Some(false));
+        assert_eq!(d.flowing_at(2.49, 2.5), Some(false));
+        d.record_exit(2.6, 1e-3);
+        assert_eq!(d.flowing_at(2.55, 2.6), Some(true));
+        assert!(d.flowing_at_end(2.7, 2.8), "a short last gap is flowing");
+        assert!(!d.flowing_at_end(2.7, 3.5), "a long last gap is a clog");
+        let s = d.summarize(3.5);
+        let in_clog = |t: f64| {
+            s.clogs
+                .iter()
+                .any(|c| t > c.start_s && t < c.start_s + c.duration_s)
+        };
+        for t in [0.5, 1.2, 2.0, 2.55, 2.7, 3.4] {
+            assert_eq!(d.flowing_at_end(t, 3.5), !in_clog(t), "t = {t}");
+        }
     }
 
     #[test]

@@ -321,6 +321,8 @@ impl Study for SiloStudy {
                 obs.sample(t_now, &s, contacts.as_deref());
                 p.fields_wall_s += t_f.elapsed().as_secs_f64();
             }
+            // The exits of this chunk may decide whether earlier samples were flowing.
+            obs.settle(|t| p.discharge.flowing_at(t, t_now));
         }
         if t_now >= self.spec.observers.discharge.skip_initial_s - 1e-12 {
             match engine.kinetic_energy() {
@@ -341,6 +343,11 @@ impl Study for SiloStudy {
     ) -> anyhow::Result<()> {
         let sp = &self.scene.p;
         let summary = p.discharge.summarize(t_end);
+        let mut p = p;
+        if let Some(obs) = p.fields.as_mut() {
+            // The run is over: the last gap is a clog only if it outlasted the clog time.
+            obs.settle(|t| Some(p.discharge.flowing_at_end(t, t_end)));
+        }
         if p.fields.is_some() {
             (ctx.log)(format!(
                 "job {}: field observer took {:.2} s of {:.2} s wall time",

@@ -9,6 +9,7 @@ use std::path::Path;
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
+use crate::observe::silo_fields::MEAN_FLOWING;
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn};
 use crate::report::field_map::{MapFigure, MapPanel, MapRow};
@@ -30,6 +31,8 @@ pub(super) struct FieldJob {
     pub(super) silo_radius_m: f64,
     /// The job's flow rate; None when it clogged before one could be measured.
     pub(super) q_kg_per_s: Option<f64>,
+    /// Time between field samples (s), from the job's parameters.
+    pub(super) sample_interval_s: Option<f64>,
     pub(super) sets: Vec<FieldSet>,
 }
 
@@ -51,6 +54,25 @@ impl FieldJob {
 
     fn set(&self, name: &str) -> Option<&FieldSet> {
         self.sets.iter().find(|s| s.name == name)
+    }
+
+    /// The time average fig9 and fig10 show: the flowing samples' mean, and a phrase saying
+    /// how much time it averages. A job of an older sweep has only the whole-run mean, which
+    /// includes clogged time: it is used and said so. None when the job has no flowing sample.
+    fn flowing_mean(&self) -> Option<(&FieldSet, String)> {
+        if let Some(set) = self.set(MEAN_FLOWING) {
+            let secs = self.sample_interval_s.map(|h| h * set.samples as f64);
+            let how = match secs {
+                Some(s) => format!("{s:.2} s flowing"),
+                None => format!("{} flowing samples", set.samples),
+            };
+            return Some((set, how));
+        }
+        // A job with Q has flowing samples, so without a flowing mean it was stored before
+        // sweep kept one: its whole-run mean is shown, and said to include clogged time.
+        self.q_kg_per_s?;
+        self.set("mean")
+            .map(|set| (set, "whole run incl. clogs (older sweep)".to_string()))
     }
 
     /// The map sets (`map_t…`), by time.
@@ -82,6 +104,7 @@ pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<Field
             particle_d_m: r.particle_diameter_m,
             silo_radius_m,
             q_kg_per_s: r.q_kg_per_s,
+            sample_interval_s: p["observers"]["fields"]["sample_interval_s"].as_f64(),
             sets,
         });
     }
@@ -379,8 +402,16 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
         "momentum_z_kg_per_m2_s",
         "velocity_z_m_per_s",
     ]);
+    let mut notes = Vec::new();
     for (k, j) in chosen.iter().enumerate() {
-        let Some(set) = j.set("mean") else { continue };
+        let Some((set, how)) = j.flowing_mean() else {
+            notes.push(format!(
+                "f = {} Hz: clogged, no flowing sample",
+                short(j.f_hz)
+            ));
+            continue;
+        };
+        notes.push(format!("f = {} Hz: {how}", short(j.f_hz)));
         let a = arrays(conn, set)?;
         let (phi, p, v) = (
             field(&a, "phi")?,
@@ -426,17 +457,20 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
         panels[2].series.push(Series::line(label, k, x, y2));
     }
     for p in &mut panels {
-        p.legend = Legend::Outside;
+        p.legend = Legend::Hidden;
     }
+    // One legend for the three panels, with what each f averages, beside the last one.
+    panels[2].legend = Legend::Outside;
+    panels[2].notes = notes;
     let fig = Figure {
         title: Some(format!(
-            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), whole-run mean",
+            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), mean over flowing samples",
             mm(d),
             d / chosen[0].particle_d_m
         )),
         panels: panels.to_vec(),
         columns: 3,
-        panel_size: (420, 360),
+        panel_size: (520, 440),
     };
     let files = write_all(&fig, &csv, out, "fig9")?;
     Ok(Drawn {
@@ -452,6 +486,7 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
     let ds = distinct(jobs.iter().map(|j| j.d_m));
     let fs = distinct(jobs.iter().map(|j| j.f_hz));
     let mut rows = Vec::new();
+    let mut clogged = Vec::new();
     let mut csv = Table::new(&[
         "job_id",
         "d_m",
@@ -464,11 +499,14 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
     for &d in &ds {
         let mut panels = Vec::new();
         for j in rows_of(&jobs, d, &fs) {
-            let Some(set) = j.set("mean") else { continue };
+            let Some((set, how)) = j.flowing_mean() else {
+                clogged.push(format!("D = {} mm, f = {} Hz", mm(d), short(j.f_hz)));
+                continue;
+            };
             let a = arrays(conn, set)?;
             let phi = &field(&a, "phi")?.data;
             let pk = field(&a, "kinetic_pressure")?.data.clone();
-            let mut p = panel(format!("f = {} Hz", short(j.f_hz)), set, pk, phi);
+            let mut p = panel(format!("f = {} Hz, {how}", short(j.f_hz)), set, pk, phi);
             p.boxes.push((0.5 * d, -0.25 * d, 0.25 * d));
             let (_, hi) = finite_range(std::slice::from_ref(&p));
             csv.push(vec![
@@ -497,7 +535,15 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
     let rc = jobs[0].silo_radius_m;
     let w = jobs[0].sets[0].kernel_width_m;
     let figure = MapFigure {
-        title: format!("fig10: kinetic pressure p^k = tr⟨σᵏ⟩_t (whole-run mean), w = {} mm; dashed: r ≤ R, |z| ≤ R/2", mm(w)),
+        title: format!(
+            "fig10: p^k = tr⟨σᵏ⟩_t over flowing samples, w = {} mm; dashed: r ≤ R, |z| ≤ R/2{}",
+            mm(w),
+            if clogged.is_empty() {
+                String::new()
+            } else {
+                format!("; clogged, not drawn: {}", clogged.join("; "))
+            }
+        ),
         rows,
         length_m: rc,
         length_name: "R_c".into(),

@@ -13,7 +13,7 @@ use crate::report::drawn::{write_all, Drawn};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, mm, short, Table};
-use crate::store::fields::load_field_series;
+use crate::store::fields::load_flagged_series;
 use crate::store::silo_reads::clog_intervals;
 
 use super::fields::{field_jobs, FieldJob};
@@ -31,7 +31,7 @@ enum JobPk {
 
 /// One job's ⟨p^k⟩ in the orifice cylinder over its flowing samples, with the 95 % CI of the
 /// mean from batch means (10 contiguous batches: samples 0.05 s apart are correlated).
-/// Samples inside a clog (the `clogs` table) are left out: the paper averages flowing states.
+/// Samples inside a clog (their stored flag) are left out: the paper averages flowing states.
 fn orifice_pk(conn: &Connection, job: &FieldJob) -> Result<JobPk> {
     if !job.grid_reaches_orifice_cylinder() {
         return Ok(JobPk::NoGridPoint);
@@ -39,18 +39,21 @@ fn orifice_pk(conn: &Connection, job: &FieldJob) -> Result<JobPk> {
     if job.q_kg_per_s.is_none() {
         return Ok(JobPk::Clogged);
     }
-    let Some((series, _)) = load_field_series(conn, job.job_id, ORIFICE_KINETIC_PRESSURE)? else {
+    let series = load_flagged_series(conn, job.job_id, ORIFICE_KINETIC_PRESSURE)?;
+    if series.is_empty() {
         return Ok(JobPk::Clogged);
-    };
+    }
+    // Each sample's stored flag; rows of an older sweep have none: the clogs table decides.
     let clogs = clog_intervals(conn, job.job_id)?;
+    let in_clog = |t: f64| {
+        clogs
+            .iter()
+            .any(|c| t >= c.start_s && t <= c.start_s + c.duration_s)
+    };
     let flowing: Vec<f64> = series
         .iter()
-        .filter(|(t, _)| {
-            !clogs
-                .iter()
-                .any(|c| *t >= c.start_s && *t <= c.start_s + c.duration_s)
-        })
-        .map(|(_, v)| *v)
+        .filter(|s| s.flowing.unwrap_or_else(|| !in_clog(s.t_s)))
+        .map(|s| s.value)
         .collect();
     if flowing.is_empty() {
         return Ok(JobPk::Clogged);
