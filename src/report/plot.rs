@@ -198,8 +198,9 @@ pub struct Series {
     pub x: Vec<f64>,
     /// Ordinates, same length as `x`.
     pub y: Vec<f64>,
-    /// Half-lengths of symmetric vertical error bars, same length as `x`; None for no bars.
-    pub y_err: Option<Vec<Option<f64>>>,
+    /// Lengths of vertical error bars below and above each point, same length as `x`; None for
+    /// no bars.
+    pub y_err: Option<Vec<Option<(f64, f64)>>>,
 }
 
 impl Series {
@@ -253,16 +254,28 @@ impl Series {
 
     /// Adds vertical error bars (half-widths; None for a point without one).
     pub fn with_errors(mut self, y_err: Vec<Option<f64>>) -> Self {
-        self.y_err = Some(y_err);
+        self.y_err = Some(y_err.into_iter().map(|e| e.map(|e| (e, e))).collect());
         self
     }
 
-    /// The drawable points: finite, and positive on log axes. (x, y, y_err)
+    /// Adds vertical error bars from intervals (lo, hi) around each y (None: no bar), e.g. a
+    /// bootstrap's percentiles, which need not be symmetric.
+    pub fn with_intervals(mut self, intervals: Vec<Option<(f64, f64)>>) -> Self {
+        let bars = intervals
+            .into_iter()
+            .zip(&self.y)
+            .map(|(iv, &y)| iv.map(|(lo, hi)| ((y - lo).max(0.0), (hi - y).max(0.0))))
+            .collect();
+        self.y_err = Some(bars);
+        self
+    }
+
+    /// The drawable points: finite, and positive on log axes. (x, y, bar below, bar above)
     fn visible(
         &self,
         x_scale: Scale,
         y_scale: Scale,
-    ) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+    ) -> impl Iterator<Item = (f64, f64, f64, f64)> + '_ {
         let n = if self.kind == SeriesKind::AxisMarks {
             0
         } else {
@@ -270,17 +283,18 @@ impl Series {
         };
         (0..n).filter_map(move |i| {
             let (x, y) = (self.x[i], self.y[i]);
-            let err = self
+            let (below, above) = self
                 .y_err
                 .as_ref()
                 .and_then(|e| e.get(i).copied().flatten())
-                .unwrap_or(0.0);
+                .unwrap_or((0.0, 0.0));
             let ok = x.is_finite()
                 && y.is_finite()
-                && err.is_finite()
+                && below.is_finite()
+                && above.is_finite()
                 && (x_scale == Scale::Linear || x > 0.0)
                 && (y_scale == Scale::Linear || y > 0.0);
-            ok.then_some((x, y, err.abs()))
+            ok.then_some((x, y, below.abs(), above.abs()))
         })
     }
 }
@@ -566,16 +580,18 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) 
         .filter(|x| x.is_finite() && (xs == Scale::Linear || *x > 0.0));
     let (x0, x1) = axis_range(
         &panel.x,
-        pts().map(|(x, _, _)| (x, x)).chain(marks.map(|x| (x, x))),
+        pts()
+            .map(|(x, _, _, _)| (x, x))
+            .chain(marks.map(|x| (x, x))),
     );
-    let y_ext = |(_, y, e): (f64, f64, f64)| {
+    let y_ext = |(_, y, below, above): (f64, f64, f64, f64)| {
         // On a log axis a bar reaching zero or below would stretch the axis without end.
-        let lo = if ys == Scale::Log && y - e <= 0.0 {
+        let lo = if ys == Scale::Log && y - below <= 0.0 {
             y
         } else {
-            y - e
+            y - below
         };
-        (lo, y + e)
+        (lo, y + above)
     };
     let (y0, y1) = axis_range(&panel.y, pts().map(y_ext));
     match (xs, ys) {
@@ -661,12 +677,12 @@ where
     let (xs, ys) = (panel.x.scale, panel.y.scale);
     for series in &panel.series {
         let color = PALETTE[series.color % PALETTE.len()];
-        let pts: Vec<(f64, f64, f64)> = series.visible(xs, ys).collect();
+        let pts: Vec<(f64, f64, f64, f64)> = series.visible(xs, ys).collect();
         match series.kind {
             SeriesKind::Line => {
                 chart
                     .draw_series(LineSeries::new(
-                        pts.iter().map(|&(x, y, _)| (x, y)),
+                        pts.iter().map(|&(x, y, _, _)| (x, y)),
                         color.stroke_width(3),
                     ))
                     .map_err(plot_err)?;
@@ -684,26 +700,31 @@ where
                 draw_markers!(chart, at, series.marker, color);
             }
             SeriesKind::Points => {
-                let bars = pts.iter().filter(|p| p.2 > 0.0).map(|&(x, y, e)| {
-                    let lo = if ys == Scale::Log && y - e <= 0.0 {
+                let has_bar = |p: &&(f64, f64, f64, f64)| p.2 > 0.0 || p.3 > 0.0;
+                let bars = pts.iter().filter(has_bar).map(|&(x, y, below, above)| {
+                    let lo = if ys == Scale::Log && y - below <= 0.0 {
                         y_bottom
                     } else {
-                        y - e
+                        y - below
                     };
-                    PathElement::new(vec![(x, lo), (x, y + e)], color.stroke_width(2))
+                    PathElement::new(vec![(x, lo), (x, y + above)], color.stroke_width(2))
                 });
                 chart.draw_series(bars).map_err(plot_err)?;
-                let caps = pts.iter().filter(|p| p.2 > 0.0).flat_map(|&(x, y, e)| {
-                    [y - e, y + e]
-                        .into_iter()
-                        .filter(|&v| ys == Scale::Linear || v > 0.0)
-                        .map(move |v| {
-                            EmptyElement::at((x, v))
-                                + PathElement::new(vec![(-5, 0), (5, 0)], color.stroke_width(2))
-                        })
-                });
+                let caps = pts
+                    .iter()
+                    .filter(has_bar)
+                    .flat_map(|&(x, y, below, above)| {
+                        [y - below, y + above]
+                            .into_iter()
+                            .filter(|&v| ys == Scale::Linear || v > 0.0)
+                            .map(move |v| {
+                                EmptyElement::at((x, v))
+                                    + PathElement::new(vec![(-5, 0), (5, 0)], color.stroke_width(2))
+                            })
+                    });
                 chart.draw_series(caps).map_err(plot_err)?;
-                let at: Vec<((f64, f64), i32)> = pts.iter().map(|&(x, y, _)| ((x, y), 0)).collect();
+                let at: Vec<((f64, f64), i32)> =
+                    pts.iter().map(|&(x, y, _, _)| ((x, y), 0)).collect();
                 draw_markers!(chart, at, series.marker, color);
             }
         }

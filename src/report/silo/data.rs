@@ -36,6 +36,8 @@ pub struct FlowPoint {
     pub ci_source: CiSource,
     /// Replicas of this point that have no Q (clogged): not in `q`, named in the tables.
     pub clogged_replicas: usize,
+    /// The Q of each replica with one, kg/s (what a bootstrap over replicas redraws).
+    pub replica_q: Vec<f64>,
 }
 
 /// A (D, f) at which no replica has a flow rate: every run clogged before Q could be measured.
@@ -126,6 +128,7 @@ pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
             replicas: qs.len(),
             ci_source,
             clogged_replicas: group.len() - qs.len(),
+            replica_q: qs,
         });
     }
     out

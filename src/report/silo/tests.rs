@@ -189,7 +189,7 @@ fn every_figure_draws_and_lists_unfinished_jobs() {
     let dir = tempfile::tempdir().expect("tempdir");
     let sizes = [
         ("fig2", (1000, 740)),
-        ("fig3", (1600, 640)),
+        ("fig3", (1800, 680)),
         ("fig4", (1000, 740)),
         ("fig5", (1400, 1080)),
     ];
@@ -428,4 +428,74 @@ fn clogged_runs_are_marked_not_dropped_and_never_values() {
         "{}",
         fig4.table
     );
+}
+
+#[test]
+fn fig3_refuses_a_fit_through_as_many_points_as_parameters() {
+    let conn = Connection::open_in_memory().expect("in-memory db");
+    conn.execute_batch(include_str!("../../../schema.sql"))
+        .expect("schema");
+    let id = add_campaign(&conn, "three", "silo", "2025-01-01T00:00:00.000Z");
+    for d in [0.015, 0.020, 0.026] {
+        let label = format!("orifice_diameter_m={d},rotation_frequency_hz=1,replica=0");
+        add_job(&conn, id, &label, "done", d, 1.0, Some((law(d, 1.0), 0.01)));
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = render_figure(&conn, "fig3", None, dir.path()).expect("fig3");
+    assert!(
+        report.table.contains("no fit (3 D for 3 parameters)"),
+        "{}",
+        report.table
+    );
+    let svg = std::fs::read_to_string(dir.path().join("fig3.svg")).expect("svg");
+    let text = svg_text(&svg);
+    assert!(
+        text.contains("3 D for 3 parameters, no fit drawn"),
+        "the figure itself says why there is no curve: {text}"
+    );
+    let csv = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    for line in csv.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        assert!(
+            cols[8..].iter().all(|c| c.is_empty()),
+            "no fit values: {line}"
+        );
+    }
+}
+
+#[test]
+fn fig3_gives_d_min_a_bootstrap_interval_around_the_law() {
+    let conn = synthetic_db(&[0.0, 1.0]);
+    let dir = tempfile::tempdir().expect("tempdir");
+    render_figure(&conn, "fig3", None, dir.path()).expect("fig3");
+    let csv = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let (f, lo, hi) = (
+        col("rotation_frequency_hz"),
+        col("janda_d_min_ci95_lo_m"),
+        col("janda_d_min_ci95_hi_m"),
+    );
+    let mut seen = 0;
+    for line in csv.lines().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let f: f64 = v[f].parse().expect("f");
+        let (lo, hi): (f64, f64) = (v[lo].parse().expect("lo"), v[hi].parse().expect("hi"));
+        let truth = alpha2_m(f) * alpha1(f).ln();
+        assert!(lo < hi && lo <= truth && truth <= hi, "{lo} {truth} {hi}");
+        seen += 1;
+    }
+    assert_eq!(seen, 2 * ORIFICES_M.len());
+}
+
+/// The text of an SVG's <text> elements joined by spaces (a wrapped note reads as one line).
+fn svg_text(svg: &str) -> String {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let body = &t[t.find('>')? + 1..];
+            Some(body[..body.find("</text>")?].trim().to_string())
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
