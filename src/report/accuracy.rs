@@ -18,13 +18,12 @@
 //! reference is the one observed as the paper does.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
-use super::drawn::{write_all, Drawn};
+use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
 use super::table::{sci, Table};
 use crate::campaign::{JobSpec, Precision, SceneKind};
@@ -270,7 +269,11 @@ fn profile_error(
 }
 
 /// `sweep report --figure accuracy`: the map for the campaign's scene.
-pub(crate) fn accuracy(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn accuracy(
+    conn: &Connection,
+    campaign: &CampaignRef,
+    out_dir: &Output,
+) -> Result<Drawn> {
     let runs = runs(conn, campaign)?;
     let Some(r0) = reference(&runs) else {
         bail!(

@@ -10,6 +10,9 @@ use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::drawn::Output;
+use super::raster::SupersampledPng;
+
 /// The font used for every text of a figure, bundled so PNGs need no system font.
 const FONT_BYTES: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -50,7 +53,7 @@ pub(super) fn write_svg_and_png(
     stem: &str,
     size: (u32, u32),
     draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
-    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+    draw_png: impl FnOnce(&DrawingArea<SupersampledPng, Shift>) -> Result<()>,
 ) -> Result<Vec<PathBuf>> {
     ensure_font()?;
     let svg = dir.join(format!("{stem}.svg"));
@@ -62,7 +65,7 @@ pub(super) fn write_svg_and_png(
     }
     let png = dir.join(format!("{stem}.png"));
     {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        let root = SupersampledPng::new(&png, size, FONT_BYTES).into_drawing_area();
         draw_png(&root).with_context(|| format!("drawing {}", png.display()))?;
         root.present()
             .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
@@ -365,8 +368,10 @@ impl Panel {
 }
 
 /// Font size of the legend and notes, and the width of one of their characters, in pixels.
-const SIDE_FONT_PX: u32 = 17;
-const SIDE_CHAR_PX: u32 = 9;
+/// plotters' font sizes are 1.24 em (the font's ascent to descent): every text of a figure is
+/// at least 18, an em of 14.5 px.
+const SIDE_FONT_PX: u32 = 18;
+const SIDE_CHAR_PX: u32 = 10;
 
 /// A grid of panels written as `<stem>.svg` and `<stem>.png`.
 #[derive(Debug, Clone)]
@@ -401,8 +406,15 @@ impl Figure {
     ///
     /// # Errors
     /// When the font cannot be loaded or a file cannot be written.
-    pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-        write_svg_and_png(dir, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
+    pub fn write(&self, out: &Output, stem: &str) -> Result<Vec<PathBuf>> {
+        if !out.titles && self.title.is_some() {
+            let untitled = Figure {
+                title: None,
+                ..self.clone()
+            };
+            return untitled.write(out, stem);
+        }
+        write_svg_and_png(out, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
@@ -651,8 +663,8 @@ where
     let mut builder = ChartBuilder::on(area);
     builder
         .margin(14)
-        .x_label_area_size(58)
-        .y_label_area_size(84);
+        .x_label_area_size(64)
+        .y_label_area_size(100);
     if let Some(t) = &panel.title {
         builder.caption(t, (FONT, 22));
     }
@@ -667,8 +679,8 @@ where
         .y_desc(panel.y.label.as_str())
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
-        .label_style((FONT, 16))
-        .axis_desc_style((FONT, 19))
+        .label_style((FONT, 18))
+        .axis_desc_style((FONT, 20))
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(205, 205, 205))
         .draw()

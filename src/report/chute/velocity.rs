@@ -5,7 +5,6 @@
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
@@ -15,7 +14,7 @@ use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow
 use crate::report::chute::{
     case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices, GREY,
 };
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
@@ -37,7 +36,7 @@ fn area(points: &[(f64, f64)]) -> f64 {
 
 /// Fig. 5: (a), (b) standardised v_z PDFs per block, log y, with the standard Gaussian;
 /// (c) the skewness of v_z vs z/L for both jobs.
-pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
@@ -198,7 +197,7 @@ fn gaussian(extent: f64) -> Series {
 /// the right with exp(−(r − r₀)/l), l = chute_blocks.correlation_length_m. C(0) is the value of
 /// the smallest-r bin, at r₀ (centre L/8), as the paper's Eq. (3) bins start at r = 0; the line
 /// goes through that bin so that its slope −1/l compares with the data's.
-pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;

@@ -4,14 +4,12 @@
 //! the orifice (fig9) and mean kinetic-pressure maps (fig10); ⟨p^k⟩ in the orifice cylinder vs f
 //! (fig11) is in `orifice_pressure`. Lengths are in units of the silo radius R_c, as in the paper.
 
-use std::path::Path;
-
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
 use crate::observe::silo_fields::MEAN_FLOWING;
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::field_map::{MapFigure, MapPanel, MapRow};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, done_discharge_rows, same_value};
@@ -233,7 +231,7 @@ enum MapQuantity {
 fn time_maps(
     conn: &Connection,
     c: &CampaignRef,
-    out: &Path,
+    out: &Output,
     fig: &str,
     q: MapQuantity,
 ) -> Result<Drawn> {
@@ -364,23 +362,23 @@ fn time_maps(
 }
 
 /// Fig. 6: φ maps at the map times, one row per f, largest D.
-pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig6", MapQuantity::Phi)
 }
 
 /// Fig. 7: |V| maps with streamlines of (V_r, V_z).
-pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig7", MapQuantity::Speed)
 }
 
 /// Fig. 8: V_θ maps.
-pub(crate) fn fig8(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig8(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig8", MapQuantity::Azimuthal)
 }
 
 /// Fig. 9: ⟨φ⟩, −⟨P_z⟩ and −⟨V_z⟩ on the row z = 0 of the whole-run mean vs r/R (R = D/2), one
 /// line per f, largest D.
-pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let (d, _) = showcase(&jobs);
     let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
@@ -481,7 +479,7 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
 
 /// Fig. 10: p^k = tr⟨σᵏ⟩ maps of the whole-run mean, rows = D, columns = f; the dashed
 /// rectangle is fig11's orifice cylinder (r ≤ R, |z| ≤ R/2).
-pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let ds = distinct(jobs.iter().map(|j| j.d_m));
     let fs = distinct(jobs.iter().map(|j| j.f_hz));
@@ -501,6 +499,12 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
         for j in rows_of(&jobs, d, &fs) {
             let Some((set, how)) = j.flowing_mean() else {
                 clogged.push(format!("D = {} mm, f = {} Hz", mm(d), short(j.f_hz)));
+                // An empty panel keeps the columns aligned with f and says why it is empty.
+                if let Some(any) = j.sets.iter().find(|s| s.grid_kind == "rz") {
+                    let empty = vec![f64::NAN; any.shape[0] * any.shape[1]];
+                    let title = format!("f = {} Hz: clogged, no flowing sample", short(j.f_hz));
+                    panels.push(panel(title, any, empty.clone(), &empty));
+                }
                 continue;
             };
             let a = arrays(conn, set)?;

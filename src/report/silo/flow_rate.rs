@@ -1,8 +1,6 @@
 //! Fig. 3 of the silo paper: Q(D) per f with the fit of Eq. (1) (Janda) and D_min(f), with a
 //! Beverloo line for reference.
 
-use std::path::Path;
-
 use anyhow::Result;
 use rusqlite::Connection;
 
@@ -11,7 +9,7 @@ use crate::observe::fits::{
     BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Marker, Panel, Series};
 use crate::report::silo::data::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value,
@@ -116,7 +114,7 @@ fn interval_mm(iv: Option<(f64, f64)>) -> String {
 }
 
 /// Fig. 3: Q vs D per f with 95 % CIs and the Eq. (1) fits; second panel D_min = α2 ln α1 vs f.
-pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);

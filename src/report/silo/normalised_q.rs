@@ -2,13 +2,12 @@
 //! orifices one panel each (Fig. 5).
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, same_value, spread,
@@ -99,7 +98,7 @@ fn clogged_note(clogged: &[CloggedPoint]) -> String {
 }
 
 /// Fig. 4: Q/Q_{f=1} vs f, one series per orifice.
-pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);
@@ -145,7 +144,7 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
 }
 
 /// Fig. 5: the normalised Q vs f, one panel per large orifice (D/d > 4.5), up to four.
-pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);

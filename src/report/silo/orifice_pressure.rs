@@ -1,15 +1,13 @@
 //! Fig. 11 of the silo paper: ⟨p^k⟩ in the cylinder of radius and height D/2 above the orifice
 //! vs f per D, over each job's flowing samples (clogged intervals left out).
 
-use std::path::Path;
-
 use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::observe::fits::mean_ci95;
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, mm, short, Table};
@@ -75,7 +73,7 @@ fn orifice_pk(conn: &Connection, job: &FieldJob) -> Result<JobPk> {
 /// bars are 95 % CIs (replicas combined: their mean, CI from the replica spread when there are
 /// several). A (D, f) whose runs all clogged is a cross on the f axis, never a value; an
 /// orifice without a grid point in its cylinder is named in a note.
-pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let ds = distinct(jobs.iter().map(|j| j.d_m));
     let fs_all = distinct(jobs.iter().map(|j| j.f_hz));

@@ -499,3 +499,35 @@ fn svg_text(svg: &str) -> String {
         .collect::<Vec<_>>()
         .join(" ")
 }
+
+#[test]
+fn figure_all_writes_every_figure_and_an_index_that_says_what_is_missing() {
+    let conn = synthetic_db(&[0.0, 0.5, 1.0]);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = crate::report::Output {
+        dir: dir.path().to_path_buf(),
+        titles: false,
+    };
+    let all = crate::report::render_all(&conn, None, &out).expect("all");
+    assert_eq!(all.campaign, "rotating");
+    let names: Vec<&str> = all.figures.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names.len(), 11, "{names:?}");
+    let html = std::fs::read_to_string(&all.index).expect("index.html");
+    for fig in ["fig2", "fig3", "fig4", "fig5"] {
+        assert!(html.contains(&format!("<img src=\"{fig}.png\"")), "{fig}");
+    }
+    // The synthetic campaign has no fields: fig6 is listed with the reason, not left out.
+    assert!(
+        html.contains("id=\"fig6\"") && html.contains("not drawn: campaign"),
+        "{html}"
+    );
+    // --no-title: the figure is its panels only, 40 px shorter than with a title.
+    let titled = render_figure(&conn, "fig4", None, dir.path()).expect("fig4");
+    let (_, h_titled) = png_size(&titled.files[1]);
+    let untitled =
+        crate::report::render_figure_with(&conn, "fig4", None, &out).expect("fig4 untitled");
+    let (_, h) = png_size(&untitled.files[1]);
+    assert_eq!(h + 40, h_titled);
+    let svg = std::fs::read_to_string(&untitled.files[0]).expect("svg");
+    assert!(!svg.contains("Fig. 4:"), "no title line");
+}
