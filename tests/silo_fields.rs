@@ -400,3 +400,61 @@ fn field_sets_round_trip_through_the_store() {
     let o = list_field_sets(&main, other).unwrap();
     assert_eq!(load_field_arrays(&main, o[0].id).unwrap(), arrays);
 }
+
+/// The kinetic stress σᵏ = Σ m (v − V)⊗(v − V) φ at one grid point, against a case worked by
+/// hand: three particles 2 mm from the point (so one kernel value φ for all), w = 3 mm, c = 3.
+/// φ(a) = e^{−a²/2w²} / ((2π w²)^{3/2} [erf(3/√2) − √(2/π) 3 e^{−9/2}]) = 1.9398468e6 m⁻³;
+/// V = Σ m v / Σ m = (−2/9, 2/9, 2/3) m/s; tr σᵏ = φ Σ m |v − V|² = 13 686.697 Pa and
+/// σᵏ_xy = −1 508.7698 Pa (worked out with these numbers in Python, not with sweep's code).
+#[test]
+fn kinetic_stress_matches_a_hand_computed_case() {
+    use sweep::observe::coarse_grain::{FieldGrid, GridFields, Kernel};
+    let (w, a) = (0.003, 0.002);
+    let grid = FieldGrid::xyz([-0.01; 3], [0.01; 3], 0.005);
+    let mut f = GridFields::new(grid);
+    let pos = [[a, 0.0, 0.0], [-a, 0.0, 0.0], [0.0, a, 0.0]];
+    let vel = [[1.0, 0.0, 0.0], [-1.0, 0.5, 0.0], [0.0, 0.0, 2.0]];
+    let mass = [1e-3, 2e-3, 1.5e-3];
+    f.deposit_particles(&Kernel::new(w, 3.0), &pos, &vel, &mass);
+    let origin = grid.index(2, 2, 2);
+    assert_eq!(grid.coord(0, 2), 0.0);
+
+    // By hand: the truncated Gaussian's normalisation and its value at a.
+    let erf_3_over_sqrt2 = 0.997_300_203_936_739_8; // P(|Z| < 3) of a standard normal
+    let inner = erf_3_over_sqrt2 - (2.0 / std::f64::consts::PI).sqrt() * 3.0 * (-4.5f64).exp();
+    let phi =
+        (-a * a / (2.0 * w * w)).exp() / ((2.0 * std::f64::consts::PI * w * w).powf(1.5) * inner);
+    assert!(
+        (phi / 1.939_846_838_826_286_6e6 - 1.0).abs() < 1e-12,
+        "φ = {phi}"
+    );
+    let v_mean = [-2.0 / 9.0, 2.0 / 9.0, 2.0 / 3.0];
+    let mut hand = [0.0; 9];
+    for (v, m) in vel.iter().zip(mass) {
+        for i in 0..3 {
+            for j in 0..3 {
+                hand[3 * i + j] += phi * m * (v[i] - v_mean[i]) * (v[j] - v_mean[j]);
+            }
+        }
+    }
+    let s = f.kinetic_stress(origin);
+    let rel = |x: f64, y: f64| ((x - y) / y).abs();
+    let trace = s[0] + s[4] + s[8];
+    assert!(rel(trace, 13_686.697_140_607_692) < 1e-9, "tr σᵏ = {trace}");
+    assert!(
+        rel(s[1], -1_508.769_763_531_556_5) < 1e-9,
+        "σᵏ_xy = {}",
+        s[1]
+    );
+    for k in 0..9 {
+        assert!(
+            (s[k] - hand[k]).abs() <= 1e-9 * trace,
+            "σᵏ[{k}] = {} vs {} by hand",
+            s[k],
+            hand[k]
+        );
+    }
+    // The density and the velocity at the point, by the same hand.
+    assert!(rel(f.density[origin], phi * 4.5e-3) < 1e-12);
+    assert!(rel(f.momentum[3 * origin + 2], phi * 1.5e-3 * 2.0) < 1e-12);
+}
