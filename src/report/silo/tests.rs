@@ -531,3 +531,34 @@ fn figure_all_writes_every_figure_and_an_index_that_says_what_is_missing() {
     let svg = std::fs::read_to_string(&untitled.files[0]).expect("svg");
     assert!(!svg.contains("Fig. 4:"), "no title line");
 }
+
+#[test]
+fn an_alpha2_at_its_bound_gives_no_d_min_and_says_so() {
+    use super::flow_rate::JandaRow;
+    let fit = crate::observe::fits::JandaFit {
+        c: 2900.0,
+        alpha1: 3.0,
+        alpha2_m: 2.6,
+        d_min_m: Some(2.6 * 3.0f64.ln()),
+        rms_residual_kg_per_s: 1e-4,
+        n: 5,
+        alpha2_at_bound: true,
+    };
+    let row = JandaRow {
+        f_hz: 1.0,
+        points: Vec::new(),
+        fit: Some(fit),
+        intervals: None,
+        weighted: false,
+    };
+    let why = row.d_min_refused().expect("refused");
+    assert!(why.contains("α2 at its search bound (2600 mm)"), "{why}");
+    let free = JandaRow {
+        fit: Some(crate::observe::fits::JandaFit {
+            alpha2_at_bound: false,
+            ..fit
+        }),
+        ..row
+    };
+    assert_eq!(free.d_min_refused(), None);
+}
