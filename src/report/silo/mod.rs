@@ -77,7 +77,13 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                     csv_num(Some(m)),
                 ]);
             }
-            let label = format!("D = {} mm, f = {} Hz", mm(d), short(f));
+            // A run without Q clogged: its flat M(t) is drawn, and named so.
+            let clogged = if row.q_kg_per_s.is_none() {
+                ", clogged"
+            } else {
+                ""
+            };
+            let label = format!("D = {} mm, f = {} Hz{clogged}", mm(d), short(f));
             let (t, m): (Vec<f64>, Vec<f64>) = series.into_iter().unzip();
             let color = panel.series.len();
             panel.series.push(Series::line(Some(label), color, t, m));
