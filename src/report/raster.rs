@@ -302,3 +302,64 @@ impl DrawingBackend for SupersampledPng<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::plot::ensure_font;
+
+    /// The first column (in image pixels) with ink in the fine canvas.
+    fn first_ink_column(b: &SupersampledPng) -> Option<usize> {
+        let w = b.fine.w as usize;
+        (0..w)
+            .find(|&x| (0..b.fine.h as usize).any(|y| b.fine.rgb[3 * (y * w + x)] < 128))
+            .map(|x| x / SUPERSAMPLE as usize)
+    }
+
+    #[test]
+    fn text_keeps_each_glyph_at_its_side_bearing() {
+        ensure_font().expect("font");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("t.png");
+        let font_bytes: &'static [u8] = include_bytes!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/DejaVuSans.ttf"
+        ));
+        let mut b = SupersampledPng::new(&path, (300, 150), font_bytes);
+        let style = TextStyle::from(("sans-serif", 100).into_font()).color(&BLACK);
+        b.draw_text("1", &style, (0, 0)).expect("draw");
+        // DejaVu's "1" starts 0.11 em right of the pen (its left side bearing): at size 100
+        // (an em of 86 px) about 9 px; plotters' own bitmap text puts its ink at 0.
+        let font = FontRef::try_from_slice(font_bytes).expect("font");
+        let scaled = font.as_scaled(PxScale::from(100.0));
+        let bearing = scaled.h_side_bearing(font.glyph_id('1'));
+        let first = first_ink_column(&b).expect("ink") as f32;
+        assert!(bearing > 5.0, "{bearing}");
+        assert!(
+            (first - bearing).abs() <= 1.5,
+            "ink at {first}, bearing {bearing}"
+        );
+        // What plotters' bitmap backend does with the same text (the bug this file avoids).
+        let mut buf = vec![255u8; 3 * 300 * 150];
+        {
+            let mut plain = BitMapBackend::with_buffer(&mut buf, (300, 150));
+            plain.draw_text("1", &style, (0, 0)).expect("draw");
+            plain.present().expect("present");
+        }
+        let plain_first = (0..300usize)
+            .find(|&x| (0..150usize).any(|y| buf[3 * (y * 300 + x)] < 128))
+            .expect("ink") as f32;
+        assert!(
+            plain_first < bearing - 4.0,
+            "plotters: ink at {plain_first}"
+        );
+        // Antialiased: the edge of the glyph has grey pixels, not only black and white.
+        b.present().expect("png");
+        let greys = b
+            .downsampled()
+            .iter()
+            .filter(|&&v| v > 40 && v < 215)
+            .count();
+        assert!(greys > 20, "{greys} grey samples");
+    }
+}
