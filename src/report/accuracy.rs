@@ -269,12 +269,53 @@ fn profile_error(
 }
 
 /// `sweep report --figure accuracy`: the map for the campaign's scene.
+/// Settings an accuracy campaign varies: how the same physics is computed (and observed, any
+/// `observers.*` key). A run differing in anything else is another experiment.
+const NUMERICAL_KEYS: [&str; 7] = [
+    "contact_steps",
+    "youngs_modulus_pa",
+    "shear_modulus_pa",
+    "stiffness_factor",
+    "dt_s",
+    "precision",
+    "backend",
+];
+
+/// The keys of the runs' labels that take more than one value and are not numerical settings.
+fn physical_keys_that_vary(runs: &[Run]) -> Vec<String> {
+    let parts: Vec<Vec<(String, String)>> = runs.iter().map(Run::parts).collect();
+    let mut keys: Vec<String> = parts.iter().flatten().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .filter(|k| !NUMERICAL_KEYS.contains(&k.as_str()) && !k.starts_with("observers."))
+        .filter(|k| {
+            let value = |p: &Vec<(String, String)>| {
+                p.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone())
+            };
+            let first = parts.first().and_then(value);
+            parts.iter().any(|p| value(p) != first)
+        })
+        .collect()
+}
+
 pub(crate) fn accuracy(
     conn: &Connection,
     campaign: &CampaignRef,
     out_dir: &Output,
 ) -> Result<Drawn> {
     let runs = runs(conn, campaign)?;
+    let physical = physical_keys_that_vary(&runs);
+    if !physical.is_empty() {
+        bail!(
+            "campaign '{}' sweeps {}: its runs differ in physics, not only in numerical \
+             settings, so their differences are not errors; the accuracy map is drawn for \
+             campaigns that vary {} only",
+            campaign.name,
+            physical.join(", "),
+            NUMERICAL_KEYS.join(", ")
+        )
+    }
     let Some(r0) = reference(&runs) else {
         bail!(
             "campaign '{}' has no done job: the accuracy map needs at least the reference run",

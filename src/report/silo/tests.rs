@@ -521,6 +521,9 @@ fn figure_all_writes_every_figure_and_an_index_that_says_what_is_missing() {
         html.contains("id=\"fig6\"") && html.contains("not drawn: campaign"),
         "{html}"
     );
+    // The accuracy map of this (synthetic, study) campaign cannot be drawn: listed, with why.
+    let accuracy = &html[html.find("id=\"accuracy\"").expect("accuracy section")..];
+    assert!(accuracy.contains("not drawn: "), "{accuracy}");
     // --no-title: the figure is its panels only, 40 px shorter than with a title.
     let titled = render_figure(&conn, "fig4", None, dir.path()).expect("fig4");
     let (_, h_titled) = png_size(&titled.files[1]);
