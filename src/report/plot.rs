@@ -396,8 +396,13 @@ impl Figure {
         } else {
             0
         };
+        // At least as wide as the title line (a single narrow panel would cut it off).
+        let title_w = self
+            .title
+            .as_ref()
+            .map_or(0, |t| t.chars().count() as u32 * TITLE_CHAR_PX + 40);
         (
-            self.panel_size.0 * cols as u32,
+            (self.panel_size.0 * cols as u32).max(title_w),
             self.panel_size.1 * rows as u32 + title,
         )
     }
@@ -435,6 +440,8 @@ impl Figure {
 }
 
 const TITLE_HEIGHT: u32 = 40;
+/// Width of one character of the title (size 26, an em of 21 px), with a margin, in pixels.
+const TITLE_CHAR_PX: u32 = 13;
 
 /// Registers the bundled font with plotters once per process.
 pub(crate) fn ensure_font() -> Result<()> {
