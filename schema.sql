@@ -71,7 +71,7 @@ CREATE TABLE IF NOT EXISTS discharge_summary (
     bulk_density_kg_per_m3  REAL NOT NULL,
     q_kg_per_s              REAL,          -- NULL when no flowing interval long enough
     q_ci95_kg_per_s         REAL,          -- half-width of the 95 % confidence interval
-    q_method                TEXT NOT NULL, -- how Q and its CI were obtained
+    q_method                TEXT NOT NULL, -- how Q was obtained, a code: blocks:dt=,skip=,clog=,exit=,mfrac,t_end=,drift=,n=
     flowing_time_s          REAL NOT NULL,
     discharged_mass_kg      REAL NOT NULL,
     discharged_count        INTEGER NOT NULL,
@@ -272,6 +272,7 @@ CREATE TABLE IF NOT EXISTS silo_field_series (
     t_s         REAL NOT NULL,     -- time since the orifice opened
     value       REAL NOT NULL,
     units       TEXT NOT NULL,
+    flowing     INTEGER,           -- 1 flowing, 0 inside a clog, NULL not recorded (schema < 6)
     PRIMARY KEY (job_id, name, t_s)
 );
 

@@ -77,7 +77,7 @@ fn digest(db: &std::path::Path, queries: &[&str]) -> String {
         .collect()
 }
 
-const SILO_JOB_GOLDEN: &str = "e3b390f257cd09a8";
+const SILO_JOB_GOLDEN: &str = "52cad41b7c4a11ee";
 const CHUTE_JOB_GOLDEN: &str = "cfed65d74618c949";
 
 #[test]

@@ -76,8 +76,8 @@ fn launch_args<'a>(file: &'a str, db: &'a str) -> Vec<&'a str> {
 
 /// A field array as stored: (set name, field, bytes).
 type StoredArray = (String, String, Vec<u8>);
-/// A series row: (name, t, value).
-type StoredSeries = (String, f64, f64);
+/// A series row: (name, t, value, flowing).
+type StoredSeries = (String, f64, f64, Option<i64>);
 
 /// Every field array and series row of job 1, sorted.
 fn stored(db: &Path) -> (Vec<StoredArray>, Vec<StoredSeries>) {
@@ -95,11 +95,11 @@ fn stored(db: &Path) -> (Vec<StoredArray>, Vec<StoredSeries>) {
         .unwrap();
     let mut q = c
         .prepare(
-            "SELECT name, t_s, value FROM silo_field_series WHERE job_id = 1 ORDER BY name, t_s",
+            "SELECT name, t_s, value, flowing FROM silo_field_series WHERE job_id = 1 ORDER BY name, t_s",
         )
         .unwrap();
     let series = q
-        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))
         .unwrap()
         .collect::<Result<Vec<_>, _>>()
         .unwrap();
@@ -121,7 +121,7 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     let conn = sweep::store::open(&db).unwrap();
     let sets = list_field_sets(&conn, 1).unwrap();
     let names: Vec<&str> = sets.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["map_t0.200", "mean"]);
+    assert_eq!(names, ["map_t0.200", "mean", "mean_flowing"]);
     let mean = &sets[1];
     assert_eq!(mean.grid_kind, "rz");
     // Samples every 0.05 s from 0.1 s to 0.4 s: 7; the map's window 0.15..0.25 s: 3.
@@ -152,6 +152,13 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     assert_eq!(units, "Pa");
     assert_eq!(pk.len(), 7);
     assert!(pk.iter().all(|(_, v)| *v >= 0.0), "tr σᵏ ≥ 0: {pk:?}");
+    // The flowing mean holds exactly the samples flagged flowing in the series (same times).
+    let flags =
+        sweep::store::fields::load_flagged_series(&conn, 1, "orifice_kinetic_pressure").unwrap();
+    assert!(flags.iter().all(|s| s.flowing.is_some()), "{flags:?}");
+    let flowing = flags.iter().filter(|s| s.flowing == Some(true)).count();
+    assert!(flowing > 0, "a 20 mm orifice at 1 Hz flows: {flags:?}");
+    assert_eq!(sets[2].samples as usize, flowing, "{:?} {flags:?}", sets[2]);
 
     // `sweep fields --job 1` lists both sets and their fields with units.
     let o = cmd(
@@ -328,6 +335,7 @@ fn field_sets_round_trip_through_the_store() {
         "orifice_kinetic_pressure",
         "Pa",
         &[(0.5, 1.5), (0.55, 2.5)],
+        None,
     )
     .unwrap();
     let sets = list_field_sets(&src, job).unwrap();
@@ -391,4 +399,62 @@ fn field_sets_round_trip_through_the_store() {
     assert_eq!(load_field_arrays(&main, got[0].id).unwrap(), arrays);
     let o = list_field_sets(&main, other).unwrap();
     assert_eq!(load_field_arrays(&main, o[0].id).unwrap(), arrays);
+}
+
+/// The kinetic stress σᵏ = Σ m (v − V)⊗(v − V) φ at one grid point, against a case worked by
+/// hand: three particles 2 mm from the point (so one kernel value φ for all), w = 3 mm, c = 3.
+/// φ(a) = e^{−a²/2w²} / ((2π w²)^{3/2} [erf(3/√2) − √(2/π) 3 e^{−9/2}]) = 1.9398468e6 m⁻³;
+/// V = Σ m v / Σ m = (−2/9, 2/9, 2/3) m/s; tr σᵏ = φ Σ m |v − V|² = 13 686.697 Pa and
+/// σᵏ_xy = −1 508.7698 Pa (worked out with these numbers in Python, not with sweep's code).
+#[test]
+fn kinetic_stress_matches_a_hand_computed_case() {
+    use sweep::observe::coarse_grain::{FieldGrid, GridFields, Kernel};
+    let (w, a) = (0.003, 0.002);
+    let grid = FieldGrid::xyz([-0.01; 3], [0.01; 3], 0.005);
+    let mut f = GridFields::new(grid);
+    let pos = [[a, 0.0, 0.0], [-a, 0.0, 0.0], [0.0, a, 0.0]];
+    let vel = [[1.0, 0.0, 0.0], [-1.0, 0.5, 0.0], [0.0, 0.0, 2.0]];
+    let mass = [1e-3, 2e-3, 1.5e-3];
+    f.deposit_particles(&Kernel::new(w, 3.0), &pos, &vel, &mass);
+    let origin = grid.index(2, 2, 2);
+    assert_eq!(grid.coord(0, 2), 0.0);
+
+    // By hand: the truncated Gaussian's normalisation and its value at a.
+    let erf_3_over_sqrt2 = 0.997_300_203_936_739_8; // P(|Z| < 3) of a standard normal
+    let inner = erf_3_over_sqrt2 - (2.0 / std::f64::consts::PI).sqrt() * 3.0 * (-4.5f64).exp();
+    let phi =
+        (-a * a / (2.0 * w * w)).exp() / ((2.0 * std::f64::consts::PI * w * w).powf(1.5) * inner);
+    assert!(
+        (phi / 1.939_846_838_826_286_6e6 - 1.0).abs() < 1e-12,
+        "φ = {phi}"
+    );
+    let v_mean = [-2.0 / 9.0, 2.0 / 9.0, 2.0 / 3.0];
+    let mut hand = [0.0; 9];
+    for (v, m) in vel.iter().zip(mass) {
+        for i in 0..3 {
+            for j in 0..3 {
+                hand[3 * i + j] += phi * m * (v[i] - v_mean[i]) * (v[j] - v_mean[j]);
+            }
+        }
+    }
+    let s = f.kinetic_stress(origin);
+    let rel = |x: f64, y: f64| ((x - y) / y).abs();
+    let trace = s[0] + s[4] + s[8];
+    assert!(rel(trace, 13_686.697_140_607_692) < 1e-9, "tr σᵏ = {trace}");
+    assert!(
+        rel(s[1], -1_508.769_763_531_556_5) < 1e-9,
+        "σᵏ_xy = {}",
+        s[1]
+    );
+    for k in 0..9 {
+        assert!(
+            (s[k] - hand[k]).abs() <= 1e-9 * trace,
+            "σᵏ[{k}] = {} vs {} by hand",
+            s[k],
+            hand[k]
+        );
+    }
+    // The density and the velocity at the point, by the same hand.
+    assert!(rel(f.density[origin], phi * 4.5e-3) < 1e-12);
+    assert!(rel(f.momentum[3 * origin + 2], phi * 1.5e-3 * 2.0) < 1e-12);
 }

@@ -1,4 +1,4 @@
-//! `sweep report --figure figN`.
+//! `sweep report --figure figN` (or `all`: every figure of the campaign and an index page).
 
 use std::path::PathBuf;
 
@@ -6,7 +6,8 @@ use super::DbArg;
 
 #[derive(clap::Args)]
 pub struct Arguments {
-    /// A figure of the campaign's scene: silo fig2..fig5, chute fig2..fig7 (or scene:figN).
+    /// A figure of the campaign's scene: silo fig2..fig11, chute fig2..fig7, accuracy (or
+    /// scene:figN); `all` draws every figure of the scene and writes index.html beside them.
     #[arg(long)]
     pub figure: String,
     /// Campaign name (default: the most recent campaign; its scene picks the figure set).
@@ -15,6 +16,9 @@ pub struct Arguments {
     /// Output directory.
     #[arg(long, default_value = "figures")]
     pub out: PathBuf,
+    /// Draw figures without their title line (a paper's caption replaces it).
+    #[arg(long)]
+    pub no_title: bool,
     #[command(flatten)]
     pub db: DbArg,
 }
@@ -29,7 +33,14 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let conn = sweep::store::open(&a.db.db)?;
     std::fs::create_dir_all(&a.out)?;
-    let r = sweep::report::render_figure(&conn, &a.figure, a.campaign.as_deref(), &a.out)?;
+    let out = sweep::report::Output {
+        dir: a.out.clone(),
+        titles: !a.no_title,
+    };
+    if a.figure == "all" {
+        return run_all(&conn, a.campaign.as_deref(), &out);
+    }
+    let r = sweep::report::render_figure_with(&conn, &a.figure, a.campaign.as_deref(), &out)?;
     println!("{}", r.table);
     if !r.missing.is_empty() {
         println!(
@@ -41,5 +52,37 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     for f in &r.files {
         println!("wrote {}", f.display());
     }
+    Ok(0)
+}
+
+/// `--figure all`: every figure of the campaign's scene and `index.html`. A figure the campaign
+/// cannot give (fig6 without fields, `accuracy` of a study campaign) is listed with its reason,
+/// here and in the index, and is not an error.
+fn run_all(
+    conn: &rusqlite::Connection,
+    campaign: Option<&str>,
+    out: &sweep::report::Output,
+) -> anyhow::Result<i32> {
+    let all = sweep::report::render_all(conn, campaign, out)?;
+    let mut failed = 0;
+    for (name, r) in &all.figures {
+        match r {
+            Ok(r) => {
+                let files: Vec<String> = r.files.iter().map(|f| f.display().to_string()).collect();
+                println!("{name}: wrote {}", files.join(", "));
+            }
+            Err(e) => {
+                failed += 1;
+                println!("{name}: not drawn: {e}");
+            }
+        }
+    }
+    println!(
+        "campaign '{}': {} of {} figures drawn; index: {}",
+        all.campaign,
+        all.figures.len() - failed,
+        all.figures.len(),
+        all.index.display()
+    );
     Ok(0)
 }

@@ -18,13 +18,12 @@
 //! reference is the one observed as the paper does.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
-use super::drawn::{write_all, Drawn};
+use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Legend, Panel, Series};
 use super::table::{sci, Table};
 use crate::campaign::{JobSpec, Precision, SceneKind};
@@ -270,8 +269,53 @@ fn profile_error(
 }
 
 /// `sweep report --figure accuracy`: the map for the campaign's scene.
-pub(crate) fn accuracy(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+/// Settings an accuracy campaign varies: how the same physics is computed (and observed, any
+/// `observers.*` key). A run differing in anything else is another experiment.
+const NUMERICAL_KEYS: [&str; 7] = [
+    "contact_steps",
+    "youngs_modulus_pa",
+    "shear_modulus_pa",
+    "stiffness_factor",
+    "dt_s",
+    "precision",
+    "backend",
+];
+
+/// The keys of the runs' labels that take more than one value and are not numerical settings.
+fn physical_keys_that_vary(runs: &[Run]) -> Vec<String> {
+    let parts: Vec<Vec<(String, String)>> = runs.iter().map(Run::parts).collect();
+    let mut keys: Vec<String> = parts.iter().flatten().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .filter(|k| !NUMERICAL_KEYS.contains(&k.as_str()) && !k.starts_with("observers."))
+        .filter(|k| {
+            let value = |p: &Vec<(String, String)>| {
+                p.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone())
+            };
+            let first = parts.first().and_then(value);
+            parts.iter().any(|p| value(p) != first)
+        })
+        .collect()
+}
+
+pub(crate) fn accuracy(
+    conn: &Connection,
+    campaign: &CampaignRef,
+    out_dir: &Output,
+) -> Result<Drawn> {
     let runs = runs(conn, campaign)?;
+    let physical = physical_keys_that_vary(&runs);
+    if !physical.is_empty() {
+        bail!(
+            "campaign '{}' sweeps {}: its runs differ in physics, not only in numerical \
+             settings, so their differences are not errors; the accuracy map is drawn for \
+             campaigns that vary {} only",
+            campaign.name,
+            physical.join(", "),
+            NUMERICAL_KEYS.join(", ")
+        )
+    }
     let Some(r0) = reference(&runs) else {
         bail!(
             "campaign '{}' has no done job: the accuracy map needs at least the reference run",
@@ -434,7 +478,7 @@ pub(crate) fn accuracy(conn: &Connection, campaign: &CampaignRef, out_dir: &Path
     }
     let mut ov = Panel::new(Axis::log("wall time (s)"), Axis::log("largest overlap / d"));
     ov.title = Some("largest overlap vs cost".into());
-    ov.legend = Legend::UpperRight;
+    ov.legend = Legend::Outside;
     for (k, r) in runs.iter().enumerate() {
         if let Some(o) = r.max_overlap {
             let label = if k == r0 {

@@ -3,12 +3,13 @@
 //! the silo's familiar cross-section, optional arrows (a quiver of (V_r, V_z)) and dashed
 //! rectangles (the orifice cylinder). Knows nothing of the database or the papers.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::drawn::Output;
 use super::plot::write_svg_and_png;
 
 const FONT: &str = "sans-serif";
@@ -57,6 +58,30 @@ pub struct MapPanel {
     pub boxes: Vec<(f64, f64, f64)>,
 }
 
+impl MapPanel {
+    /// The value at (r, z) (m) interpolated bilinearly between the four grid points around it;
+    /// the nearest point's value where one of them is empty (NaN) or outside the grid, so no
+    /// colour bleeds into empty cells.
+    fn interpolate(&self, r: f64, z: f64) -> f64 {
+        let fi = ((r - self.r0_m) / self.dr_m).clamp(0.0, (self.nr - 1) as f64);
+        let fj = ((z - self.z0_m) / self.dz_m).clamp(0.0, (self.nz - 1) as f64);
+        let (i0, j0) = (fi.floor() as usize, fj.floor() as usize);
+        let (i1, j1) = ((i0 + 1).min(self.nr - 1), (j0 + 1).min(self.nz - 1));
+        let (ti, tj) = (fi - i0 as f64, fj - j0 as f64);
+        let at = |i: usize, j: usize| self.values[j * self.nr + i];
+        let corners = [at(i0, j0), at(i1, j0), at(i0, j1), at(i1, j1)];
+        if corners.iter().any(|v| !v.is_finite()) {
+            return at(fi.round() as usize, fj.round() as usize);
+        }
+        let bottom = corners[0] + ti * (corners[1] - corners[0]);
+        let top = corners[2] + ti * (corners[3] - corners[2]);
+        bottom + tj * (top - bottom)
+    }
+}
+
+/// Pieces per grid cell along r and z in the PNG's interpolated maps.
+const PNG_SUBCELLS: usize = 4;
+
 /// A row of panels sharing one colour scale.
 #[derive(Debug, Clone)]
 pub struct MapRow {
@@ -83,20 +108,21 @@ pub struct MapFigure {
     pub arrow_scale: f64,
 }
 
-const PANEL_W: u32 = 300;
-const BAR_W: u32 = 110;
-const LABEL_W: u32 = 90;
-const TITLE_H: u32 = 44;
+// Text is at least plotters' size 18 (an em of 14.5 px) at these sizes.
+const PANEL_W: u32 = 380;
+const BAR_W: u32 = 150;
+const LABEL_W: u32 = 140;
+const TITLE_H: u32 = 50;
 
 impl MapFigure {
-    fn size(&self) -> (u32, u32) {
+    fn size(&self, titled: bool) -> (u32, u32) {
         let cols = self.rows.iter().map(|r| r.panels.len()).max().unwrap_or(1) as u32;
         let (lr, (zlo, zhi)) = (self.length_m, self.z_range_m);
         let aspect = ((zhi - zlo) / lr) / 2.0;
-        let panel_h = ((PANEL_W as f64 - 60.0) * aspect + 70.0).clamp(160.0, 900.0) as u32;
+        let panel_h = ((PANEL_W as f64 - 80.0) * aspect + 110.0).clamp(200.0, 1000.0) as u32;
         (
             LABEL_W + cols * PANEL_W + BAR_W,
-            TITLE_H + self.rows.len() as u32 * panel_h,
+            if titled { TITLE_H } else { 0 } + self.rows.len() as u32 * panel_h,
         )
     }
 
@@ -104,15 +130,31 @@ impl MapFigure {
     ///
     /// # Errors
     /// When the font cannot be loaded or a file cannot be written.
-    pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-        write_svg_and_png(dir, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
+    pub fn write(&self, out: &Output, stem: &str) -> Result<Vec<PathBuf>> {
+        let titled = out.titles;
+        // The SVG draws one cell per grid point (the data as they are); the PNG interpolates.
+        write_svg_and_png(
+            out,
+            stem,
+            self.size(titled),
+            |r| self.draw(r, titled, 1),
+            |r| self.draw(r, titled, PNG_SUBCELLS),
+        )
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        titled: bool,
+        sub: usize,
+    ) -> Result<()> {
         root.fill(&WHITE).map_err(err)?;
-        let area = root
-            .titled(&self.title, (FONT, 20).into_font().color(&BLACK))
-            .map_err(err)?;
+        let area = if titled {
+            root.titled(&self.title, (FONT, 24).into_font().color(&BLACK))
+                .map_err(err)?
+        } else {
+            root.clone()
+        };
         let rows = area.split_evenly((self.rows.len().max(1), 1));
         let cols = self.rows.iter().map(|r| r.panels.len()).max().unwrap_or(1);
         for (row, cell) in self.rows.iter().zip(rows) {
@@ -120,14 +162,14 @@ impl MapFigure {
             label
                 .draw_text(
                     &row.label,
-                    &(FONT, 15).into_font().color(&BLACK),
+                    &(FONT, 19).into_font().color(&BLACK),
                     (6, cell.dim_in_pixel().1 as i32 / 2),
                 )
                 .map_err(err)?;
             let (w, _) = rest.dim_in_pixel();
             let (maps, bar) = rest.split_horizontally(w - BAR_W);
             for (panel, pc) in row.panels.iter().zip(maps.split_evenly((1, cols))) {
-                self.draw_panel(&pc, panel, row.range)?;
+                self.draw_panel(&pc, panel, row.range, sub)?;
             }
             draw_bar(&bar, row.range, &row.bar_label)?;
         }
@@ -139,15 +181,16 @@ impl MapFigure {
         area: &DrawingArea<DB, Shift>,
         p: &MapPanel,
         (lo, hi): (f64, f64),
+        sub: usize,
     ) -> Result<()> {
         let l = self.length_m;
         let (zlo, zhi) = (self.z_range_m.0 / l, self.z_range_m.1 / l);
         let rmax = (p.r0_m + (p.nr as f64 - 0.5) * p.dr_m) / l;
         let mut chart = ChartBuilder::on(area)
-            .caption(&p.title, (FONT, 14))
-            .margin(4)
-            .x_label_area_size(30)
-            .y_label_area_size(36)
+            .caption(&p.title, (FONT, 18))
+            .margin(6)
+            .x_label_area_size(50)
+            .y_label_area_size(66)
             .build_cartesian_2d(-rmax..rmax, zlo..zhi)
             .map_err(err)?;
         chart
@@ -157,28 +200,33 @@ impl MapFigure {
             .y_desc(format!("z / {}", self.length_name))
             .x_labels(5)
             .y_labels(6)
-            .label_style((FONT, 11))
-            .axis_desc_style((FONT, 12))
+            .label_style((FONT, 18))
+            .axis_desc_style((FONT, 18))
             .draw()
             .map_err(err)?;
         let span = if hi > lo { hi - lo } else { 1.0 };
         let mut cells = Vec::new();
-        for j in 0..p.nz {
-            let z = p.z0_m + j as f64 * p.dz_m;
-            let (za, zb) = ((z - 0.5 * p.dz_m) / l, (z + 0.5 * p.dz_m) / l);
+        // Each grid cell as sub × sub pieces, each coloured by the bilinear interpolation of
+        // the grid points at its centre (sub = 1: the point's own value).
+        let (sdr, sdz) = (p.dr_m / sub as f64, p.dz_m / sub as f64);
+        for j in 0..p.nz * sub {
+            let z = p.z0_m - 0.5 * p.dz_m + (j as f64 + 0.5) * sdz;
+            let (za, zb) = ((z - 0.5 * sdz) / l, (z + 0.5 * sdz) / l);
             if zb < zlo || za > zhi {
                 continue;
             }
-            for i in 0..p.nr {
-                let v = p.values[j * p.nr + i];
+            for i in 0..p.nr * sub {
+                let r = p.r0_m - 0.5 * p.dr_m + (i as f64 + 0.5) * sdr;
+                let v = if sub == 1 {
+                    p.values[(j / sub) * p.nr + i / sub]
+                } else {
+                    p.interpolate(r, z)
+                };
                 if !v.is_finite() {
                     continue;
                 }
                 let c = viridis((v - lo) / span).filled();
-                let (ra, rb) = (
-                    (p.r0_m + (i as f64 - 0.5) * p.dr_m) / l,
-                    (p.r0_m + (i as f64 + 0.5) * p.dr_m) / l,
-                );
+                let (ra, rb) = ((r - 0.5 * sdr) / l, (r + 0.5 * sdr) / l);
                 cells.push(Rectangle::new([(ra, za), (rb, zb)], c));
                 cells.push(Rectangle::new([(-rb, za), (-ra, zb)], c));
             }
@@ -238,12 +286,12 @@ fn draw_bar<DB: DrawingBackend>(
 ) -> Result<()> {
     let hi = if hi > lo { hi } else { lo + 1.0 };
     let mut chart = ChartBuilder::on(area)
-        .margin_top(24)
-        .margin_bottom(34)
+        .margin_top(36)
+        .margin_bottom(56)
         .margin_right(8)
         .y_label_area_size(0)
-        .right_y_label_area_size(62)
-        .caption(label, (FONT, 12))
+        .right_y_label_area_size(84)
+        .caption(label, (FONT, 18))
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(err)?
         .set_secondary_coord(0.0..1.0, lo..hi);
@@ -261,7 +309,7 @@ fn draw_bar<DB: DrawingBackend>(
     chart
         .configure_secondary_axes()
         .y_labels(5)
-        .label_style((FONT, 11))
+        .label_style((FONT, 18))
         .y_label_formatter(&|v| short_tick(*v))
         .draw()
         .map_err(err)?;

@@ -10,6 +10,9 @@ use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::drawn::Output;
+use super::raster::SupersampledPng;
+
 /// The font used for every text of a figure, bundled so PNGs need no system font.
 const FONT_BYTES: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -50,7 +53,7 @@ pub(super) fn write_svg_and_png(
     stem: &str,
     size: (u32, u32),
     draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
-    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+    draw_png: impl FnOnce(&DrawingArea<SupersampledPng, Shift>) -> Result<()>,
 ) -> Result<Vec<PathBuf>> {
     ensure_font()?;
     let svg = dir.join(format!("{stem}.svg"));
@@ -62,7 +65,7 @@ pub(super) fn write_svg_and_png(
     }
     let png = dir.join(format!("{stem}.png"));
     {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        let root = SupersampledPng::new(&png, size, FONT_BYTES).into_drawing_area();
         draw_png(&root).with_context(|| format!("drawing {}", png.display()))?;
         root.present()
             .map_err(|e| anyhow!("writing {}: {e}", png.display()))?;
@@ -104,10 +107,83 @@ impl Axis {
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SeriesKind {
-    /// Filled circles, with error bars when given.
+    /// Filled markers, with error bars when given.
     Points,
     /// A solid polyline through the points in order.
     Line,
+    /// Crosses on the bottom edge of the plot at each x, for runs that have no value (a clogged
+    /// run): seen, and never confused with a measured value. `y` is ignored.
+    AxisMarks,
+}
+
+/// Marker shapes, so that series differ by more than colour (print in grey, colour blindness).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    Circle,
+    Square,
+    TriangleUp,
+    Diamond,
+    TriangleDown,
+    Cross,
+}
+
+impl Marker {
+    /// The k-th shape of the cycle (series k of a panel gets shape k).
+    pub fn nth(k: usize) -> Self {
+        const CYCLE: [Marker; 5] = [
+            Marker::Circle,
+            Marker::Square,
+            Marker::TriangleUp,
+            Marker::Diamond,
+            Marker::TriangleDown,
+        ];
+        CYCLE[k % CYCLE.len()]
+    }
+
+    /// The outline in pixels around (0, 0) for a marker of half-size `r`; None for the circle
+    /// and the cross, which are drawn as such.
+    fn polygon(self, r: i32) -> Option<Vec<(i32, i32)>> {
+        Some(match self {
+            Marker::Square => vec![(-r, -r), (r, -r), (r, r), (-r, r)],
+            Marker::TriangleUp => vec![(0, -r - 1), (r + 1, r), (-r - 1, r)],
+            Marker::TriangleDown => vec![(0, r + 1), (r + 1, -r), (-r - 1, -r)],
+            Marker::Diamond => vec![(0, -r - 1), (r + 1, 0), (0, r + 1), (-r - 1, 0)],
+            Marker::Circle | Marker::Cross => return None,
+        })
+    }
+}
+
+/// Half-size of a marker in pixels.
+const MARKER_R: i32 = 5;
+
+/// One marker of `shape` at pixel offset (0, 0), as an element placed with `EmptyElement::at`.
+/// `dy` moves it down by that many pixels (up when negative).
+fn marker_element<'a, DB: DrawingBackend + 'a, C: Clone + 'a>(
+    at: C,
+    shape: Marker,
+    color: RGBColor,
+    dy: i32,
+) -> DynElement<'a, DB, C> {
+    let r = MARKER_R;
+    let o = |(x, y): (i32, i32)| (x, y + dy);
+    match shape {
+        Marker::Circle => {
+            (EmptyElement::at(at) + Circle::new(o((0, 0)), r, color.filled())).into_dyn()
+        }
+        Marker::Cross => (EmptyElement::at(at)
+            + PathElement::new(vec![o((-r, -r)), o((r, r))], color.stroke_width(3))
+            + PathElement::new(vec![o((-r, r)), o((r, -r))], color.stroke_width(3)))
+        .into_dyn(),
+        s => {
+            let pts: Vec<(i32, i32)> = s
+                .polygon(r)
+                .expect("a polygon")
+                .into_iter()
+                .map(o)
+                .collect();
+            (EmptyElement::at(at) + Polygon::new(pts, color.filled())).into_dyn()
+        }
+    }
 }
 
 /// A set of (x, y) points drawn in one style and colour.
@@ -119,21 +195,25 @@ pub struct Series {
     pub kind: SeriesKind,
     /// Index into the palette (wraps around).
     pub color: usize,
+    /// Marker shape of `Points` (and of the legend entry of `AxisMarks`).
+    pub marker: Marker,
     /// Abscissae.
     pub x: Vec<f64>,
     /// Ordinates, same length as `x`.
     pub y: Vec<f64>,
-    /// Half-lengths of symmetric vertical error bars, same length as `x`; None for no bars.
-    pub y_err: Option<Vec<Option<f64>>>,
+    /// Lengths of vertical error bars below and above each point, same length as `x`; None for
+    /// no bars.
+    pub y_err: Option<Vec<Option<(f64, f64)>>>,
 }
 
 impl Series {
-    /// Markers at (x, y).
+    /// Markers at (x, y), shaped by the colour index (series k: colour k, shape k).
     pub fn points(label: Option<String>, color: usize, x: Vec<f64>, y: Vec<f64>) -> Self {
         Self {
             label,
             kind: SeriesKind::Points,
             color,
+            marker: Marker::nth(color),
             x,
             y,
             y_err: None,
@@ -146,54 +226,90 @@ impl Series {
             label,
             kind: SeriesKind::Line,
             color,
+            marker: Marker::nth(color),
             x,
             y,
             y_err: None,
         }
     }
 
-    /// Adds vertical error bars (half-widths; None for a point without one).
-    pub fn with_errors(mut self, y_err: Vec<Option<f64>>) -> Self {
-        self.y_err = Some(y_err);
+    /// Crosses at the bottom edge at each x, for runs without a value (see `SeriesKind`).
+    /// `lane` lifts the crosses by that many marker heights so that several series sharing an
+    /// x stay apart.
+    pub fn axis_marks(label: Option<String>, color: usize, x: Vec<f64>, lane: usize) -> Self {
+        let y = vec![lane as f64; x.len()];
+        Self {
+            label,
+            kind: SeriesKind::AxisMarks,
+            color,
+            marker: Marker::Cross,
+            x,
+            y,
+            y_err: None,
+        }
+    }
+
+    /// The same series with another marker shape.
+    pub fn with_marker(mut self, marker: Marker) -> Self {
+        self.marker = marker;
         self
     }
 
-    /// The drawable points: finite, and positive on log axes. (x, y, y_err)
+    /// Adds vertical error bars (half-widths; None for a point without one).
+    pub fn with_errors(mut self, y_err: Vec<Option<f64>>) -> Self {
+        self.y_err = Some(y_err.into_iter().map(|e| e.map(|e| (e, e))).collect());
+        self
+    }
+
+    /// Adds vertical error bars from intervals (lo, hi) around each y (None: no bar), e.g. a
+    /// bootstrap's percentiles, which need not be symmetric.
+    pub fn with_intervals(mut self, intervals: Vec<Option<(f64, f64)>>) -> Self {
+        let bars = intervals
+            .into_iter()
+            .zip(&self.y)
+            .map(|(iv, &y)| iv.map(|(lo, hi)| ((y - lo).max(0.0), (hi - y).max(0.0))))
+            .collect();
+        self.y_err = Some(bars);
+        self
+    }
+
+    /// The drawable points: finite, and positive on log axes. (x, y, bar below, bar above)
     fn visible(
         &self,
         x_scale: Scale,
         y_scale: Scale,
-    ) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
-        (0..self.x.len().min(self.y.len())).filter_map(move |i| {
+    ) -> impl Iterator<Item = (f64, f64, f64, f64)> + '_ {
+        let n = if self.kind == SeriesKind::AxisMarks {
+            0
+        } else {
+            self.x.len().min(self.y.len())
+        };
+        (0..n).filter_map(move |i| {
             let (x, y) = (self.x[i], self.y[i]);
-            let err = self
+            let (below, above) = self
                 .y_err
                 .as_ref()
                 .and_then(|e| e.get(i).copied().flatten())
-                .unwrap_or(0.0);
+                .unwrap_or((0.0, 0.0));
             let ok = x.is_finite()
                 && y.is_finite()
-                && err.is_finite()
+                && below.is_finite()
+                && above.is_finite()
                 && (x_scale == Scale::Linear || x > 0.0)
                 && (y_scale == Scale::Linear || y > 0.0);
-            ok.then_some((x, y, err.abs()))
+            ok.then_some((x, y, below.abs(), above.abs()))
         })
     }
 }
 
-/// Where a panel's legend sits.
+/// Whether a panel shows its legend. A legend sits in a column right of the plot, never over
+/// the data; the panel's notes follow it there.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Legend {
-    /// No legend.
+    /// No legend (notes are still shown).
     Hidden,
-    /// Inside the plot, top left.
-    UpperLeft,
-    /// Inside the plot, top right.
-    UpperRight,
-    /// Inside the plot, bottom left.
-    LowerLeft,
-    /// Inside the plot, bottom right.
-    LowerRight,
+    /// Right of the plot.
+    Outside,
 }
 
 /// One plot: two axes and the series drawn against them.
@@ -207,22 +323,55 @@ pub struct Panel {
     pub y: Axis,
     /// Drawn in order (later on top).
     pub series: Vec<Series>,
-    /// Legend placement.
+    /// Legend shown or not.
     pub legend: Legend,
+    /// Lines of text beside the plot, under the legend: what the panel averages, a fit it
+    /// refused, a parameter at its bound. Said in the figure, not only in the table.
+    pub notes: Vec<String>,
 }
 
 impl Panel {
-    /// An empty panel with the given axes and the legend at the top left.
+    /// An empty panel with the given axes and its legend beside it.
     pub fn new(x: Axis, y: Axis) -> Self {
         Self {
             title: None,
             x,
             y,
             series: Vec::new(),
-            legend: Legend::UpperLeft,
+            legend: Legend::Outside,
+            notes: Vec::new(),
         }
     }
+
+    fn legend_entries(&self) -> impl Iterator<Item = (&str, &Series)> {
+        let shown = self.legend != Legend::Hidden;
+        self.series
+            .iter()
+            .filter(move |_| shown)
+            .filter_map(|s| s.label.as_deref().map(|l| (l, s)))
+    }
+
+    /// Width in pixels of the column beside the plot (0 when it has nothing to show), at most
+    /// 45 % of the panel's `width`.
+    fn side_width(&self, width: u32) -> u32 {
+        let longest = self
+            .legend_entries()
+            .map(|(l, _)| l.chars().count() as u32 * SIDE_CHAR_PX + 56)
+            .max();
+        let w = match (longest, self.notes.is_empty()) {
+            (None, true) => return 0,
+            (Some(w), true) => w,
+            (l, false) => l.unwrap_or(0).max(230),
+        };
+        w.clamp(120, width * 45 / 100)
+    }
 }
+
+/// Font size of the legend and notes, and the width of one of their characters, in pixels.
+/// plotters' font sizes are 1.24 em (the font's ascent to descent): every text of a figure is
+/// at least 18, an em of 14.5 px.
+const SIDE_FONT_PX: u32 = 18;
+const SIDE_CHAR_PX: u32 = 10;
 
 /// A grid of panels written as `<stem>.svg` and `<stem>.png`.
 #[derive(Debug, Clone)]
@@ -247,8 +396,13 @@ impl Figure {
         } else {
             0
         };
+        // At least as wide as the title line (a single narrow panel would cut it off).
+        let title_w = self
+            .title
+            .as_ref()
+            .map_or(0, |t| t.chars().count() as u32 * TITLE_CHAR_PX + 40);
         (
-            self.panel_size.0 * cols as u32,
+            (self.panel_size.0 * cols as u32).max(title_w),
             self.panel_size.1 * rows as u32 + title,
         )
     }
@@ -257,8 +411,15 @@ impl Figure {
     ///
     /// # Errors
     /// When the font cannot be loaded or a file cannot be written.
-    pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>> {
-        write_svg_and_png(dir, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
+    pub fn write(&self, out: &Output, stem: &str) -> Result<Vec<PathBuf>> {
+        if !out.titles && self.title.is_some() {
+            let untitled = Figure {
+                title: None,
+                ..self.clone()
+            };
+            return untitled.write(out, stem);
+        }
+        write_svg_and_png(out, stem, self.size(), |r| self.draw(r), |r| self.draw(r))
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
@@ -279,6 +440,8 @@ impl Figure {
 }
 
 const TITLE_HEIGHT: u32 = 40;
+/// Width of one character of the title (size 26, an em of 21 px), with a margin, in pixels.
+const TITLE_CHAR_PX: u32 = 13;
 
 /// Registers the bundled font with plotters once per process.
 pub(crate) fn ensure_font() -> Result<()> {
@@ -361,18 +524,93 @@ fn snap_zero(v: f64, scale: Scale, lo: f64, hi: f64) -> f64 {
     }
 }
 
+/// Splits `text` into lines of at most `chars` characters at spaces.
+fn wrap(text: &str, chars: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > chars {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// The legend (a sample of each labelled series and its text) and the notes, top down.
+fn draw_side<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<()> {
+    let font = (FONT, SIDE_FONT_PX).into_font().color(&BLACK);
+    let mut y = 48;
+    for (label, s) in panel.legend_entries() {
+        let color = PALETTE[s.color % PALETTE.len()];
+        let c = (22, y);
+        match s.kind {
+            SeriesKind::Line => area
+                .draw(&PathElement::new(
+                    vec![(6, y), (38, y)],
+                    color.stroke_width(3),
+                ))
+                .map_err(plot_err)?,
+            SeriesKind::Points | SeriesKind::AxisMarks => area
+                .draw(&marker_element::<DB, (i32, i32)>(c, s.marker, color, 0))
+                .map_err(plot_err)?,
+        }
+        area.draw_text(label, &font, (46, y - SIDE_FONT_PX as i32 / 2 - 1))
+            .map_err(plot_err)?;
+        y += SIDE_FONT_PX as i32 + 10;
+    }
+    y += 8;
+    let chars = (area.dim_in_pixel().0.saturating_sub(12) / SIDE_CHAR_PX).max(8) as usize;
+    for note in &panel.notes {
+        for line in wrap(note, chars) {
+            area.draw_text(&line, &font, (8, y)).map_err(plot_err)?;
+            y += SIDE_FONT_PX as i32 + 5;
+        }
+        y += 6;
+    }
+    Ok(())
+}
+
 fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<()> {
+    let (w, _) = area.dim_in_pixel();
+    let side = panel.side_width(w);
+    let plot_area = if side > 0 {
+        let (plot, beside) = area.split_horizontally(w - side);
+        draw_side(&beside, panel)?;
+        plot
+    } else {
+        area.clone()
+    };
+    let area = &plot_area;
     let (xs, ys) = (panel.x.scale, panel.y.scale);
     let pts = || panel.series.iter().flat_map(move |s| s.visible(xs, ys));
-    let (x0, x1) = axis_range(&panel.x, pts().map(|(x, _, _)| (x, x)));
-    let y_ext = |(_, y, e): (f64, f64, f64)| {
+    // Runs without a value still widen the x axis: their crosses must be inside the plot.
+    let marks = panel
+        .series
+        .iter()
+        .filter(|s| s.kind == SeriesKind::AxisMarks)
+        .flat_map(|s| s.x.iter().copied())
+        .filter(|x| x.is_finite() && (xs == Scale::Linear || *x > 0.0));
+    let (x0, x1) = axis_range(
+        &panel.x,
+        pts()
+            .map(|(x, _, _, _)| (x, x))
+            .chain(marks.map(|x| (x, x))),
+    );
+    let y_ext = |(_, y, below, above): (f64, f64, f64, f64)| {
         // On a log axis a bar reaching zero or below would stretch the axis without end.
-        let lo = if ys == Scale::Log && y - e <= 0.0 {
+        let lo = if ys == Scale::Log && y - below <= 0.0 {
             y
         } else {
-            y - e
+            y - below
         };
-        (lo, y + e)
+        (lo, y + above)
     };
     let (y0, y1) = axis_range(&panel.y, pts().map(y_ext));
     match (xs, ys) {
@@ -383,6 +621,42 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) 
             draw_in(area, panel, (x0..x1).log_scale(), (y0..y1).log_scale())
         }
     }
+}
+
+/// Draws markers of one shape at `(coordinate, dy in pixels)` on a chart (one `draw_series` per
+/// shape: plotters needs one element type per call).
+macro_rules! draw_markers {
+    ($chart:expr, $at:expr, $shape:expr, $color:expr) => {{
+        let r = MARKER_R;
+        let (color, at) = ($color, $at);
+        match $shape {
+            Marker::Circle => {
+                $chart
+                    .draw_series(at.iter().map(|&(c, dy)| {
+                        EmptyElement::at(c) + Circle::new((0, dy), r, color.filled())
+                    }))
+                    .map_err(plot_err)?
+            }
+            Marker::Cross => $chart
+                .draw_series(at.iter().map(|&(c, dy)| {
+                    EmptyElement::at(c)
+                        + PathElement::new(vec![(-r, dy - r), (r, dy + r)], color.stroke_width(3))
+                        + PathElement::new(vec![(-r, dy + r), (r, dy - r)], color.stroke_width(3))
+                }))
+                .map_err(plot_err)?,
+            shape => $chart
+                .draw_series(at.iter().map(|&(c, dy)| {
+                    let pts: Vec<(i32, i32)> = shape
+                        .polygon(r)
+                        .expect("a polygon")
+                        .into_iter()
+                        .map(|(x, y)| (x, y + dy))
+                        .collect();
+                    EmptyElement::at(c) + Polygon::new(pts, color.filled())
+                }))
+                .map_err(plot_err)?,
+        };
+    }};
 }
 
 fn draw_in<DB, X, Y>(area: &DrawingArea<DB, Shift>, panel: &Panel, x: X, y: Y) -> Result<()>
@@ -396,8 +670,8 @@ where
     let mut builder = ChartBuilder::on(area);
     builder
         .margin(14)
-        .x_label_area_size(58)
-        .y_label_area_size(84);
+        .x_label_area_size(64)
+        .y_label_area_size(100);
     if let Some(t) = &panel.title {
         builder.caption(t, (FONT, 22));
     }
@@ -412,8 +686,8 @@ where
         .y_desc(panel.y.label.as_str())
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
-        .label_style((FONT, 16))
-        .axis_desc_style((FONT, 19))
+        .label_style((FONT, 18))
+        .axis_desc_style((FONT, 20))
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(205, 205, 205))
         .draw()
@@ -422,71 +696,57 @@ where
     let (xs, ys) = (panel.x.scale, panel.y.scale);
     for series in &panel.series {
         let color = PALETTE[series.color % PALETTE.len()];
-        let pts: Vec<(f64, f64, f64)> = series.visible(xs, ys).collect();
-        let anno = match series.kind {
-            SeriesKind::Line => chart
-                .draw_series(LineSeries::new(
-                    pts.iter().map(|&(x, y, _)| (x, y)),
-                    color.stroke_width(2),
-                ))
-                .map_err(plot_err)?,
+        let pts: Vec<(f64, f64, f64, f64)> = series.visible(xs, ys).collect();
+        match series.kind {
+            SeriesKind::Line => {
+                chart
+                    .draw_series(LineSeries::new(
+                        pts.iter().map(|&(x, y, _, _)| (x, y)),
+                        color.stroke_width(3),
+                    ))
+                    .map_err(plot_err)?;
+            }
+            SeriesKind::AxisMarks => {
+                let r = MARKER_R;
+                let marks = series
+                    .x
+                    .iter()
+                    .zip(&series.y)
+                    .filter(|(x, _)| x.is_finite() && (xs == Scale::Linear || **x > 0.0));
+                let at: Vec<((f64, f64), i32)> = marks
+                    .map(|(&x, &lane)| ((x, y_bottom), -(r + 3) - lane as i32 * (2 * r + 4)))
+                    .collect();
+                draw_markers!(chart, at, series.marker, color);
+            }
             SeriesKind::Points => {
-                let bars = pts.iter().filter(|p| p.2 > 0.0).map(|&(x, y, e)| {
-                    let lo = if ys == Scale::Log && y - e <= 0.0 {
+                let has_bar = |p: &&(f64, f64, f64, f64)| p.2 > 0.0 || p.3 > 0.0;
+                let bars = pts.iter().filter(has_bar).map(|&(x, y, below, above)| {
+                    let lo = if ys == Scale::Log && y - below <= 0.0 {
                         y_bottom
                     } else {
-                        y - e
+                        y - below
                     };
-                    PathElement::new(vec![(x, lo), (x, y + e)], color.stroke_width(1))
+                    PathElement::new(vec![(x, lo), (x, y + above)], color.stroke_width(2))
                 });
                 chart.draw_series(bars).map_err(plot_err)?;
-                let caps = pts.iter().filter(|p| p.2 > 0.0).flat_map(|&(x, y, e)| {
-                    [y - e, y + e]
-                        .into_iter()
-                        .filter(|&v| ys == Scale::Linear || v > 0.0)
-                        .map(move |v| {
-                            EmptyElement::at((x, v))
-                                + PathElement::new(vec![(-4, 0), (4, 0)], color.stroke_width(1))
-                        })
-                });
+                let caps = pts
+                    .iter()
+                    .filter(has_bar)
+                    .flat_map(|&(x, y, below, above)| {
+                        [y - below, y + above]
+                            .into_iter()
+                            .filter(|&v| ys == Scale::Linear || v > 0.0)
+                            .map(move |v| {
+                                EmptyElement::at((x, v))
+                                    + PathElement::new(vec![(-5, 0), (5, 0)], color.stroke_width(2))
+                            })
+                    });
                 chart.draw_series(caps).map_err(plot_err)?;
-                chart
-                    .draw_series(
-                        pts.iter()
-                            .map(|&(x, y, _)| Circle::new((x, y), 4, color.filled())),
-                    )
-                    .map_err(plot_err)?
+                let at: Vec<((f64, f64), i32)> =
+                    pts.iter().map(|&(x, y, _, _)| ((x, y), 0)).collect();
+                draw_markers!(chart, at, series.marker, color);
             }
-        };
-        if let Some(label) = &series.label {
-            let kind = series.kind;
-            anno.label(label.as_str())
-                .legend(move |(lx, ly)| match kind {
-                    SeriesKind::Line => {
-                        PathElement::new(vec![(lx, ly), (lx + 22, ly)], color.stroke_width(2))
-                            .into_dyn()
-                    }
-                    SeriesKind::Points => Circle::new((lx + 11, ly), 4, color.filled()).into_dyn(),
-                });
         }
-    }
-
-    let position = match panel.legend {
-        Legend::Hidden => return Ok(()),
-        Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
-        Legend::UpperRight => SeriesLabelPosition::UpperRight,
-        Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
-        Legend::LowerRight => SeriesLabelPosition::LowerRight,
-    };
-    if panel.series.iter().any(|s| s.label.is_some()) {
-        chart
-            .configure_series_labels()
-            .position(position)
-            .label_font((FONT, 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .draw()
-            .map_err(plot_err)?;
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use rusqlite::Connection;
 use super::accuracy;
 use super::campaign::{find_campaign, CampaignRef};
 use super::chute;
-use super::drawn::Drawn;
+use super::drawn::{Drawn, Output};
 use super::missing::campaign_completion;
 use super::silo;
 use super::silo::fields as silo_fields;
@@ -29,7 +29,7 @@ const SILO_FIGURES: [(&str, &str); 11] = [
     ),
     (
         "fig7",
-        "speed maps |V|(r, z) with (V_r, V_z) arrows at the map times, per f",
+        "speed maps |V|(r, z) with streamlines of (V_r, V_z) at the map times, per f",
     ),
     (
         "fig8",
@@ -94,7 +94,7 @@ pub fn figures_of(scene: &str) -> Option<&'static [(&'static str, &'static str)]
     FIGURES.iter().find(|(s, _)| *s == scene).map(|(_, f)| *f)
 }
 
-type DrawFn = fn(&Connection, &CampaignRef, &Path) -> Result<Drawn>;
+type DrawFn = fn(&Connection, &CampaignRef, &Output) -> Result<Drawn>;
 
 /// The function drawing `figure` of `scene`; every entry of [`FIGURES`] has one.
 fn drawer(scene: &str, figure: &str) -> Option<DrawFn> {
@@ -202,6 +202,20 @@ pub fn render_figure(
     campaign: Option<&str>,
     out_dir: &Path,
 ) -> Result<FigureReport> {
+    render_figure_with(conn, figure, campaign, &Output::new(out_dir))
+}
+
+/// [`render_figure`] into `out`, which also says whether figures carry titles.
+///
+/// # Errors
+/// As [`render_figure`].
+pub fn render_figure_with(
+    conn: &Connection,
+    figure: &str,
+    campaign: Option<&str>,
+    out: &Output,
+) -> Result<FigureReport> {
+    let out_dir: &Path = out;
     let (asked_scene, name) = parse_figure(figure)?;
     let campaign = find_campaign(conn, campaign, asked_scene.filter(|_| campaign.is_none()))?;
     let scene = campaign.scene.as_str();
@@ -240,7 +254,7 @@ pub fn render_figure(
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("creating output directory {}", out_dir.display()))?;
     let completion = campaign_completion(conn, campaign.id)?;
-    let drawn = draw(conn, &campaign, out_dir)?;
+    let drawn = draw(conn, &campaign, out)?;
     let mut table = format!("{name}: campaign '{}'\n{}", campaign.name, drawn.text);
     if !completion.missing.is_empty() {
         table.push_str(&format!(

@@ -156,6 +156,14 @@ fn fill_stage_run(
     Ok((s, steps))
 }
 
+/// Mass of the free (not fixed) particles of `s` (kg): the silo's charge at opening.
+fn silo_mass(s: &State<f64>) -> f64 {
+    (0..s.len())
+        .filter(|&i| s.inv_mass[i] != 0.0)
+        .map(|i| s.mass[i])
+        .sum()
+}
+
 /// Runs (or resumes) one silo job to its end, an interruption, or a failure.
 ///
 /// # Errors
@@ -234,7 +242,12 @@ impl Study for SiloStudy {
                 ..Ledger::default()
             },
             bulk_density: self.scene.bulk_density(&s),
-            discharge: Discharge::new(self.spec.observers.discharge.clone()),
+            discharge: Discharge::at_orifice(
+                self.spec.observers.discharge.clone(),
+                self.scene.p.sink_depth_m,
+                self.scene.p.gravity_m_per_s2,
+                (!self.scene.p.reinsert).then(|| silo_mass(&s)),
+            ),
             initial_count: s.len(),
             fields: self.field_observer(),
             fields_wall_s: 0.0,
@@ -321,6 +334,9 @@ impl Study for SiloStudy {
                 obs.sample(t_now, &s, contacts.as_deref());
                 p.fields_wall_s += t_f.elapsed().as_secs_f64();
             }
+            // The exits of this chunk may decide whether earlier samples were flowing.
+            let known = p.discharge.known_until(t_now);
+            obs.settle(|t| p.discharge.flowing_at(t, known));
         }
         if t_now >= self.spec.observers.discharge.skip_initial_s - 1e-12 {
             match engine.kinetic_energy() {
@@ -341,6 +357,11 @@ impl Study for SiloStudy {
     ) -> anyhow::Result<()> {
         let sp = &self.scene.p;
         let summary = p.discharge.summarize(t_end);
+        let mut p = p;
+        if let Some(obs) = p.fields.as_mut() {
+            // The run is over: the last gap is a clog only if it outlasted the clog time.
+            obs.settle(|t| Some(p.discharge.flowing_at_end(t, t_end)));
+        }
         if p.fields.is_some() {
             (ctx.log)(format!(
                 "job {}: field observer took {:.2} s of {:.2} s wall time",

@@ -230,7 +230,8 @@ pub fn load_field_arrays(conn: &Connection, set_id: i64) -> anyhow::Result<Vec<F
         .collect()
 }
 
-/// Appends one scalar time series of `job_id` (`(t (s), value)` pairs) to `silo_field_series`.
+/// Appends one scalar time series of `job_id` (`(t (s), value)` pairs) to `silo_field_series`,
+/// each sample with whether the silo was flowing then (`flowing`: None stores NULL, unknown).
 ///
 /// # Errors
 /// A non-finite value or database errors.
@@ -240,18 +241,54 @@ pub fn save_field_series(
     name: &str,
     units: &str,
     samples: &[(f64, f64)],
+    flowing: Option<&dyn Fn(f64) -> bool>,
 ) -> anyhow::Result<()> {
     let mut ins = conn.prepare(
-        "INSERT OR REPLACE INTO silo_field_series (job_id, name, t_s, value, units) VALUES (?1, ?2, ?3, ?4, ?5)",
+        "INSERT OR REPLACE INTO silo_field_series (job_id, name, t_s, value, units, flowing) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
     )?;
     for &(t, v) in samples {
         anyhow::ensure!(
             v.is_finite(),
             "field series {name} of job {job_id}: value at t = {t} s is {v}"
         );
-        ins.execute(params![job_id, name, t, v, units])?;
+        let flag = flowing.map(|f| i64::from(f(t)));
+        ins.execute(params![job_id, name, t, v, units, flag])?;
     }
     Ok(())
+}
+
+/// One sample of a stored series: time (s), value, and whether the silo was flowing (None:
+/// not recorded, a series stored by an older sweep).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeriesSample {
+    pub t_s: f64,
+    pub value: f64,
+    pub flowing: Option<bool>,
+}
+
+/// The series `name` of `job_id` with the flowing flag of each sample, in time order (empty
+/// when the job has no such series).
+///
+/// # Errors
+/// Database errors.
+pub fn load_flagged_series(
+    conn: &Connection,
+    job_id: i64,
+    name: &str,
+) -> anyhow::Result<Vec<SeriesSample>> {
+    let mut q = conn.prepare(
+        "SELECT t_s, value, flowing FROM silo_field_series WHERE job_id = ?1 AND name = ?2 ORDER BY t_s",
+    )?;
+    let rows = q
+        .query_map(params![job_id, name], |r| {
+            Ok(SeriesSample {
+                t_s: r.get(0)?,
+                value: r.get(1)?,
+                flowing: r.get::<_, Option<i64>>(2)?.map(|f| f != 0),
+            })
+        })?
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(rows)
 }
 
 /// A stored scalar series: `(t (s), value)` in time order, and its units.
@@ -332,7 +369,8 @@ fn decode(blob: &[u8]) -> Vec<f64> {
 }
 
 /// Stores every field set and series of a silo job's field observer for `job_id` (inside the
-/// caller's transaction, so they commit with the job's other results).
+/// caller's transaction, so they commit with the job's other results), each series sample
+/// flagged with `flowing(t)`.
 ///
 /// # Errors
 /// Database errors or non-finite values.
@@ -340,12 +378,13 @@ pub fn save_silo_fields(
     conn: &Connection,
     job_id: i64,
     fields: &SiloFieldObserver,
+    flowing: &dyn Fn(f64) -> bool,
 ) -> anyhow::Result<()> {
     for (set, arrays) in fields.field_sets() {
         save_field_set(conn, job_id, &set, &arrays)?;
     }
     for s in fields.series() {
-        save_field_series(conn, job_id, s.name, s.units, s.samples)?;
+        save_field_series(conn, job_id, s.name, s.units, s.samples, Some(flowing))?;
     }
     Ok(())
 }

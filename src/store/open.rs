@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 5;
+pub const SCHEMA_VERSION: i64 = 6;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -116,6 +116,10 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
                 "ALTER TABLE jobs ADD COLUMN max_attempts INTEGER NOT NULL DEFAULT 3;
                  ALTER TABLE jobs ADD COLUMN stage TEXT;",
             )?;
+        }
+        // 5 → 6: whether the silo was flowing at each field-series sample (NULL for older rows).
+        if !has_column(&tx, "silo_field_series", "flowing")? {
+            tx.execute_batch("ALTER TABLE silo_field_series ADD COLUMN flowing INTEGER;")?;
         }
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }

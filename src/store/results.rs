@@ -75,7 +75,8 @@ impl SiloResults {
         self.numerics.write(&tx, job_id, self.dt_s)?;
         super::fields::delete_job_fields(&tx, job_id)?;
         if let Some(f) = &self.fields {
-            super::fields::save_silo_fields(&tx, job_id, f)?;
+            let flowing = |t: f64| self.discharge.flowing_at_end(t, self.sim_time_s);
+            super::fields::save_silo_fields(&tx, job_id, f, &flowing)?;
         }
         tx.execute(
             "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,

@@ -25,6 +25,8 @@ pub struct DischargeRow {
     pub q_ci95_kg_per_s: Option<f64>,
     /// jobs.params_json, for parameters the summary does not repeat (gravity).
     pub params_json: String,
+    /// Whether the job stopped on a permanent clog.
+    pub permanently_clogged: bool,
 }
 
 /// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
@@ -38,7 +40,7 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
     let mut stmt = conn.prepare(
         "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
                 s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
-                s.q_ci95_kg_per_s, j.params_json \
+                s.q_ci95_kg_per_s, j.params_json, s.permanently_clogged \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN discharge_summary s ON s.job_id = j.id \
@@ -57,6 +59,7 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
                 q_kg_per_s: r.get(6)?,
                 q_ci95_kg_per_s: r.get(7)?,
                 params_json: r.get(8)?,
+                permanently_clogged: r.get::<_, i64>(9)? != 0,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -7,6 +7,7 @@
 
 mod beverloo;
 mod janda;
+mod janda_bootstrap;
 mod line;
 mod minimise;
 mod stats;
@@ -15,5 +16,8 @@ mod tests;
 
 pub use beverloo::{beverloo_c_at_k, beverloo_fit, BeverlooFit};
 pub use janda::{janda_fit, JandaFit};
+pub use janda_bootstrap::{
+    janda_bootstrap, JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
+};
 pub use line::{linear_fit, LinearFit};
 pub use stats::{mean_ci95, student_t_975};

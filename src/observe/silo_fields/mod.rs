@@ -7,5 +7,5 @@ mod results;
 mod settings;
 
 pub use observer::{MapAverage, SiloFieldObserver, ORIFICE_KINETIC_PRESSURE, ORIFICE_MASS_FLUX};
-pub use results::NamedSeries;
+pub use results::{NamedSeries, MEAN_FLOWING};
 pub use settings::SiloFieldSettings;

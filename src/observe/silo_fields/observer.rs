@@ -40,6 +40,15 @@ pub struct SiloFieldObserver {
     pub orifice_radius_m: f64,
     pub maps: Vec<MapAverage>,
     pub mean: GridAverage,
+    /// The mean over flowing samples only (fig9, fig10: the paper averages "during flowing
+    /// states"); None in a checkpoint of an older sweep, which did not keep it.
+    #[serde(default)]
+    pub mean_flowing: Option<GridAverage>,
+    /// Samples of the mean whose flowing state is not known yet (the gap of exits around them
+    /// is still open): held until [`SiloFieldObserver::settle`] decides. A few at most: a gap
+    /// is decided once it closes or outlasts the clog time.
+    #[serde(default)]
+    pub pending: Vec<(f64, GridFields)>,
     pub mean_xyz: Option<GridAverage>,
     /// (t (s), value) per sample from `mean_start_s`.
     pub orifice_kinetic_pressure: Vec<(f64, f64)>,
@@ -75,6 +84,8 @@ impl SiloFieldObserver {
                 })
                 .collect(),
             mean: GridAverage::new(grid),
+            mean_flowing: Some(GridAverage::new(grid)),
+            pending: Vec::new(),
             mean_xyz,
             orifice_kinetic_pressure: Vec::new(),
             orifice_mass_flux: Vec::new(),
@@ -126,8 +137,13 @@ impl SiloFieldObserver {
         }
         if self.in_mean(t_s) {
             self.mean.add(&f, t_s);
-            let pk = self.cylinder_kinetic_pressure(&f);
-            self.orifice_kinetic_pressure.push((t_s, pk));
+            if self.mean_flowing.is_some() {
+                self.pending.push((t_s, f.clone()));
+            }
+            // No grid point in the cylinder: no value, rather than a 0 that reads as "at rest".
+            if let Some(pk) = self.cylinder_kinetic_pressure(&f) {
+                self.orifice_kinetic_pressure.push((t_s, pk));
+            }
             self.orifice_mass_flux.push((t_s, orifice_flux(&f)));
             if let Some(avg) = &mut self.mean_xyz {
                 let mut fx = GridFields::new(avg.grid);
@@ -146,9 +162,26 @@ impl SiloFieldObserver {
         }
     }
 
-    /// tr σᵏ averaged (by volume) over the grid points with r ≤ R and |z| ≤ R/2 (Pa); 0 when
-    /// none falls inside (an orifice narrower than the grid spacing).
-    fn cylinder_kinetic_pressure(&self, f: &GridFields) -> f64 {
+    /// Adds the pending samples that `flowing` now decides (Some(true)) to the flowing mean and
+    /// drops those inside a clog (Some(false)); undecided ones (None) stay pending.
+    pub fn settle(&mut self, flowing: impl Fn(f64) -> Option<bool>) {
+        let Some(avg) = self.mean_flowing.as_mut() else {
+            return;
+        };
+        self.pending.retain(|(t, f)| match flowing(*t) {
+            Some(true) => {
+                avg.add(f, *t);
+                false
+            }
+            Some(false) => false,
+            None => true,
+        });
+    }
+
+    /// tr σᵏ averaged (by volume) over the grid points with r ≤ R and |z| ≤ R/2 (Pa); None when
+    /// no grid point lies inside the orifice cylinder (an orifice narrower than the grid
+    /// spacing): there is nothing to average, and 0 would read as a bed at rest.
+    pub fn cylinder_kinetic_pressure(&self, f: &GridFields) -> Option<f64> {
         let g = &f.grid;
         let r = self.orifice_radius_m;
         let (mut sum, mut vol) = (0.0, 0.0);
@@ -161,11 +194,7 @@ impl SiloFieldObserver {
                 vol += v;
             }
         }
-        if vol > 0.0 {
-            sum / vol
-        } else {
-            0.0
-        }
+        (vol > 0.0).then(|| sum / vol)
     }
 }
 
@@ -183,4 +212,60 @@ fn orifice_flux(f: &GridFields) -> f64 {
             -f.momentum[3 * p + 2] * std::f64::consts::TAU * r * g.spacing_m[0]
         })
         .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn observer(orifice_m: f64, spacing_m: f64) -> SiloFieldObserver {
+        let silo = SiloParams {
+            orifice_diameter_m: orifice_m,
+            ..SiloParams::default()
+        };
+        let settings = SiloFieldSettings {
+            spacing_m: Some(spacing_m),
+            ..SiloFieldSettings::default()
+        };
+        SiloFieldObserver::new(&settings, &silo, 0.01)
+    }
+
+    #[test]
+    fn an_orifice_cylinder_without_grid_points_has_no_pressure_not_zero() {
+        // r points sit at (i + 1/2) h: with R = 5 mm < h/2 = 6 mm none is inside.
+        let coarse = observer(0.010, 0.012);
+        let empty = GridFields::new(coarse.mean.grid);
+        assert_eq!(coarse.cylinder_kinetic_pressure(&empty), None);
+        let fine = observer(0.010, 0.002);
+        let empty = GridFields::new(fine.mean.grid);
+        assert_eq!(fine.cylinder_kinetic_pressure(&empty), Some(0.0));
+    }
+}
+
+#[cfg(test)]
+mod flowing_tests {
+    use super::*;
+
+    #[test]
+    fn pending_samples_join_the_flowing_mean_only_when_decided_flowing() {
+        let silo = SiloParams::default();
+        let mut obs = SiloFieldObserver::new(&SiloFieldSettings::default(), &silo, 0.01);
+        let grid = obs.mean.grid;
+        for t in [1.0, 1.05, 1.1, 1.15] {
+            obs.pending.push((t, GridFields::new(grid)));
+        }
+        // 1.0 flowing, 1.05 in a clog, the rest undecided.
+        obs.settle(|t| match t {
+            t if t < 1.01 => Some(true),
+            t if t < 1.06 => Some(false),
+            _ => None,
+        });
+        let mean = obs.mean_flowing.as_ref().expect("kept");
+        assert_eq!((mean.samples, mean.t_first_s), (1, 1.0));
+        let left: Vec<f64> = obs.pending.iter().map(|p| p.0).collect();
+        assert_eq!(left, vec![1.1, 1.15]);
+        obs.settle(|_| Some(true));
+        assert_eq!(obs.mean_flowing.as_ref().map(|m| m.samples), Some(3));
+        assert!(obs.pending.is_empty());
+    }
 }

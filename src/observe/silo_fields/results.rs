@@ -1,10 +1,15 @@
 //! The silo field observer's results, handed to the store as plain values: each average becomes a field set (the maps
-//! `map_t<time>`, the whole-run `mean`, and `mean_xyz` when asked), each series rows of
+//! `map_t<time>`, the whole-run `mean`, the flowing-only `mean_flowing`, and `mean_xyz` when
+//! asked), each series rows of
 //! `silo_field_series`. Fields stored per set: phi, density, momentum, velocity,
 //! kinetic_stress, kinetic_pressure (and contact_stress); (r, z) sets carry vector and tensor
 //! components in the cylindrical basis (r, θ, z), Cartesian sets in (x, y, z).
 
 use super::observer::{SiloFieldObserver, ORIFICE_KINETIC_PRESSURE, ORIFICE_MASS_FLUX};
+
+/// Name of the field set averaging the flowing samples only (from `mean_start_s`, clogged
+/// intervals left out); `mean` averages every sample from `mean_start_s`.
+pub const MEAN_FLOWING: &str = "mean_flowing";
 use crate::observe::coarse_grain::{FieldArray, FieldSet, GridAverage};
 
 /// One time series of a scalar: its name, SI units and (t (s), value) samples.
@@ -23,6 +28,9 @@ impl SiloFieldObserver {
             out.push((format!("map_t{:.3}", m.time_s), &m.average));
         }
         out.push(("mean".to_string(), &self.mean));
+        if let Some(m) = &self.mean_flowing {
+            out.push((MEAN_FLOWING.to_string(), m));
+        }
         if let Some(x) = &self.mean_xyz {
             out.push(("mean_xyz".to_string(), x));
         }

@@ -14,13 +14,12 @@ mod scaling;
 mod velocity;
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
-use super::drawn::{write_all, Drawn};
+use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, sci, short, Table};
 use crate::report::chute::data::{
@@ -140,7 +139,7 @@ pub(crate) fn shown_indices(n: usize) -> Vec<usize> {
 
 /// Fig. 2: MSD_z(τ)/L² per block, log-log, one panel per showcase job, with grey power laws of
 /// slope 2 (ballistic) and 1 (diffusive). Curves are not shifted in y (the paper shifts them).
-pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;

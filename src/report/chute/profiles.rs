@@ -5,7 +5,6 @@
 //! no field rows. D_max and γ̇_max are the maxima of what is drawn.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
@@ -13,18 +12,18 @@ use rusqlite::Connection;
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{blocks, closest, done_chute_jobs, shear_profile, ChuteJob};
 use crate::report::chute::{color, empty_panel, preface};
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// Fig. 3: the profiles at the campaign's ξ closest to 1.3.
-pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     profiles(conn, campaign, out_dir, 3, 1.3)
 }
 
 /// Fig. 4: the profiles at the campaign's ξ closest to 2.5.
-pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     profiles(conn, campaign, out_dir, 4, 2.5)
 }
 
@@ -40,7 +39,7 @@ fn max_point(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 fn profiles(
     conn: &Connection,
     campaign: &CampaignRef,
-    out_dir: &Path,
+    out_dir: &Output,
     number: u32,
     target_xi: f64,
 ) -> Result<Drawn> {
@@ -71,7 +70,7 @@ fn profiles(
         "value_over_max",
     ]);
     let mut panel = Panel::new(x_axis(), y_axis());
-    panel.legend = Legend::UpperRight;
+    panel.legend = Legend::Outside;
     match xi {
         None => {
             text.push_str("no done job with a chute summary\n");

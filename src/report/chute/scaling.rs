@@ -4,7 +4,6 @@
 //! Lengths are in units of each job's L; fits use [`crate::observe::fits::linear_fit`].
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
@@ -13,7 +12,7 @@ use crate::observe::fits::{linear_fit, LinearFit};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{blocks, done_chute_jobs, ChuteJob};
 use crate::report::chute::{color, preface, GREY};
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
@@ -62,7 +61,7 @@ fn fit_line(fit: Option<&LinearFit>, x: &[f64], label: String, color: usize) -> 
 }
 
 /// Fig. 6: (a) D/γ̇ vs d_⊥², (b) D vs γ̇ d_⊥², central blocks of all done jobs.
-pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let (lo, hi) = CENTRAL_BED;
@@ -114,7 +113,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
     a.title = Some("(a) D/γ̇ vs d_⊥²".into());
     let mut b = Panel::new(Axis::linear("γ̇ d_⊥² (L²/s)"), Axis::linear("D (L²/s)"));
     b.title = Some("(b) D vs γ̇ d_⊥²".into());
-    b.legend = Legend::UpperLeft;
+    b.legend = Legend::Outside;
     let blocks_label = format!("blocks, {lo} H < z < {hi} H");
     a.series.push(Series::points(
         Some(blocks_label),

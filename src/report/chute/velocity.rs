@@ -5,7 +5,6 @@
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
@@ -15,7 +14,7 @@ use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow
 use crate::report::chute::{
     case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices, GREY,
 };
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
@@ -37,7 +36,7 @@ fn area(points: &[(f64, f64)]) -> f64 {
 
 /// Fig. 5: (a), (b) standardised v_z PDFs per block, log y, with the standard Gaussian;
 /// (c) the skewness of v_z vs z/L for both jobs.
-pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
@@ -71,7 +70,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
     let mut panels = Vec::new();
     let mut skew = Panel::new(Axis::linear("z / L"), Axis::linear("skewness of v_z"));
     skew.title = Some("skewness vs height".into());
-    skew.legend = Legend::UpperRight;
+    skew.legend = Legend::Outside;
     for (k, job) in shown.iter().enumerate() {
         let l = job.total_length_m;
         let rows = blocks(conn, job.job_id)?;
@@ -79,7 +78,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         let picked = shown_indices(curves.len());
         let mut panel = Panel::new(Axis::linear("(v_z − ⟨v_z⟩) / σ"), Axis::log("PDF"));
         panel.title = Some(case_name(job));
-        panel.legend = Legend::LowerLeft;
+        panel.legend = Legend::Outside;
         let mut x_extent: f64 = 0.0;
         for (i, c) in curves.iter().enumerate() {
             let row = rows.iter().find(|r| r.block == c.block);
@@ -198,7 +197,7 @@ fn gaussian(extent: f64) -> Series {
 /// the right with exp(−(r − r₀)/l), l = chute_blocks.correlation_length_m. C(0) is the value of
 /// the smallest-r bin, at r₀ (centre L/8), as the paper's Eq. (3) bins start at r = 0; the line
 /// goes through that bin so that its slope −1/l compares with the data's.
-pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = done_chute_jobs(conn, campaign.id)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
@@ -239,7 +238,7 @@ pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         let picked = shown_indices(curves.len());
         let mut lin = Panel::new(Axis::linear("r / L"), Axis::linear(y_label));
         lin.title = Some(case_name(job));
-        lin.legend = Legend::UpperRight;
+        lin.legend = Legend::Outside;
         let mut log = Panel::new(Axis::linear("r / L"), Axis::log(y_label));
         log.title = Some(format!(
             "{}, log y; lines: exp(−(r − r₀)/l)",

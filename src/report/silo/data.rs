@@ -34,6 +34,24 @@ pub struct FlowPoint {
     pub replicas: usize,
     /// How `ci` was obtained.
     pub ci_source: CiSource,
+    /// Replicas of this point that have no Q (clogged): not in `q`, named in the tables.
+    pub clogged_replicas: usize,
+    /// The Q of each replica with one, kg/s (what a bootstrap over replicas redraws).
+    pub replica_q: Vec<f64>,
+}
+
+/// A (D, f) at which no replica has a flow rate: every run clogged before Q could be measured.
+/// Figures mark it (a cross on the axis, legend "clogged"); it is never drawn as a value.
+#[derive(Debug, Clone)]
+pub struct CloggedPoint {
+    /// Orifice diameter D, m.
+    pub d_m: f64,
+    /// Rotation frequency f, Hz.
+    pub f_hz: f64,
+    /// Particle diameter d, m.
+    pub particle_d_m: f64,
+    /// Runs at this point (all without Q).
+    pub runs: usize,
 }
 
 impl FlowPoint {
@@ -49,24 +67,22 @@ pub fn same_value(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-12)
 }
 
-/// Combines the replicas of each point (rows whose parameters are equal except the replica
-/// index, `campaign::point_key`): the mean of their Q and, with ≥ 2 replicas, a CI from their
-/// spread (Student t); with one replica its own CI. Rows without Q are skipped. Sorted by D, f;
-/// two points at one (D, f) that differ in another parameter stay two points.
-pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
-    let mut with_q: Vec<(&DischargeRow, String)> = rows
+/// The rows grouped into points: rows whose parameters are equal except the replica index
+/// (`campaign::point_key`), sorted by D, f; two points at one (D, f) that differ in another
+/// parameter stay two points.
+fn points_of(rows: &[DischargeRow]) -> Vec<Vec<&DischargeRow>> {
+    let mut keyed: Vec<(&DischargeRow, String)> = rows
         .iter()
-        .filter(|r| r.q_kg_per_s.is_some())
         .map(|r| (r, crate::campaign::point_key(&r.params_json)))
         .collect();
-    with_q.sort_by(|(a, ka), (b, kb)| {
+    keyed.sort_by(|(a, ka), (b, kb)| {
         a.orifice_diameter_m
             .total_cmp(&b.orifice_diameter_m)
             .then(a.rotation_frequency_hz.total_cmp(&b.rotation_frequency_hz))
             .then(ka.cmp(kb))
     });
     let mut out = Vec::new();
-    let mut rest = with_q.as_slice();
+    let mut rest = keyed.as_slice();
     while let Some((first, key)) = rest.first() {
         let n = rest
             .iter()
@@ -78,7 +94,26 @@ pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
             .count();
         let (group, tail) = rest.split_at(n);
         rest = tail;
-        let qs: Vec<f64> = group.iter().filter_map(|(r, _)| r.q_kg_per_s).collect();
+        out.push(group.iter().map(|(r, _)| *r).collect());
+    }
+    out
+}
+
+/// Combines the replicas of each point: the mean of their Q and, with ≥ 2 replicas with Q, a CI
+/// from their spread (Student t); with one replica its own CI. Replicas without Q are counted in
+/// `clogged_replicas`; a point where no replica has Q is not here but in [`clogged_points`].
+pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
+    let mut out = Vec::new();
+    for group in points_of(rows) {
+        let with_q: Vec<&DischargeRow> = group
+            .iter()
+            .copied()
+            .filter(|r| r.q_kg_per_s.is_some())
+            .collect();
+        let Some(first) = with_q.first() else {
+            continue;
+        };
+        let qs: Vec<f64> = with_q.iter().filter_map(|r| r.q_kg_per_s).collect();
         let (q, ci, ci_source) = match mean_ci95(&qs) {
             Some((mean, hw)) => (mean, Some(hw), CiSource::ReplicaSpread),
             None => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
@@ -92,9 +127,25 @@ pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
             ci,
             replicas: qs.len(),
             ci_source,
+            clogged_replicas: group.len() - qs.len(),
+            replica_q: qs,
         });
     }
     out
+}
+
+/// The points at which every run clogged before Q could be measured (no replica has Q).
+pub fn clogged_points(rows: &[DischargeRow]) -> Vec<CloggedPoint> {
+    points_of(rows)
+        .into_iter()
+        .filter(|g| g.iter().all(|r| r.q_kg_per_s.is_none()))
+        .map(|g| CloggedPoint {
+            d_m: g[0].orifice_diameter_m,
+            f_hz: g[0].rotation_frequency_hz,
+            particle_d_m: g[0].particle_diameter_m,
+            runs: g.len(),
+        })
+        .collect()
 }
 
 /// The distinct values of `values`, sorted ascending.
@@ -159,6 +210,7 @@ mod tests {
             q_kg_per_s: q,
             q_ci95_kg_per_s: ci,
             params_json: "{}".into(),
+            permanently_clogged: q.is_none(),
         }
     }
 
@@ -173,6 +225,13 @@ mod tests {
         ];
         let pts = combine_replicas(&rows);
         assert_eq!(pts.len(), 2);
+        assert_eq!(
+            pts[1].clogged_replicas, 1,
+            "the Q-less replica at (30 mm, 0.5 Hz)"
+        );
+        let clogged = clogged_points(&rows);
+        assert_eq!(clogged.len(), 1, "(30 mm, 1 Hz) has no Q at all");
+        assert!(same_value(clogged[0].f_hz, 1.0) && clogged[0].runs == 1);
         assert!(same_value(pts[0].d_m, 0.02) && pts[0].ci == Some(0.05));
         assert_eq!(pts[0].ci_source, CiSource::SingleJob);
         let p = &pts[1];

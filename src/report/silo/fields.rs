@@ -4,13 +4,12 @@
 //! the orifice (fig9) and mean kinetic-pressure maps (fig10); ⟨p^k⟩ in the orifice cylinder vs f
 //! (fig11) is in `orifice_pressure`. Lengths are in units of the silo radius R_c, as in the paper.
 
-use std::path::Path;
-
 use anyhow::{bail, Result};
 use rusqlite::Connection;
 
+use crate::observe::silo_fields::MEAN_FLOWING;
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::field_map::{MapFigure, MapPanel, MapRow};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, done_discharge_rows, same_value};
@@ -28,12 +27,50 @@ pub(super) struct FieldJob {
     pub(super) f_hz: f64,
     pub(super) particle_d_m: f64,
     pub(super) silo_radius_m: f64,
+    /// The job's flow rate; None when it clogged before one could be measured.
+    pub(super) q_kg_per_s: Option<f64>,
+    /// Time between field samples (s), from the job's parameters.
+    pub(super) sample_interval_s: Option<f64>,
     pub(super) sets: Vec<FieldSet>,
 }
 
 impl FieldJob {
+    /// Whether some (r, z) grid point of the job's sets lies in the orifice cylinder r ≤ R,
+    /// |z| ≤ R/2 (R = D/2) over which fig11's ⟨p^k⟩ averages.
+    pub(super) fn grid_reaches_orifice_cylinder(&self) -> bool {
+        let r = 0.5 * self.d_m;
+        self.sets.iter().filter(|s| s.grid_kind == "rz").any(|s| {
+            let inside = |axis: usize, lo: f64, hi: f64| {
+                (0..s.shape[axis]).any(|i| {
+                    let c = s.coordinate(axis, i);
+                    c >= lo - 1e-12 && c <= hi + 1e-12
+                })
+            };
+            inside(0, 0.0, r) && inside(1, -0.5 * r, 0.5 * r)
+        })
+    }
+
     fn set(&self, name: &str) -> Option<&FieldSet> {
         self.sets.iter().find(|s| s.name == name)
+    }
+
+    /// The time average fig9 and fig10 show: the flowing samples' mean, and a phrase saying
+    /// how much time it averages. A job of an older sweep has only the whole-run mean, which
+    /// includes clogged time: it is used and said so. None when the job has no flowing sample.
+    fn flowing_mean(&self) -> Option<(&FieldSet, String)> {
+        if let Some(set) = self.set(MEAN_FLOWING) {
+            let secs = self.sample_interval_s.map(|h| h * set.samples as f64);
+            let how = match secs {
+                Some(s) => format!("{s:.2} s flowing"),
+                None => format!("{} flowing samples", set.samples),
+            };
+            return Some((set, how));
+        }
+        // A job with Q has flowing samples, so without a flowing mean it was stored before
+        // sweep kept one: its whole-run mean is shown, and said to include clogged time.
+        self.q_kg_per_s?;
+        self.set("mean")
+            .map(|set| (set, "whole run incl. clogs (older sweep)".to_string()))
     }
 
     /// The map sets (`map_t…`), by time.
@@ -64,6 +101,8 @@ pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<Field
             f_hz: r.rotation_frequency_hz,
             particle_d_m: r.particle_diameter_m,
             silo_radius_m,
+            q_kg_per_s: r.q_kg_per_s,
+            sample_interval_s: p["observers"]["fields"]["sample_interval_s"].as_f64(),
             sets,
         });
     }
@@ -192,7 +231,7 @@ enum MapQuantity {
 fn time_maps(
     conn: &Connection,
     c: &CampaignRef,
-    out: &Path,
+    out: &Output,
     fig: &str,
     q: MapQuantity,
 ) -> Result<Drawn> {
@@ -323,23 +362,23 @@ fn time_maps(
 }
 
 /// Fig. 6: φ maps at the map times, one row per f, largest D.
-pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig6(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig6", MapQuantity::Phi)
 }
 
 /// Fig. 7: |V| maps with streamlines of (V_r, V_z).
-pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig7(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig7", MapQuantity::Speed)
 }
 
 /// Fig. 8: V_θ maps.
-pub(crate) fn fig8(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig8(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     time_maps(conn, c, out, "fig8", MapQuantity::Azimuthal)
 }
 
 /// Fig. 9: ⟨φ⟩, −⟨P_z⟩ and −⟨V_z⟩ on the row z = 0 of the whole-run mean vs r/R (R = D/2), one
 /// line per f, largest D.
-pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let (d, _) = showcase(&jobs);
     let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
@@ -361,8 +400,16 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
         "momentum_z_kg_per_m2_s",
         "velocity_z_m_per_s",
     ]);
+    let mut notes = Vec::new();
     for (k, j) in chosen.iter().enumerate() {
-        let Some(set) = j.set("mean") else { continue };
+        let Some((set, how)) = j.flowing_mean() else {
+            notes.push(format!(
+                "f = {} Hz: clogged, no flowing sample",
+                short(j.f_hz)
+            ));
+            continue;
+        };
+        notes.push(format!("f = {} Hz: {how}", short(j.f_hz)));
         let a = arrays(conn, set)?;
         let (phi, p, v) = (
             field(&a, "phi")?,
@@ -408,17 +455,20 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
         panels[2].series.push(Series::line(label, k, x, y2));
     }
     for p in &mut panels {
-        p.legend = Legend::UpperRight;
+        p.legend = Legend::Hidden;
     }
+    // One legend for the three panels, with what each f averages, beside the last one.
+    panels[2].legend = Legend::Outside;
+    panels[2].notes = notes;
     let fig = Figure {
         title: Some(format!(
-            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), whole-run mean",
+            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), mean over flowing samples",
             mm(d),
             d / chosen[0].particle_d_m
         )),
         panels: panels.to_vec(),
         columns: 3,
-        panel_size: (420, 360),
+        panel_size: (520, 440),
     };
     let files = write_all(&fig, &csv, out, "fig9")?;
     Ok(Drawn {
@@ -429,11 +479,12 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dra
 
 /// Fig. 10: p^k = tr⟨σᵏ⟩ maps of the whole-run mean, rows = D, columns = f; the dashed
 /// rectangle is fig11's orifice cylinder (r ≤ R, |z| ≤ R/2).
-pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let ds = distinct(jobs.iter().map(|j| j.d_m));
     let fs = distinct(jobs.iter().map(|j| j.f_hz));
     let mut rows = Vec::new();
+    let mut clogged = Vec::new();
     let mut csv = Table::new(&[
         "job_id",
         "d_m",
@@ -446,11 +497,20 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
     for &d in &ds {
         let mut panels = Vec::new();
         for j in rows_of(&jobs, d, &fs) {
-            let Some(set) = j.set("mean") else { continue };
+            let Some((set, how)) = j.flowing_mean() else {
+                clogged.push(format!("D = {} mm, f = {} Hz", mm(d), short(j.f_hz)));
+                // An empty panel keeps the columns aligned with f and says why it is empty.
+                if let Some(any) = j.sets.iter().find(|s| s.grid_kind == "rz") {
+                    let empty = vec![f64::NAN; any.shape[0] * any.shape[1]];
+                    let title = format!("f = {} Hz: clogged, no flowing sample", short(j.f_hz));
+                    panels.push(panel(title, any, empty.clone(), &empty));
+                }
+                continue;
+            };
             let a = arrays(conn, set)?;
             let phi = &field(&a, "phi")?.data;
             let pk = field(&a, "kinetic_pressure")?.data.clone();
-            let mut p = panel(format!("f = {} Hz", short(j.f_hz)), set, pk, phi);
+            let mut p = panel(format!("f = {} Hz, {how}", short(j.f_hz)), set, pk, phi);
             p.boxes.push((0.5 * d, -0.25 * d, 0.25 * d));
             let (_, hi) = finite_range(std::slice::from_ref(&p));
             csv.push(vec![
@@ -479,7 +539,15 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
     let rc = jobs[0].silo_radius_m;
     let w = jobs[0].sets[0].kernel_width_m;
     let figure = MapFigure {
-        title: format!("fig10: kinetic pressure p^k = tr⟨σᵏ⟩_t (whole-run mean), w = {} mm; dashed: r ≤ R, |z| ≤ R/2", mm(w)),
+        title: format!(
+            "fig10: p^k = tr⟨σᵏ⟩_t over flowing samples, w = {} mm; dashed: r ≤ R, |z| ≤ R/2{}",
+            mm(w),
+            if clogged.is_empty() {
+                String::new()
+            } else {
+                format!("; clogged, not drawn: {}", clogged.join("; "))
+            }
+        ),
         rows,
         length_m: rc,
         length_name: "R_c".into(),

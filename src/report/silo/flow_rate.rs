@@ -1,18 +1,19 @@
 //! Fig. 3 of the silo paper: Q(D) per f with the fit of Eq. (1) (Janda) and D_min(f), with a
 //! Beverloo line for reference.
 
-use std::path::Path;
-
 use anyhow::Result;
 use rusqlite::Connection;
 
-use crate::observe::fits::{beverloo_fit, janda_fit, JandaFit};
+use crate::observe::fits::{
+    beverloo_fit, janda_bootstrap, janda_fit, JandaFit, JandaIntervals, JandaPoint,
+    BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
+};
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
-use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::drawn::{write_all, Drawn, Output};
+use crate::report::plot::{Axis, Figure, Legend, Marker, Panel, Series};
 use crate::report::silo::data::{
-    combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value, CiSource,
-    DischargeRow, FlowPoint,
+    clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value,
+    CiSource, CloggedPoint, DischargeRow, FlowPoint,
 };
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
@@ -25,14 +26,39 @@ pub(crate) struct JandaRow {
     pub f_hz: f64,
     /// The combined points at this f, sorted by D.
     pub points: Vec<FlowPoint>,
-    /// The fit; None with fewer than 3 orifices.
+    /// The fit; None with no more points than the law's 3 parameters (a curve through 3 points
+    /// tests nothing of Eq. (1)).
     pub fit: Option<JandaFit>,
+    /// 95 % bootstrap intervals of the fit's parameters.
+    pub intervals: Option<JandaIntervals>,
     /// Whether the fit weighted points by 1/CI².
     pub weighted: bool,
 }
 
+impl JandaRow {
+    /// Why the figure draws no D_min for this f, if it draws none: no fit, or α2 at the end of
+    /// its search range (D_min = α2 ln α1 then follows the bound, not the data).
+    pub fn d_min_refused(&self) -> Option<String> {
+        let f = short(self.f_hz);
+        match &self.fit {
+            None => Some(format!(
+                "f = {f} Hz: {} D for {JANDA_PARAMETERS} parameters, no fit drawn",
+                self.points.len()
+            )),
+            Some(fit) if fit.alpha2_at_bound => Some(format!(
+                "f = {f} Hz: α2 at its search bound ({:.0} mm), D_min not determined",
+                fit.alpha2_m * 1e3
+            )),
+            Some(fit) if fit.d_min_m.is_none() => Some(format!("f = {f} Hz: α1 ≤ 0, no D_min")),
+            Some(_) => None,
+        }
+    }
+}
+
 /// Fits Eq. (1) per f. Points are weighted by 1/CI² when every point at that f has a positive
 /// CI (Q spans an order of magnitude over D, so equal weights would ignore the small orifices).
+/// No fit with ≤ 3 points; the uncertainty is a bootstrap over replicas (or each point's CI),
+/// seeded by f so that a figure redrawn gives the same intervals.
 pub(crate) fn janda_rows(points: &[FlowPoint]) -> Vec<JandaRow> {
     distinct(points.iter().map(|p| p.f_hz))
         .into_iter()
@@ -51,21 +77,47 @@ pub(crate) fn janda_rows(points: &[FlowPoint]) -> Vec<JandaRow> {
                         .map(|c| 1.0 / (c * c))
                 })
                 .collect();
-            let fit = janda_fit(&d, &q, w.as_deref());
+            let enough = pts.len() > JANDA_PARAMETERS;
+            let fit = enough.then(|| janda_fit(&d, &q, w.as_deref())).flatten();
+            let boot: Vec<JandaPoint> = pts
+                .iter()
+                .map(|p| JandaPoint {
+                    d_m: p.d_m,
+                    q: p.q,
+                    replica_q: p.replica_q.clone(),
+                    ci95: p.ci,
+                })
+                .collect();
+            let intervals = fit
+                .as_ref()
+                .and_then(|_| janda_bootstrap(&boot, f_hz.to_bits() ^ BOOTSTRAP_SEED));
             JandaRow {
                 f_hz,
                 points: pts,
                 fit,
+                intervals,
                 weighted: w.is_some(),
             }
         })
         .collect()
 }
 
+/// Seed of the Janda bootstrap (xor the bits of f): fixed, so figures are reproducible.
+const BOOTSTRAP_SEED: u64 = 0x005e_ed0f_7a9d_a000;
+
+/// "[lo, hi]" in mm, or "-".
+fn interval_mm(iv: Option<(f64, f64)>) -> String {
+    iv.map_or_else(
+        || "-".into(),
+        |(lo, hi)| format!("[{:.3}, {:.3}]", lo * 1e3, hi * 1e3),
+    )
+}
+
 /// Fig. 3: Q vs D per f with 95 % CIs and the Eq. (1) fits; second panel D_min = α2 ln α1 vs f.
-pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let points = combine_replicas(&rows);
+    let clogged = clogged_points(&rows);
     let fits = janda_rows(&points);
 
     let mut q_panel = Panel::new(Axis::linear("D (mm)"), Axis::linear("Q (kg/s)"));
@@ -75,7 +127,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         Axis::linear("D_min = α2 ln α1 (mm)"),
     );
     dmin_panel.title = Some("D_min vs f".into());
-    dmin_panel.legend = Legend::Hidden;
+    dmin_panel.legend = Legend::Outside;
     let mut fit_table = Table::new(&[
         "f_Hz",
         "n_D",
@@ -85,6 +137,8 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         "D_min_mm",
         "D_min/d",
         "rms_kg/s",
+        "D_min_ci95_mm",
+        "alpha2_ci95_mm",
         "weights",
     ]);
     let mut q_table = Table::new(&[
@@ -95,6 +149,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         "ci95_kg/s",
         "ci95_from",
         "replicas",
+        "clogged",
         "Q_fit_kg/s",
     ]);
     let mut csv = Table::new(&[
@@ -105,13 +160,17 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         "q_ci95_kg_per_s",
         "q_ci95_source",
         "replicas",
+        "clogged_runs",
         "janda_q_kg_per_s",
         "janda_c",
         "janda_alpha1",
         "janda_alpha2_m",
         "janda_d_min_m",
+        "janda_d_min_ci95_lo_m",
+        "janda_d_min_ci95_hi_m",
     ]);
-    let (mut dmin_f, mut dmin_mm) = (Vec::new(), Vec::new());
+    let (mut dmin_f, mut dmin_mm, mut dmin_iv) = (Vec::new(), Vec::new(), Vec::new());
+    let mut refused_f = Vec::new();
     for (color, row) in fits.iter().enumerate() {
         let fit = row.fit.as_ref();
         let d_mm: Vec<f64> = row.points.iter().map(|p| p.d_m * 1e3).collect();
@@ -130,10 +189,22 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 .collect();
             let (x, y) = curve.into_iter().unzip();
             q_panel.series.push(Series::line(None, color, x, y));
-            if let Some(d_min) = fit.d_min_m {
+        }
+        match (row.d_min_refused(), fit.and_then(|f| f.d_min_m)) {
+            (None, Some(d_min)) => {
                 dmin_f.push(row.f_hz);
                 dmin_mm.push(d_min * 1e3);
+                let iv = row.intervals.and_then(|i| i.d_min_m);
+                dmin_iv.push(iv.map(|(lo, hi)| (lo * 1e3, hi * 1e3)));
             }
+            (Some(why), _) => {
+                refused_f.push(row.f_hz);
+                if fit.is_none() {
+                    q_panel.notes.push(why.clone());
+                }
+                dmin_panel.notes.push(why);
+            }
+            (None, None) => {}
         }
         let particle_d = row.points.first().map(|p| p.particle_d_m);
         fit_table.push(vec![
@@ -150,17 +221,22 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 3,
             ),
             sci(fit.map(|f| f.rms_residual_kg_per_s), 2),
+            interval_mm(row.intervals.and_then(|i| i.d_min_m)),
+            interval_mm(row.intervals.map(|i| i.alpha2_m)),
             match (fit, row.weighted) {
-                (None, _) => "no fit (< 3 D)".into(),
+                (None, _) => format!(
+                    "no fit ({} D for {JANDA_PARAMETERS} parameters)",
+                    row.points.len()
+                ),
                 (Some(f), weighted) => {
                     let mut w = String::from(if weighted { "1/ci95^2" } else { "equal" });
-                    // Three parameters through three points test nothing of Eq. (1); an α2 at
-                    // the end of its search range is not determined by the data.
-                    if row.points.len() == 3 {
-                        w += "; 3 D for 3 parameters";
-                    }
+                    // An α2 at the end of its search range is not determined by the data.
                     if f.alpha2_at_bound {
                         w += "; alpha2 at its search bound";
+                    }
+                    match row.intervals {
+                        Some(i) => w += &format!("; bootstrap {}/{BOOTSTRAP_DRAWS}", i.draws),
+                        None => w += "; no bootstrap",
                     }
                     w
                 }
@@ -176,6 +252,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 sci(p.ci, 2),
                 ci_source_name(p.ci_source).into(),
                 p.replicas.to_string(),
+                p.clogged_replicas.to_string(),
                 sci(q_fit, 4),
             ]);
             csv.push(vec![
@@ -186,17 +263,28 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                 csv_num(p.ci),
                 ci_source_name(p.ci_source).into(),
                 p.replicas.to_string(),
+                p.clogged_replicas.to_string(),
                 csv_num(q_fit),
                 csv_num(fit.map(|f| f.c)),
                 csv_num(fit.map(|f| f.alpha1)),
                 csv_num(fit.map(|f| f.alpha2_m)),
                 csv_num(fit.and_then(|f| f.d_min_m)),
+                csv_num(row.intervals.and_then(|i| i.d_min_m).map(|i| i.0)),
+                csv_num(row.intervals.and_then(|i| i.d_min_m).map(|i| i.1)),
             ]);
         }
     }
+    mark_clogged(&mut q_panel, &clogged, &fits, &mut q_table, &mut csv);
+    let dmin_label = (!dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
     dmin_panel
         .series
-        .push(Series::points(None, 0, dmin_f, dmin_mm));
+        .push(Series::points(dmin_label, 0, dmin_f, dmin_mm).with_intervals(dmin_iv));
+    if !refused_f.is_empty() {
+        dmin_panel.series.push(
+            Series::axis_marks(Some("no D_min (see notes)".into()), 3, refused_f, 0)
+                .with_marker(Marker::Cross),
+        );
+    }
     let fig = Figure {
         title: Some(format!(
             "Fig. 3: flow rate vs orifice diameter, campaign {}",
@@ -204,7 +292,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         )),
         panels: vec![q_panel, dmin_panel],
         columns: 2,
-        panel_size: (800, 600),
+        panel_size: (900, 640),
     };
     let mut text = String::from(
         "Janda fit Q = C (1 - alpha1 exp(-D/alpha2)) D^(5/2), per rotation frequency\n",
@@ -220,6 +308,76 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         text,
         files: write_all(&fig, &csv, out_dir, "fig3")?,
     })
+}
+
+/// Crosses on the D axis for the (D, f) where every run clogged (in the colour of its f), a
+/// legend entry "clogged", and their rows in the tables (Q empty).
+fn mark_clogged(
+    panel: &mut Panel,
+    clogged: &[CloggedPoint],
+    fits: &[JandaRow],
+    q_table: &mut Table,
+    csv: &mut Table,
+) {
+    if clogged.is_empty() {
+        return;
+    }
+    let fs = distinct(
+        fits.iter()
+            .map(|r| r.f_hz)
+            .chain(clogged.iter().map(|c| c.f_hz)),
+    );
+    for (k, &f) in fs.iter().enumerate() {
+        // The colour of f's flow-rate series, so a cross says which f clogged.
+        let color = fits
+            .iter()
+            .position(|r| same_value(r.f_hz, f))
+            .unwrap_or(fits.len() + k);
+        let at: Vec<f64> = clogged
+            .iter()
+            .filter(|c| same_value(c.f_hz, f))
+            .map(|c| c.d_m * 1e3)
+            .collect();
+        if !at.is_empty() {
+            panel.series.push(Series::axis_marks(None, color, at, k));
+        }
+    }
+    panel.series.push(Series::axis_marks(
+        Some("clogged (no Q)".into()),
+        7,
+        Vec::new(),
+        0,
+    ));
+    for c in clogged {
+        q_table.push(vec![
+            short(c.f_hz),
+            mm(c.d_m),
+            fixed(Some(c.d_m / c.particle_d_m), 2),
+            "clogged".into(),
+            "-".into(),
+            "-".into(),
+            "0".into(),
+            c.runs.to_string(),
+            "-".into(),
+        ]);
+        csv.push(vec![
+            csv_num(Some(c.f_hz)),
+            csv_num(Some(c.d_m)),
+            csv_num(Some(c.particle_d_m)),
+            String::new(),
+            String::new(),
+            "clogged".into(),
+            "0".into(),
+            c.runs.to_string(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+        ]);
+    }
 }
 
 fn ci_source_name(source: CiSource) -> &'static str {

@@ -15,13 +15,11 @@ mod tests;
 pub(crate) use flow_rate::fig3;
 pub(crate) use normalised_q::{fig4, fig5};
 
-use std::path::Path;
-
 use anyhow::Result;
 use rusqlite::Connection;
 
 use super::campaign::CampaignRef;
-use super::drawn::{write_all, Drawn};
+use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, mm, sci, short, Table};
 use crate::report::silo::data::{distinct, done_discharge_rows, mass_series, same_value, spread};
@@ -30,7 +28,7 @@ use crate::report::silo::data::{distinct, done_discharge_rows, mass_series, same
 const MAX_FIG2_CURVES: usize = 8;
 
 /// Fig. 2: discharged mass M(t) for up to eight (D, f), spread over the D and f present.
-pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
+pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let rows = done_discharge_rows(conn, campaign.id)?;
     let ds = distinct(rows.iter().map(|r| r.orifice_diameter_m));
     let fs = distinct(rows.iter().map(|r| r.rotation_frequency_hz));
@@ -79,7 +77,13 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
                     csv_num(Some(m)),
                 ]);
             }
-            let label = format!("D = {} mm, f = {} Hz", mm(d), short(f));
+            // A run without Q clogged: its flat M(t) is drawn, and named so.
+            let clogged = if row.q_kg_per_s.is_none() {
+                ", clogged"
+            } else {
+                ""
+            };
+            let label = format!("D = {} mm, f = {} Hz{clogged}", mm(d), short(f));
             let (t, m): (Vec<f64>, Vec<f64>) = series.into_iter().unzip();
             let color = panel.series.len();
             panel.series.push(Series::line(Some(label), color, t, m));

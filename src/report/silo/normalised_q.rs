@@ -2,16 +2,18 @@
 //! orifices one panel each (Fig. 5).
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{combine_replicas, done_discharge_rows, spread};
-use crate::report::silo::normalise::{normalise, NormalisedCurve};
+use crate::report::silo::data::{
+    clogged_points, combine_replicas, distinct, done_discharge_rows, same_value, spread,
+    CloggedPoint,
+};
+use crate::report::silo::normalise::{normalise, Normalised, NormalisedCurve};
 use crate::report::table::mm;
 
 /// Fig. 5 shows orifices with D/d above this (the paper: no permanent clog at f = 0 above ~4.5 d).
@@ -25,12 +27,84 @@ fn curve_series(c: &NormalisedCurve, label: Option<String>, color: usize) -> Ser
     Series::points(label, color, f, r).with_errors(c.points.iter().map(|p| p.2).collect())
 }
 
+/// The colour of orifice `d`: its curve's index, or after the curves for an orifice without one.
+fn color_of(norm: &Normalised, d: f64, others: &[f64]) -> usize {
+    norm.curves
+        .iter()
+        .position(|c| same_value(c.d_m, d))
+        .or_else(|| {
+            others
+                .iter()
+                .position(|o| same_value(*o, d))
+                .map(|k| norm.curves.len() + k)
+        })
+        .unwrap_or(0)
+}
+
+/// Crosses on the f axis where every run of (D, f) clogged, in D's colour, one lane per D, and
+/// the legend entry "clogged"; the clogged points as text lines.
+fn clogged_marks(norm: &Normalised, clogged: &[CloggedPoint], only_d: Option<f64>) -> Vec<Series> {
+    let clogged: Vec<&CloggedPoint> = clogged
+        .iter()
+        .filter(|c| only_d.is_none_or(|d| same_value(c.d_m, d)))
+        .collect();
+    if clogged.is_empty() {
+        return Vec::new();
+    }
+    let others: Vec<f64> = distinct(clogged.iter().map(|c| c.d_m))
+        .into_iter()
+        .filter(|d| !norm.curves.iter().any(|c| same_value(c.d_m, *d)))
+        .collect();
+    let mut out = Vec::new();
+    for (lane, d) in distinct(clogged.iter().map(|c| c.d_m))
+        .into_iter()
+        .enumerate()
+    {
+        let fs = clogged
+            .iter()
+            .filter(|c| same_value(c.d_m, d))
+            .map(|c| c.f_hz)
+            .collect();
+        out.push(Series::axis_marks(
+            None,
+            color_of(norm, d, &others),
+            fs,
+            lane,
+        ));
+    }
+    out.push(Series::axis_marks(
+        Some("clogged (no Q)".into()),
+        7,
+        Vec::new(),
+        0,
+    ));
+    out
+}
+
+/// Text lines naming the clogged points.
+fn clogged_note(clogged: &[CloggedPoint]) -> String {
+    let mut s = String::new();
+    for c in clogged {
+        let _ = writeln!(
+            s,
+            "clogged: D = {} mm ({:.2} d), f = {} Hz: {} run(s), none with Q (a cross on the f axis)",
+            mm(c.d_m),
+            c.d_m / c.particle_d_m,
+            crate::report::table::short(c.f_hz),
+            c.runs
+        );
+    }
+    s
+}
+
 /// Fig. 4: Q/Q_{f=1} vs f, one series per orifice.
-pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
-    let points = combine_replicas(&done_discharge_rows(conn, campaign.id)?);
+pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
+    let rows = done_discharge_rows(conn, campaign.id)?;
+    let points = combine_replicas(&rows);
+    let clogged = clogged_points(&rows);
     let norm = normalise(&points);
     let mut panel = Panel::new(Axis::linear("f (Hz)"), Axis::linear(norm.y_label()));
-    panel.legend = Legend::LowerRight;
+    panel.legend = Legend::Outside;
     for (i, c) in norm.curves.iter().enumerate() {
         let label = format!("D = {} mm ({:.2} d)", mm(c.d_m), c.d_m / c.particle_d_m);
         let s = curve_series(c, Some(label), i);
@@ -39,6 +113,13 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
             .series
             .push(Series::line(None, i, s.x.clone(), s.y.clone()));
         panel.series.push(s);
+    }
+    panel.series.extend(clogged_marks(&norm, &clogged, None));
+    for &d in &norm.skipped_d_m {
+        panel.notes.push(format!(
+            "D = {} mm: no Q at the reference f, not normalised",
+            mm(d)
+        ));
     }
     let fig = Figure {
         title: Some(format!(
@@ -50,7 +131,12 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
         panel_size: (1000, 700),
     };
     let (table, csv) = norm.tables(norm.curves.iter());
-    let text = format!("{}{}", norm.note(), table.to_text());
+    let text = format!(
+        "{}{}{}",
+        norm.note(),
+        clogged_note(&clogged),
+        table.to_text()
+    );
     Ok(Drawn {
         text,
         files: write_all(&fig, &csv, out_dir, "fig4")?,
@@ -58,8 +144,10 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
 }
 
 /// Fig. 5: the normalised Q vs f, one panel per large orifice (D/d > 4.5), up to four.
-pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) -> Result<Drawn> {
-    let points = combine_replicas(&done_discharge_rows(conn, campaign.id)?);
+pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
+    let rows = done_discharge_rows(conn, campaign.id)?;
+    let points = combine_replicas(&rows);
+    let clogged = clogged_points(&rows);
     let norm = normalise(&points);
     let large: Vec<&NormalisedCurve> = norm
         .curves
@@ -82,6 +170,11 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
             p.series
                 .push(Series::line(None, i, s.x.clone(), s.y.clone()));
             p.series.push(s);
+            let marks = clogged_marks(&norm, &clogged, Some(c.d_m));
+            if !marks.is_empty() {
+                p.legend = Legend::Outside;
+            }
+            p.series.extend(marks);
             p
         })
         .collect();
@@ -103,6 +196,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Path) ->
     };
     let (table, csv) = norm.tables(shown.iter().copied());
     let mut text = norm.note();
+    text.push_str(&clogged_note(&clogged));
     let _ = writeln!(
         text,
         "orifices with D/d > {LARGE_ORIFICE_D_OVER_PARTICLE}: {} found, {} shown",

@@ -1,42 +1,60 @@
 //! Fig. 11 of the silo paper: ⟨p^k⟩ in the cylinder of radius and height D/2 above the orifice
 //! vs f per D, over each job's flowing samples (clogged intervals left out).
 
-use std::path::Path;
-
 use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::observe::fits::mean_ci95;
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
 use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn};
+use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, mm, short, Table};
-use crate::store::fields::load_field_series;
+use crate::store::fields::load_flagged_series;
 use crate::store::silo_reads::clog_intervals;
 
-use super::fields::field_jobs;
+use super::fields::{field_jobs, FieldJob};
+
+/// What one job gives fig11.
+enum JobPk {
+    /// ⟨p^k⟩ over the flowing samples (Pa), the 95 % CI of the mean from batch means, the
+    /// number of samples.
+    Value(f64, Option<f64>, usize),
+    /// The run has no Q or no flowing sample: clogged, drawn as a cross on the f axis.
+    Clogged,
+    /// No (r, z) grid point in the orifice cylinder: nothing was averaged.
+    NoGridPoint,
+}
 
 /// One job's ⟨p^k⟩ in the orifice cylinder over its flowing samples, with the 95 % CI of the
 /// mean from batch means (10 contiguous batches: samples 0.05 s apart are correlated).
-/// Samples inside a clog (the `clogs` table) are left out: the paper averages flowing states.
-fn orifice_pk(conn: &Connection, job_id: i64) -> Result<Option<(f64, Option<f64>, usize)>> {
-    let Some((series, _)) = load_field_series(conn, job_id, ORIFICE_KINETIC_PRESSURE)? else {
-        return Ok(None);
+/// Samples inside a clog (their stored flag) are left out: the paper averages flowing states.
+fn orifice_pk(conn: &Connection, job: &FieldJob) -> Result<JobPk> {
+    if !job.grid_reaches_orifice_cylinder() {
+        return Ok(JobPk::NoGridPoint);
+    }
+    if job.q_kg_per_s.is_none() {
+        return Ok(JobPk::Clogged);
+    }
+    let series = load_flagged_series(conn, job.job_id, ORIFICE_KINETIC_PRESSURE)?;
+    if series.is_empty() {
+        return Ok(JobPk::Clogged);
+    }
+    // Each sample's stored flag; rows of an older sweep have none: the clogs table decides.
+    let clogs = clog_intervals(conn, job.job_id)?;
+    let in_clog = |t: f64| {
+        clogs
+            .iter()
+            .any(|c| t >= c.start_s && t <= c.start_s + c.duration_s)
     };
-    let clogs = clog_intervals(conn, job_id)?;
     let flowing: Vec<f64> = series
         .iter()
-        .filter(|(t, _)| {
-            !clogs
-                .iter()
-                .any(|c| *t >= c.start_s && *t <= c.start_s + c.duration_s)
-        })
-        .map(|(_, v)| *v)
+        .filter(|s| s.flowing.unwrap_or_else(|| !in_clog(s.t_s)))
+        .map(|s| s.value)
         .collect();
     if flowing.is_empty() {
-        return Ok(None);
+        return Ok(JobPk::Clogged);
     }
     let n = flowing.len();
     let batches = 10.min(n);
@@ -47,14 +65,15 @@ fn orifice_pk(conn: &Connection, job_id: i64) -> Result<Option<(f64, Option<f64>
         })
         .collect();
     let mean = flowing.iter().sum::<f64>() / n as f64;
-    Ok(Some((mean, mean_ci95(&means).map(|m| m.1), n)))
+    Ok(JobPk::Value(mean, mean_ci95(&means).map(|m| m.1), n))
 }
 
 /// Fig. 11: ⟨p^k⟩ in the orifice cylinder vs f per D, (a) in Pa, (b) normalised by its value at
 /// f = 1 Hz (or at the lowest f present when 1 Hz is absent, as the caption then says); error
 /// bars are 95 % CIs (replicas combined: their mean, CI from the replica spread when there are
-/// several).
-pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Drawn> {
+/// several). A (D, f) whose runs all clogged is a cross on the f axis, never a value; an
+/// orifice without a grid point in its cylinder is named in a note.
+pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<Drawn> {
     let jobs = field_jobs(conn, c)?;
     let ds = distinct(jobs.iter().map(|j| j.d_m));
     let fs_all = distinct(jobs.iter().map(|j| j.f_hz));
@@ -74,23 +93,46 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
         "samples",
         "pk_over_ref",
         "pk_over_ref_ci95",
+        "clogged_runs",
     ]);
+    let mut any_clogged = false;
     for (k, &d) in ds.iter().enumerate() {
         let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
         let mut pts = Vec::new();
+        let mut clogged_fs = Vec::new();
+        let mut no_grid = false;
         for &f in &fs {
             let mut per_job = Vec::new();
             let mut samples = 0;
+            let mut clogged_runs = 0;
             for j in jobs
                 .iter()
                 .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
             {
-                if let Some((m, ci, n)) = orifice_pk(conn, j.job_id)? {
-                    per_job.push((m, ci));
-                    samples += n;
+                match orifice_pk(conn, j)? {
+                    JobPk::Value(m, ci, n) => {
+                        per_job.push((m, ci));
+                        samples += n;
+                    }
+                    JobPk::Clogged => clogged_runs += 1,
+                    JobPk::NoGridPoint => no_grid = true,
                 }
             }
             if per_job.is_empty() {
+                if clogged_runs > 0 {
+                    clogged_fs.push(f);
+                    csv.push(vec![
+                        csv_num(Some(d)),
+                        short(f),
+                        String::new(),
+                        String::new(),
+                        "0".into(),
+                        "0".into(),
+                        String::new(),
+                        String::new(),
+                        clogged_runs.to_string(),
+                    ]);
+                }
                 continue;
             }
             let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
@@ -98,7 +140,14 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
                 Some((m, ci)) => (m, Some(ci)),
                 None => (values[0], per_job[0].1),
             };
-            pts.push((f, mean, ci, per_job.len(), samples));
+            pts.push((f, mean, ci, per_job.len(), samples, clogged_runs));
+        }
+        if no_grid {
+            let note = format!(
+                "D = {} mm: no grid point inside the orifice cylinder (finer spacing_m needed)",
+                mm(d)
+            );
+            rel.notes.push(note);
         }
         let reference = pts
             .iter()
@@ -150,10 +199,28 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
                 p.4.to_string(),
                 csv_num(ratio),
                 csv_num(err),
+                p.5.to_string(),
             ]);
+        }
+        if reference.is_none() && !pts.is_empty() {
+            rel.notes.push(format!(
+                "D = {} mm: no value at f = {} Hz, not normalised",
+                mm(d),
+                short(f_ref)
+            ));
         }
         rel.series
             .push(Series::points(label, k, rx, ry).with_errors(re));
+        if !clogged_fs.is_empty() {
+            any_clogged = true;
+            abs.series
+                .push(Series::axis_marks(None, k, clogged_fs.clone(), k));
+            rel.series.push(Series::axis_marks(None, k, clogged_fs, k));
+        }
+    }
+    if any_clogged {
+        rel.series
+            .push(Series::axis_marks(Some("clogged".into()), 7, Vec::new(), 0));
     }
     abs.title = Some("(a) ⟨p^k⟩ in the cylinder r ≤ R, |z| ≤ R/2".into());
     abs.legend = Legend::Hidden; // the colours are (b)'s legend
@@ -171,7 +238,7 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Path) -> Result<Dr
         ),
         panels: vec![abs, rel],
         columns: 2,
-        panel_size: (520, 400),
+        panel_size: (760, 520),
     };
     let files = write_all(&fig, &csv, out, "fig11")?;
     Ok(Drawn {

@@ -189,7 +189,7 @@ fn every_figure_draws_and_lists_unfinished_jobs() {
     let dir = tempfile::tempdir().expect("tempdir");
     let sizes = [
         ("fig2", (1000, 740)),
-        ("fig3", (1600, 640)),
+        ("fig3", (1800, 680)),
         ("fig4", (1000, 740)),
         ("fig5", (1400, 1080)),
     ];
@@ -373,4 +373,195 @@ fn bad_figure_or_campaign_names_are_explained() {
         "{}",
         old.table
     );
+}
+
+/// A done job that clogged before Q could be measured: a summary with Q NULL.
+fn add_clogged_job(conn: &Connection, campaign: i64, d: f64, f: f64) {
+    let label = format!("orifice_diameter_m={d},rotation_frequency_hz={f},replica=0");
+    add_job(conn, campaign, &label, "done", d, f, None);
+    let job = conn.last_insert_rowid();
+    conn.execute(
+        "INSERT INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, \
+         particle_diameter_m, bulk_density_kg_per_m3, q_kg_per_s, q_ci95_kg_per_s, q_method, \
+         flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, \
+         permanently_clogged) VALUES (?1, ?2, ?3, ?4, ?5, NULL, NULL, 'synthetic', 0.1, 0.01, 3, 1, 2.9, 1)",
+        params![job, d, f, PARTICLE_D_M, BULK_DENSITY],
+    )
+    .expect("insert clogged summary");
+}
+
+#[test]
+fn clogged_runs_are_marked_not_dropped_and_never_values() {
+    let conn = synthetic_db(&[0.0, 0.5, 1.0]);
+    let id: i64 = conn
+        .query_row(
+            "SELECT id FROM campaigns WHERE name = 'rotating'",
+            [],
+            |r| r.get(0),
+        )
+        .expect("campaign");
+    // A small orifice that clogs at f = 0 (as the paper's D/d < 4.8).
+    add_clogged_job(&conn, id, 0.010, 0.0);
+    let dir = tempfile::tempdir().expect("tempdir");
+    for figure in ["fig3", "fig4", "fig5"] {
+        render_figure(&conn, figure, None, dir.path()).expect(figure);
+    }
+    let fig3 = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    let row = fig3
+        .lines()
+        .find(|l| l.starts_with("0,0.01,"))
+        .expect("a fig3 row for the clogged (D, f)");
+    assert!(row.contains(",clogged,") && row.contains(",,"), "{row}");
+    let svg = std::fs::read_to_string(dir.path().join("fig3.svg")).expect("svg");
+    assert!(
+        svg.contains("clogged (no Q)"),
+        "fig3 has no 'clogged' legend"
+    );
+    let svg = std::fs::read_to_string(dir.path().join("fig4.svg")).expect("svg");
+    assert!(
+        svg.contains("clogged (no Q)"),
+        "fig4 has no 'clogged' legend"
+    );
+    let fig4 = render_figure(&conn, "fig4", None, dir.path()).expect("fig4");
+    assert!(
+        fig4.table.contains("clogged: D = 10 mm") && fig4.table.contains("f = 0 Hz"),
+        "{}",
+        fig4.table
+    );
+}
+
+#[test]
+fn fig3_refuses_a_fit_through_as_many_points_as_parameters() {
+    let conn = Connection::open_in_memory().expect("in-memory db");
+    conn.execute_batch(include_str!("../../../schema.sql"))
+        .expect("schema");
+    let id = add_campaign(&conn, "three", "silo", "2025-01-01T00:00:00.000Z");
+    for d in [0.015, 0.020, 0.026] {
+        let label = format!("orifice_diameter_m={d},rotation_frequency_hz=1,replica=0");
+        add_job(&conn, id, &label, "done", d, 1.0, Some((law(d, 1.0), 0.01)));
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = render_figure(&conn, "fig3", None, dir.path()).expect("fig3");
+    assert!(
+        report.table.contains("no fit (3 D for 3 parameters)"),
+        "{}",
+        report.table
+    );
+    let svg = std::fs::read_to_string(dir.path().join("fig3.svg")).expect("svg");
+    let text = svg_text(&svg);
+    assert!(
+        text.contains("3 D for 3 parameters, no fit drawn"),
+        "the figure itself says why there is no curve: {text}"
+    );
+    let csv = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    for line in csv.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        assert!(
+            cols[8..].iter().all(|c| c.is_empty()),
+            "no fit values: {line}"
+        );
+    }
+}
+
+#[test]
+fn fig3_gives_d_min_a_bootstrap_interval_around_the_law() {
+    let conn = synthetic_db(&[0.0, 1.0]);
+    let dir = tempfile::tempdir().expect("tempdir");
+    render_figure(&conn, "fig3", None, dir.path()).expect("fig3");
+    let csv = std::fs::read_to_string(dir.path().join("fig3.csv")).expect("csv");
+    let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let (f, lo, hi) = (
+        col("rotation_frequency_hz"),
+        col("janda_d_min_ci95_lo_m"),
+        col("janda_d_min_ci95_hi_m"),
+    );
+    let mut seen = 0;
+    for line in csv.lines().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let f: f64 = v[f].parse().expect("f");
+        let (lo, hi): (f64, f64) = (v[lo].parse().expect("lo"), v[hi].parse().expect("hi"));
+        let truth = alpha2_m(f) * alpha1(f).ln();
+        assert!(lo < hi && lo <= truth && truth <= hi, "{lo} {truth} {hi}");
+        seen += 1;
+    }
+    assert_eq!(seen, 2 * ORIFICES_M.len());
+}
+
+/// The text of an SVG's <text> elements joined by spaces (a wrapped note reads as one line).
+fn svg_text(svg: &str) -> String {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let body = &t[t.find('>')? + 1..];
+            Some(body[..body.find("</text>")?].trim().to_string())
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[test]
+fn figure_all_writes_every_figure_and_an_index_that_says_what_is_missing() {
+    let conn = synthetic_db(&[0.0, 0.5, 1.0]);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = crate::report::Output {
+        dir: dir.path().to_path_buf(),
+        titles: false,
+    };
+    let all = crate::report::render_all(&conn, None, &out).expect("all");
+    assert_eq!(all.campaign, "rotating");
+    let names: Vec<&str> = all.figures.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names.len(), 11, "{names:?}");
+    let html = std::fs::read_to_string(&all.index).expect("index.html");
+    for fig in ["fig2", "fig3", "fig4", "fig5"] {
+        assert!(html.contains(&format!("<img src=\"{fig}.png\"")), "{fig}");
+    }
+    // The synthetic campaign has no fields: fig6 is listed with the reason, not left out.
+    assert!(
+        html.contains("id=\"fig6\"") && html.contains("not drawn: campaign"),
+        "{html}"
+    );
+    // The accuracy map of this (synthetic, study) campaign cannot be drawn: listed, with why.
+    let accuracy = &html[html.find("id=\"accuracy\"").expect("accuracy section")..];
+    assert!(accuracy.contains("not drawn: "), "{accuracy}");
+    // --no-title: the figure is its panels only, 40 px shorter than with a title.
+    let titled = render_figure(&conn, "fig4", None, dir.path()).expect("fig4");
+    let (_, h_titled) = png_size(&titled.files[1]);
+    let untitled =
+        crate::report::render_figure_with(&conn, "fig4", None, &out).expect("fig4 untitled");
+    let (_, h) = png_size(&untitled.files[1]);
+    assert_eq!(h + 40, h_titled);
+    let svg = std::fs::read_to_string(&untitled.files[0]).expect("svg");
+    assert!(!svg.contains("Fig. 4:"), "no title line");
+}
+
+#[test]
+fn an_alpha2_at_its_bound_gives_no_d_min_and_says_so() {
+    use super::flow_rate::JandaRow;
+    let fit = crate::observe::fits::JandaFit {
+        c: 2900.0,
+        alpha1: 3.0,
+        alpha2_m: 2.6,
+        d_min_m: Some(2.6 * 3.0f64.ln()),
+        rms_residual_kg_per_s: 1e-4,
+        n: 5,
+        alpha2_at_bound: true,
+    };
+    let row = JandaRow {
+        f_hz: 1.0,
+        points: Vec::new(),
+        fit: Some(fit),
+        intervals: None,
+        weighted: false,
+    };
+    let why = row.d_min_refused().expect("refused");
+    assert!(why.contains("α2 at its search bound (2600 mm)"), "{why}");
+    let free = JandaRow {
+        fit: Some(crate::observe::fits::JandaFit {
+            alpha2_at_bound: false,
+            ..fit
+        }),
+        ..row
+    };
+    assert_eq!(free.d_min_refused(), None);
 }
