@@ -17,6 +17,7 @@ mod oriented;
 mod pair_lanes;
 mod pair_pass;
 mod particle;
+pub mod periodic;
 mod position;
 pub mod real;
 pub mod shape;

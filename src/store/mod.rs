@@ -28,6 +28,8 @@ pub mod silo_done;
 pub mod silo_reads;
 pub mod slurm_ingest;
 pub mod slurm_tasks;
+#[cfg(test)]
+pub(crate) mod test_rows;
 
 pub use chute_results::ChuteJobResults;
 pub use jobs::{JobRow, Lease};

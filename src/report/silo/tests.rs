@@ -4,7 +4,9 @@
 
 use std::path::Path;
 
-use rusqlite::{params, Connection};
+use rusqlite::Connection;
+
+use crate::store::test_rows;
 
 use crate::report::render_figure;
 
@@ -26,12 +28,7 @@ fn law(d: f64, f: f64) -> f64 {
 }
 
 fn add_campaign(conn: &Connection, name: &str, scene: &str, created_at: &str) -> i64 {
-    conn.execute(
-        "INSERT INTO campaigns (name, file, scene, spec_json, created_at) VALUES (?1, ?2, ?3, '{}', ?4)",
-        params![name, format!("{name}.json"), scene, created_at],
-    )
-    .expect("insert campaign");
-    conn.last_insert_rowid()
+    test_rows::campaign(conn, name, scene, created_at)
 }
 
 /// Adds a job; a done one gets a summary with `q` and `ci` and an M(t) = Q t series.
@@ -47,43 +44,32 @@ fn add_job(
     let params_json = format!(
         r#"{{"orifice_diameter_m": {d}, "rotation_frequency_hz": {f}, "gravity_m_per_s2": 9.81}}"#
     );
-    conn.execute(
-        "INSERT INTO jobs (hash, scene, params_json, seed, status, target_time_s) \
-         VALUES (?1, 'silo', ?2, 1, ?3, 3.0)",
-        params![label, params_json, status],
-    )
-    .expect("insert job");
-    let job = conn.last_insert_rowid();
-    conn.execute(
-        "INSERT INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
-        params![campaign, job, label],
-    )
-    .expect("insert campaign_job");
+    let job = test_rows::silo_job(conn, campaign, label, status, &params_json);
     let Some((q, ci)) = q else { return };
-    conn.execute(
-        "INSERT INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, \
-         particle_diameter_m, bulk_density_kg_per_m3, q_kg_per_s, q_ci95_kg_per_s, q_method, \
-         flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, \
-         permanently_clogged) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, 'synthetic', 3.0, ?8, 100, 0, 0.0, 0)",
-        params![job, d, f, PARTICLE_D_M, BULK_DENSITY, q, ci, 3.0 * q],
-    )
-    .expect("insert summary");
+    let summary = test_rows::Summary {
+        d,
+        f,
+        particle_d: PARTICLE_D_M,
+        bulk_density: BULK_DENSITY,
+        q: Some((q, ci)),
+        flowing_time_s: 3.0,
+        discharged_mass_kg: 3.0 * q,
+        discharged_count: 100,
+        clogs: 0,
+        clogged_time_s: 0.0,
+        permanently_clogged: false,
+    };
+    test_rows::discharge_summary(conn, job, &summary);
     for i in 0..=150 {
         let t = f64::from(i) * 0.02;
-        conn.execute(
-            "INSERT INTO discharge_series (job_id, t_s, mass_kg, count) VALUES (?1, ?2, ?3, ?4)",
-            params![job, t, q * t, i],
-        )
-        .expect("insert series");
+        test_rows::discharge_sample(conn, job, t, q * t, i64::from(i));
     }
 }
 
 /// The synthetic silo campaign 'rotating' over `freqs`, the most recent campaign (so the
 /// default), plus an older silo campaign and an older chute campaign.
 fn synthetic_db(freqs: &[f64]) -> Connection {
-    let conn = Connection::open_in_memory().expect("in-memory db");
-    conn.execute_batch(include_str!("../../../schema.sql"))
-        .expect("schema");
+    let conn = test_rows::empty_db();
     let old = add_campaign(&conn, "old_silo", "silo", "2020-01-01T00:00:00.000Z");
     add_job(&conn, old, "old", "done", 0.03, 0.5, Some((9.0, 0.1)));
     let id = add_campaign(&conn, "rotating", "silo", "2025-01-01T00:00:00.000Z");
@@ -380,26 +366,26 @@ fn add_clogged_job(conn: &Connection, campaign: i64, d: f64, f: f64) {
     let label = format!("orifice_diameter_m={d},rotation_frequency_hz={f},replica=0");
     add_job(conn, campaign, &label, "done", d, f, None);
     let job = conn.last_insert_rowid();
-    conn.execute(
-        "INSERT INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, \
-         particle_diameter_m, bulk_density_kg_per_m3, q_kg_per_s, q_ci95_kg_per_s, q_method, \
-         flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, \
-         permanently_clogged) VALUES (?1, ?2, ?3, ?4, ?5, NULL, NULL, 'synthetic', 0.1, 0.01, 3, 1, 2.9, 1)",
-        params![job, d, f, PARTICLE_D_M, BULK_DENSITY],
-    )
-    .expect("insert clogged summary");
+    let summary = test_rows::Summary {
+        d,
+        f,
+        particle_d: PARTICLE_D_M,
+        bulk_density: BULK_DENSITY,
+        q: None,
+        flowing_time_s: 0.1,
+        discharged_mass_kg: 0.01,
+        discharged_count: 3,
+        clogs: 1,
+        clogged_time_s: 2.9,
+        permanently_clogged: true,
+    };
+    test_rows::discharge_summary(conn, job, &summary);
 }
 
 #[test]
 fn clogged_runs_are_marked_not_dropped_and_never_values() {
     let conn = synthetic_db(&[0.0, 0.5, 1.0]);
-    let id: i64 = conn
-        .query_row(
-            "SELECT id FROM campaigns WHERE name = 'rotating'",
-            [],
-            |r| r.get(0),
-        )
-        .expect("campaign");
+    let id = test_rows::campaign_id(&conn, "rotating");
     // A small orifice that clogs at f = 0 (as the paper's D/d < 4.8).
     add_clogged_job(&conn, id, 0.010, 0.0);
     let dir = tempfile::tempdir().expect("tempdir");
@@ -432,9 +418,7 @@ fn clogged_runs_are_marked_not_dropped_and_never_values() {
 
 #[test]
 fn fig3_refuses_a_fit_through_as_many_points_as_parameters() {
-    let conn = Connection::open_in_memory().expect("in-memory db");
-    conn.execute_batch(include_str!("../../../schema.sql"))
-        .expect("schema");
+    let conn = test_rows::empty_db();
     let id = add_campaign(&conn, "three", "silo", "2025-01-01T00:00:00.000Z");
     for d in [0.015, 0.020, 0.026] {
         let label = format!("orifice_diameter_m={d},rotation_frequency_hz=1,replica=0");
