@@ -205,7 +205,10 @@ fn seed_history(s: &mut State<f64>, cfg: &EngineConfig, seed: u64) {
         }
         if s.inv_mass[i] != 0.0 {
             for (w, wall) in walls.iter().enumerate() {
-                if wall.touch_oriented(s.pos[i], s.lo(i), s.axis(i), &sh(i)).is_some() {
+                if wall
+                    .touch_oriented(s.pos[i], s.lo(i), s.axis(i), &sh(i))
+                    .is_some()
+                {
                     keys.push(wall_key(w));
                 }
             }
