@@ -5,8 +5,7 @@
 
 mod common;
 
-use common::cli::{launch_ok, one_job, rows, write_campaign};
-use serde_json::json;
+use common::cli::{launch_ok, one_job, rows, tiny_chute, write_campaign};
 use sha2::{Digest, Sha256};
 use sweep::campaign::Precision;
 use sweep::runner::backend::{self, BackendChoice};
@@ -105,19 +104,7 @@ fn a_short_silo_job_stores_its_golden_results() {
 #[test]
 fn a_short_chute_job_stores_its_golden_results() {
     let dir = TempDir::new().unwrap();
-    let c = json!({
-        "name": "chute_tiny",
-        "scene": "chute",
-        "base": {
-            "aspect_ratio": 1.5, "inclination_deg": 28.0,
-            "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
-            "contact_steps": 10.0,
-            "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
-            "measure_time_s": 1.0
-        },
-        "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
-        "run": {"precision": "f64", "checkpoint_interval_s": 0.5}
-    });
+    let c = tiny_chute("chute_tiny", "f64", 0.5);
     let file = write_campaign(dir.path(), "chute.json", &c);
     let db = dir.path().join("sweep.db");
     launch_ok(dir.path(), &file, &db);

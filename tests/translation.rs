@@ -12,29 +12,10 @@ mod common;
 
 use std::path::Path;
 
-use common::cli::{read_db, stderr, stdout, sweep_cmd, write_campaign};
+use common::cli::{launch_on, read_db, tiny_chute, write_campaign};
 use common::gpu::device;
 use serde_json::{json, Value};
 use tempfile::TempDir;
-
-fn launch(dir: &Path, file: &Path, db: &Path, backend: &str) {
-    let o = sweep_cmd(dir)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .args(["--backend", backend, "--threads", "2"])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "launch failed:\n{}\n{}",
-        stdout(&o),
-        stderr(&o)
-    );
-}
 
 /// Where the moved jobs sit.
 const MOVED: [f64; 2] = [100.0, 1.0e4];
@@ -90,7 +71,7 @@ fn silo_is_invariant(backend: &str) {
     let dir = TempDir::new().unwrap();
     let file = write_campaign(dir.path(), "silo.json", &silo());
     let db = dir.path().join("sweep.db");
-    launch(dir.path(), &file, &db, backend);
+    launch_on(dir.path(), &file, &db, backend, 2);
     let q = flow_rates(&db);
     assert_eq!(q.len(), 3, "three jobs: {q:?}");
     let (_, q0, ci0) = q[0];
@@ -153,24 +134,12 @@ fn mean_and_variance(x: &[f64]) -> (f64, f64) {
 fn a_chute_moved_100_m_flows_at_the_same_speed() {
     let dir = TempDir::new().unwrap();
     let origins = vec![[0.0; 3], [MOVED[0]; 3], [MOVED[1]; 3]];
-    let c = json!({
-        "name": "chute_origin",
-        "scene": "chute",
-        "base": {
-            "aspect_ratio": 1.5, "inclination_deg": 28.0,
-            "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
-            "contact_steps": 10.0,
-            "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
-            "measure_time_s": 1.0
-        },
-        "sweep": { "origin_m": origins },
-        "replicas": 4,
-        "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
-        "run": {"precision": "f32", "checkpoint_interval_s": 1.0}
-    });
+    let mut c = tiny_chute("chute_origin", "f32", 1.0);
+    c["sweep"] = json!({ "origin_m": origins });
+    c["replicas"] = json!(4);
     let file = write_campaign(dir.path(), "chute.json", &c);
     let db = dir.path().join("sweep.db");
-    launch(dir.path(), &file, &db, "cpu");
+    launch_on(dir.path(), &file, &db, "cpu", 2);
     let v = chute_velocities(&db);
     let group = |z: f64| -> Vec<f64> { v.iter().filter(|r| r.0 == z).map(|r| r.1).collect() };
     let at0 = group(0.0);

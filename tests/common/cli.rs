@@ -42,26 +42,7 @@ pub fn spawn(dir: &Path, args: &[&str], log: &str) -> Child {
 
 /// `sweep launch FILE --db DB --backend cpu --threads 1`, run to completion; fails the test if it fails.
 pub fn launch_ok(dir: &Path, file: &Path, db: &Path) -> Output {
-    let o = sweep_cmd(dir)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--threads",
-            "1",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "launch failed:\n{}\n{}",
-        stdout(&o),
-        stderr(&o)
-    );
-    o
+    launch_on(dir, file, db, "cpu", 1)
 }
 
 pub fn stdout(o: &Output) -> String {
@@ -97,6 +78,46 @@ pub fn campaign(
         "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
         "run": { "precision": "f64", "checkpoint_interval_s": checkpoint_interval_s }
     })
+}
+
+/// The tiny chute (ξ = 1.5, 4 L × 4 L × 4 L, n_c = 10, 1 s to the steady-state test and 1 s of
+/// measurement): one job, in `precision` ("f64" or "f32").
+pub fn tiny_chute(name: &str, precision: &str, checkpoint_interval_s: f64) -> Value {
+    json!({
+        "name": name,
+        "scene": "chute",
+        "base": {
+            "aspect_ratio": 1.5, "inclination_deg": 28.0,
+            "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
+            "contact_steps": 10.0,
+            "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
+            "measure_time_s": 1.0
+        },
+        "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
+        "run": {"precision": precision, "checkpoint_interval_s": checkpoint_interval_s}
+    })
+}
+
+/// `sweep launch FILE --db DB --backend BACKEND --threads T`, run to completion; fails the test
+/// if it fails.
+pub fn launch_on(dir: &Path, file: &Path, db: &Path, backend: &str, threads: usize) -> Output {
+    let o = sweep_cmd(dir)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--backend", backend, "--threads", &threads.to_string()])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "launch failed:\n{}\n{}",
+        stdout(&o),
+        stderr(&o)
+    );
+    o
 }
 
 /// The single-job campaign of the kill/resume tests. The checkpoint interval is not part of a
