@@ -661,13 +661,22 @@ fn field_sets_export_as_images_with_units() {
         &conn,
         1,
         &set("profile/z", "z", [1, 1, 5], (0.0, 2.0)),
+        std::slice::from_ref(&density),
+    )
+    .unwrap();
+    // The run's time average: a file, not a time step of fields.pvd.
+    save_field_set(
+        &conn,
+        1,
+        &set("mean", "z", [1, 1, 5], (0.5, 2.5)),
         &[density],
     )
     .unwrap();
     drop(conn);
 
     let o = ok(sweep(d, &["export", "--job", "1", "--vtk", "out"]));
-    assert!(stdout(&o).contains("2 field set(s)"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("3 field set(s)"), "{}", stdout(&o));
+    assert!(d.join("out/fields/mean.vti").exists());
     assert!(
         stderr(&o).contains("no snapshot frames and no valid checkpoint"),
         "{}",

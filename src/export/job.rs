@@ -195,15 +195,26 @@ pub fn export_job(
             let path = out.join(&file);
             write(&path, &text)?;
             report.fields.push(path);
+            // A run's time averages (`mean`, `mean_flowing`, `mean_xyz`) are not moments of its
+            // time series: written beside it, not as its time steps.
+            if is_time_average(&set.name) {
+                report.notes.push(format!(
+                    "{file}: time average over {:.3}–{:.3} s, not a step of fields.pvd",
+                    set.t_start_s, set.t_end_s
+                ));
+                continue;
+            }
             entries.push(PvdEntry {
                 time_s: 0.5 * (set.t_start_s + set.t_end_s),
                 file,
                 name: set.name,
             });
         }
-        let pvd = out.join("fields.pvd");
-        write(&pvd, &collection(&entries))?;
-        report.fields_pvd = Some(pvd);
+        if !entries.is_empty() {
+            let pvd = out.join("fields.pvd");
+            write(&pvd, &collection(&entries))?;
+            report.fields_pvd = Some(pvd);
+        }
     }
     Ok(report)
 }
@@ -236,6 +247,12 @@ fn remove_stale(dir: &Path, prefixes: &[&str], suffix: &str) {
             let _ = std::fs::remove_file(e.path());
         }
     }
+}
+
+/// Whether a field set averages a whole run (the silo observer's `mean…` sets) rather than one
+/// window of its time series.
+fn is_time_average(name: &str) -> bool {
+    name == "mean" || name.starts_with("mean_")
 }
 
 #[cfg(test)]
