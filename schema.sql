@@ -193,7 +193,39 @@ CREATE TABLE IF NOT EXISTS chute_series (
     t_s                 REAL NOT NULL,
     kinetic_energy_j    REAL NOT NULL,
     stress_ratio        REAL,                       -- bulk sigma_xz/sigma_zz; NULL when not sampled
+    mean_vx_m_per_s     REAL,                       -- mass-weighted mean V_x of the flowing particles (NULL before schema 7)
     PRIMARY KEY (job_id, t_s)
+);
+
+-- The verdict on a chute job's flow (observe/chute/flow_state.rs). Jobs done before schema 7
+-- have no row: their chute_summary.steady says only whether the transient's criteria held.
+CREATE TABLE IF NOT EXISTS chute_flow_state (
+    job_id                      INTEGER PRIMARY KEY REFERENCES jobs(id),
+    state                       TEXT NOT NULL CHECK (state IN ('steady', 'drifted', 'not_steady', 'not_flowing')),
+    measured                    INTEGER NOT NULL,   -- 1 if profiles and D(z) were measured and stored
+    min_flow_velocity_m_per_s   REAL NOT NULL       -- below this mean V_x the bed is not flowing
+);
+
+-- The stationarity criteria (observe/stationarity.rs, observe/steady.rs) on the transient's last
+-- window and on the measurement window. Trends: |slope| T / |mean| (change) and |slope| / se of
+-- the batch-means fit (t), passed when change <= the job's tolerance and t <= t_critical.
+CREATE TABLE IF NOT EXISTS chute_stationarity (
+    job_id              INTEGER NOT NULL REFERENCES jobs(id),
+    phase               TEXT NOT NULL CHECK (phase IN ('transient', 'measurement')),
+    start_s             REAL NOT NULL,
+    end_s               REAL NOT NULL,
+    ke_mean_j           REAL,
+    ke_change           REAL,
+    ke_t                REAL,
+    vx_mean_m_per_s     REAL NOT NULL,
+    vx_change           REAL,
+    vx_t                REAL,
+    t_critical          REAL,
+    stress_ratio        REAL,                       -- mean bulk -sigma_xz/sigma_zz (-> tan alpha)
+    ratio_ok            INTEGER NOT NULL,
+    flowing             INTEGER NOT NULL,
+    steady              INTEGER NOT NULL,
+    PRIMARY KEY (job_id, phase)
 );
 
 -- Slurm executor: one row per job handed to Slurm (a job that `sweep resume` resubmits gets a new

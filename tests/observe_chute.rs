@@ -24,7 +24,7 @@ use sweep::observe::chute_stats::{
 };
 use sweep::observe::coarse_grain::{bulk_stress_ratio, Kernel, ZGrid, ZProfile};
 use sweep::observe::msd::{fit_diffusion, BlockMsd};
-use sweep::observe::steady::{first_steady, SteadySettings};
+use sweep::observe::steady::{first_steady, FlowSample, SteadySettings};
 
 use std::f64::consts::PI;
 
@@ -559,76 +559,115 @@ fn continuous_criteria(t: f64, window: f64, a: f64, tau: f64, b: f64, tau_r: f64
     ((slope * window / mean).abs(), ratio)
 }
 
-/// Law: the detector fires at the first window end where both criteria hold. For exponential
-/// relaxations sampled every 0.1 s, the expected time comes from the continuous least-squares
-/// slope and window means (independent closed forms); tolerance ±0.3 s. Two cases: KE-limited
-/// (τ_r = 10 s, expected ≈ 73.6 s) and ratio-limited (τ_r = 30 s, ≈ 79.6 s). A failure means the
-/// window, the slope criterion or the ratio criterion is wrong.
+/// A relaxing flow with correlated noise: KE = K(1 + A e^{−t/τ})(1 + n₁), V_x = V(1 + A e^{−t/τ})
+/// (1 + n₂), μ = tan α (1 + B e^{−t/τ_r}) + n₃, with n AR(1) noises of 1 % and a correlation time
+/// of 0.3 s, sampled every 0.1 s.
+fn relaxing_flow(alpha: f64, tau_r: f64, seed: u64) -> Vec<FlowSample> {
+    let (k, v, a, tau, b) = (50.0, 2.0, 1.0, 15.0, 0.5);
+    let tan = alpha.to_radians().tan();
+    let mut noise = Noise::new(seed);
+    let rho = (-0.1f64 / 0.3).exp();
+    let mut n = [0.0f64; 3];
+    (0..3000)
+        .map(|i| {
+            let t = 0.1 * i as f64;
+            for x in &mut n {
+                *x = rho * *x + 0.01 * (1.0 - rho * rho).sqrt() * gauss(&mut noise);
+            }
+            let relax = 1.0 + a * (-t / tau).exp();
+            FlowSample {
+                t,
+                ke: k * relax * (1.0 + n[0]),
+                vx: v * relax * (1.0 + n[1]),
+                ratio: (i % 5 == 0).then(|| tan * (1.0 + b * (-t / tau_r).exp()) + n[2]),
+            }
+        })
+        .collect()
+}
+
+/// Law: the detector fires once the trend over its window is within tolerance and within its
+/// batch-means error. For an exponential relaxation under 1 % correlated noise it must not fire
+/// while the true (noise-free) change over the window exceeds twice the tolerance, nor later
+/// than two windows after the true change falls below it (from the continuous least-squares
+/// slope, an independent closed form), in each of 20 noise realisations. Two cases: KE-limited
+/// (τ_r = 10 s) and ratio-limited (τ_r = 30 s). A failure means the window, the trend test or
+/// the ratio criterion is wrong.
 #[test]
-fn steady_state_fires_at_the_expected_time() {
+fn steady_state_fires_when_the_trend_is_gone() {
     let st = SteadySettings::default();
     let alpha: f64 = 28.0;
-    let tan = alpha.to_radians().tan();
     for tau_r in [10.0, 30.0] {
-        let (k, a, tau, b) = (50.0, 1.0, 15.0, 0.5);
-        let series: Vec<(f64, f64, Option<f64>)> = (0..3000)
-            .map(|n| {
-                let t = 0.1 * n as f64;
-                (
-                    t,
-                    k * (1.0 + a * (-t / tau).exp()),
-                    Some(tan * (1.0 + b * (-t / tau_r).exp())),
-                )
-            })
-            .collect();
-        let expected = (0..3000)
-            .map(|n| 0.1 * n as f64)
-            .find(|&t| {
-                let (ke, r) = continuous_criteria(t, st.window_s, a, tau, b, tau_r);
-                t >= st.window_s && ke < st.tol_ke && r < st.tol_ratio
-            })
-            .expect("continuous criteria hold eventually");
-        let found = first_steady(&series, alpha, &st).expect("detected");
-        println!(
-            "τ_r = {tau_r}: detected at {:.2} s, expected {expected:.2} s",
-            found.time_s
-        );
-        assert!(
-            (found.time_s - expected).abs() <= 0.3,
-            "{found:?} vs {expected}"
-        );
-        assert!(found.steady && found.ke_relative_change < st.tol_ke);
-        assert!(rel(found.stress_ratio.unwrap(), tan) < st.tol_ratio);
+        let first_below = |tol_ke: f64, tol_ratio: f64| {
+            (0..3000)
+                .map(|n| 0.1 * n as f64)
+                .find(|&t| {
+                    let (ke, r) = continuous_criteria(t, st.window_s, 1.0, 15.0, 0.5, tau_r);
+                    t >= st.window_s && ke < tol_ke && r < tol_ratio
+                })
+                .expect("continuous criteria hold eventually")
+        };
+        // The window's mean μ has a noise of ~0.3 % of tan α (40 nearly independent samples of
+        // 2 %): 1 % is its allowance.
+        let early = first_below(2.0 * st.tol_ke, st.tol_ratio + 0.01);
+        let due = first_below(st.tol_ke, st.tol_ratio);
+        for seed in 0..20 {
+            let series = relaxing_flow(alpha, tau_r, seed);
+            let found = first_steady(&series, alpha, &st).expect("detected");
+            assert!(
+                found.time_s >= early && found.time_s <= due + 2.0 * st.window_s,
+                "τ_r = {tau_r}, seed {seed}: steady at {:.1} s, allowed [{early:.1}, {:.1}]",
+                found.time_s,
+                due + 2.0 * st.window_s
+            );
+            let ke = found.ke.unwrap();
+            assert!(found.steady && ke.relative_change <= st.tol_ke);
+            assert!(ke.t_statistic <= ke.t_critical);
+        }
     }
 }
 
 /// Law: a flow whose kinetic energy keeps growing (e^{t/200 s}: 10 % per 20 s window) is never
-/// steady, even with μ = tan α exactly; nor is one at constant energy with μ 20 % above tan α.
-/// 2000 s of samples. A failure means the detector fires on a transient.
+/// steady, even with μ = tan α exactly and V_x constant; nor is one whose V_x grows while its
+/// energy is constant; nor one at constant energy with μ 20 % above tan α, or without μ; nor a
+/// bed at rest. 2000 s of samples. A failure means the detector fires on a transient.
 #[test]
 fn steady_state_never_fires_on_a_drift() {
-    let st = SteadySettings::default();
+    let st = SteadySettings {
+        min_flow_velocity_m_per_s: 0.05,
+        ..SteadySettings::default()
+    };
     let alpha: f64 = 25.0;
     let tan = alpha.to_radians().tan();
-    let grow: Vec<_> = (0..20_000)
-        .map(|n| {
-            let t = 0.1 * n as f64;
-            (t, 10.0 * (t / 200.0).exp(), Some(tan))
-        })
-        .collect();
+    let series = |f: &dyn Fn(f64) -> (f64, f64, Option<f64>)| -> Vec<FlowSample> {
+        let mut noise = Noise::new(3);
+        (0..20_000)
+            .map(|n| {
+                let t = 0.1 * n as f64;
+                let (ke, vx, ratio) = f(t);
+                let wobble = 1.0 + 0.002 * gauss(&mut noise);
+                FlowSample {
+                    t,
+                    ke: ke * wobble,
+                    vx: vx * wobble,
+                    ratio,
+                }
+            })
+            .collect()
+    };
+    let grow = series(&|t| (10.0 * (t / 200.0).exp(), 1.0, Some(tan)));
     assert!(first_steady(&grow, alpha, &st).is_none());
-    let off: Vec<_> = (0..20_000)
-        .map(|n| (0.1 * n as f64, 10.0, Some(1.2 * tan)))
-        .collect();
+    let faster = series(&|t| (10.0, (t / 200.0).exp(), Some(tan)));
+    assert!(first_steady(&faster, alpha, &st).is_none());
+    let off = series(&|_| (10.0, 1.0, Some(1.2 * tan)));
     assert!(first_steady(&off, alpha, &st).is_none());
-    let no_ratio: Vec<_> = (0..20_000).map(|n| (0.1 * n as f64, 10.0, None)).collect();
+    let no_ratio = series(&|_| (10.0, 1.0, None));
     assert!(first_steady(&no_ratio, alpha, &st).is_none());
-    // The same constant energy with μ = tan α is steady one window after the start.
-    let fine: Vec<_> = (0..20_000)
-        .map(|n| (0.1 * n as f64, 10.0, Some(tan)))
-        .collect();
+    let rest = series(&|_| (1e-3, 0.01, Some(tan)));
+    assert!(first_steady(&rest, alpha, &st).is_none());
+    // The same constant flow with μ = tan α is steady within a few windows of the start.
+    let fine = series(&|_| (10.0, 1.0, Some(tan)));
     let t = first_steady(&fine, alpha, &st).expect("steady").time_s;
-    assert!((t - st.window_s).abs() < 1e-9, "{t}");
+    assert!(t < 4.0 * st.window_s, "{t}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -846,7 +885,20 @@ fn commit_twice_does_not_duplicate() {
         [],
     )
     .unwrap();
-    let series = vec![(0.0, 1.0, None), (0.5, 1.1, Some(0.5))];
+    let series = vec![
+        FlowSample {
+            t: 0.0,
+            ke: 1.0,
+            vx: 0.5,
+            ratio: None,
+        },
+        FlowSample {
+            t: 0.5,
+            ke: 1.1,
+            vx: 0.6,
+            ratio: Some(0.5),
+        },
+    ];
     let count = |t: &str| -> i64 {
         conn.query_row(
             &format!("SELECT COUNT(*) FROM {t} WHERE job_id = 1"),

@@ -10,4 +10,5 @@ pub mod fits;
 pub mod msd;
 pub mod silo_fields;
 pub mod snapshots;
+pub mod stationarity;
 pub mod steady;

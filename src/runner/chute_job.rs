@@ -1,8 +1,11 @@
 //! Running one chute job: the poured gas flows from rest in chunks of `CHUNK_S` (0.05 s); the
-//! steady-state detector watches the kinetic energy (every chunk) and the bulk stress ratio
-//! (every `STRESS_EVERY` chunks, from the contact list the engine builds only then); once steady
-//! (or at `steady_max_time_s`) the chute observer samples every `sample_interval_s` (a whole
-//! number of chunks) for `measure_time_s`.
+//! steady-state detector watches the kinetic energy and the bed's mean V_x (every chunk) and the
+//! bulk stress ratio (every `STRESS_EVERY` chunks, from the contact list the engine builds only
+//! then); once steady the chute observer samples every `sample_interval_s` (a whole number of
+//! chunks) for `measure_time_s`, and the same criteria are checked again on the measurement
+//! window. A bed that stops flowing, or a flow not steady by `steady_max_time_s`, measures
+//! nothing (unless `measure_unsteady`); the verdict and every criterion are stored
+//! (`FlowRecord`).
 //! Checkpoints at chunk boundaries carry the detector and the observer, so a resumed run repeats
 //! exactly the same operations; the results and the job's completion go in one transaction.
 
@@ -14,9 +17,10 @@ use super::job::{self, JobContext, JobRun, Ledger, Outcome, Start, Study};
 use crate::campaign::JobSpec;
 use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::chute::{
-    ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, CHUNK_S,
+    ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, FlowRecord, FlowState,
+    CHUNK_S,
 };
-use crate::observe::steady::{SteadyDetector, SteadySettings};
+use crate::observe::steady::{check_window, FlowSample, SteadyDetector, WindowCheck};
 use crate::scene::chute::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
 use crate::store::ChuteJobResults;
@@ -36,6 +40,8 @@ enum Phase {
     Flowing,
     /// Sampling.
     Measuring,
+    /// Ended without measuring: not flowing, or not steady by `steady_max_time_s`.
+    Ended,
 }
 
 /// What a checkpoint keeps besides the particles.
@@ -45,13 +51,15 @@ struct Progress {
     ledger: Ledger,
     phase: Phase,
     detector: SteadyDetector,
-    /// (t, kinetic energy of the flowing particles, bulk μ when sampled).
-    series: Vec<(f64, f64, Option<f64>)>,
+    /// Kinetic energy, mean V_x and bulk μ (when sampled) of the flowing particles, every chunk.
+    series: Vec<FlowSample>,
     observer: Option<ChuteObserver>,
+    /// The criteria on the transient's last window (when measurement started or the job ended).
+    transient: Option<WindowCheck>,
     steady_time_s: Option<f64>,
-    steady_stress_ratio: Option<f64>,
-    steady: bool,
     measure_start_chunk: u64,
+    /// Time the measurement started, or the job ended without one (s).
+    measure_start_s: f64,
 }
 
 /// The flowing particles of a downloaded state as the observer reads them.
@@ -64,6 +72,17 @@ struct Flowing {
 }
 
 impl Flowing {
+    /// Mass-weighted mean V_x (m/s).
+    fn mean_vx(&self) -> f64 {
+        let m: f64 = self.mass.iter().sum();
+        let p: f64 = self.vel.iter().zip(&self.mass).map(|(v, m)| v[0] * m).sum();
+        if m > 0.0 {
+            p / m
+        } else {
+            0.0
+        }
+    }
+
     fn of(s: &State<f64>) -> Self {
         let mut f = Flowing {
             id: Vec::new(),
@@ -191,6 +210,52 @@ fn stage(phase: Phase) -> &'static str {
     match phase {
         Phase::Flowing => "flow",
         Phase::Measuring => "measure",
+        Phase::Ended => "ended",
+    }
+}
+
+impl ChuteStudy {
+    /// The log line when the transient ends.
+    fn transient_words(
+        &self,
+        check: Option<&WindowCheck>,
+        t: f64,
+        steady: bool,
+        stopped: bool,
+    ) -> String {
+        let p = &self.scene.p;
+        let verdict = if stopped {
+            "NOT flowing"
+        } else if steady {
+            "steady"
+        } else {
+            "NOT steady (steady_max_time_s reached)"
+        };
+        let criteria = check.map_or_else(String::new, |c| {
+            let pct = |t: Option<crate::observe::stationarity::Trend>| {
+                t.map_or("-".into(), |t| {
+                    format!("{:.1} %", 100.0 * t.relative_change)
+                })
+            };
+            format!(
+                " (KE change {}, V_x change {}, mean V_x {:.3} m/s, μ {}, tan α = {:.3})",
+                pct(c.ke),
+                pct(c.vx),
+                c.mean_vx_m_per_s,
+                c.stress_ratio.map_or("-".into(), |m| format!("{m:.3}")),
+                self.scene.tan_alpha()
+            )
+        });
+        let next = if self.measures(steady, stopped) {
+            format!("; measuring for {} s", p.measure_time_s)
+        } else {
+            "; measuring nothing".into()
+        };
+        format!("{verdict} at t = {t:.2} s{criteria}{next}")
+    }
+
+    fn measures(&self, steady: bool, stopped: bool) -> bool {
+        steady || (!stopped && self.scene.p.measure_unsteady)
     }
 }
 
@@ -211,22 +276,16 @@ impl Study for ChuteStudy {
 
     fn start(&self, _run: &JobRun) -> anyhow::Result<Start<Progress>> {
         let p = &self.scene.p;
-        let steady_settings = SteadySettings {
-            window_s: p.steady_window_s,
-            tol_ke: p.steady_kinetic_tolerance,
-            tol_ratio: p.steady_stress_tolerance,
-            ..SteadySettings::default()
-        };
         let prog = Progress {
             ledger: Ledger::default(),
             phase: Phase::Flowing,
-            detector: SteadyDetector::new(steady_settings, p.inclination_deg),
+            detector: SteadyDetector::new(p.steady_settings(p.steady_window_s), p.inclination_deg),
             series: Vec::new(),
             observer: None,
+            transient: None,
             steady_time_s: None,
-            steady_stress_ratio: None,
-            steady: false,
             measure_start_chunk: 0,
+            measure_start_s: 0.0,
         };
         Ok(Start::Ready(
             Box::new(self.scene.initial_state(self.spec.seed())),
@@ -255,17 +314,23 @@ impl Study for ChuteStudy {
     }
 
     fn done(&self, p: &Progress, _t: f64) -> bool {
-        p.phase == Phase::Measuring && p.ledger.chunk >= p.measure_start_chunk + self.measure_chunks
+        match p.phase {
+            Phase::Flowing => false,
+            Phase::Measuring => p.ledger.chunk >= p.measure_start_chunk + self.measure_chunks,
+            Phase::Ended => true,
+        }
     }
 
     fn end_time(&self, p: &Progress) -> f64 {
         // The progress target shrinks to the real end once measurement has started.
-        if p.phase == Phase::Measuring {
-            (p.measure_start_chunk + self.measure_chunks) as f64
-                * self.chunk_steps as f64
-                * self.scene.dt
-        } else {
-            self.scene.p.max_time_s()
+        match p.phase {
+            Phase::Measuring => {
+                (p.measure_start_chunk + self.measure_chunks) as f64
+                    * self.chunk_steps as f64
+                    * self.scene.dt
+            }
+            Phase::Ended => p.measure_start_s,
+            Phase::Flowing => self.scene.p.max_time_s(),
         }
     }
 
@@ -300,33 +365,33 @@ impl Study for ChuteStudy {
                 } else {
                     None
                 };
-                prog.series.push((t_now, ke, ratio));
-                let check = prog.detector.push(t_now, ke, ratio);
+                let sample = FlowSample {
+                    t: t_now,
+                    ke,
+                    vx: flowing.mean_vx(),
+                    ratio,
+                };
+                prog.series.push(sample);
+                let check = prog.detector.push(sample);
                 // The criteria must hold on the current window, not at some earlier moment.
-                let steady = t_now >= p.steady_min_time_s && check.is_some_and(|c| c.steady);
-                if steady || t_now >= p.steady_max_time_s - 1e-9 {
-                    prog.steady = steady;
-                    prog.steady_time_s = steady.then_some(t_now);
-                    prog.steady_stress_ratio = check.and_then(|c| c.stress_ratio);
-                    prog.phase = Phase::Measuring;
-                    prog.measure_start_chunk = chunk;
-                    prog.observer = Some(probe.clone());
+                let judged = t_now >= p.steady_min_time_s;
+                let stopped = judged && check.is_some_and(|c| !c.flowing);
+                let steady = judged && check.is_some_and(|c| c.steady);
+                let timeout = t_now >= p.steady_max_time_s - 1e-9;
+                if stopped || steady || timeout {
+                    prog.transient = check.or(prog.transient);
+                    prog.measure_start_s = t_now;
+                    let measure = steady || (timeout && !stopped && p.measure_unsteady);
+                    if measure {
+                        prog.steady_time_s = steady.then_some(t_now);
+                        prog.phase = Phase::Measuring;
+                        prog.measure_start_chunk = chunk;
+                        prog.observer = Some(probe.clone());
+                    } else {
+                        prog.phase = Phase::Ended;
+                    }
                     jobs::set_stage(run.conn, run.job.id, run.lease, stage(prog.phase))?;
-                    run.log(format!(
-                        "{} at t = {t_now:.2} s{}; measuring for {} s",
-                        if steady {
-                            "steady"
-                        } else {
-                            "NOT steady (steady_max_time_s reached)"
-                        },
-                        prog.steady_stress_ratio
-                            .map(|m| format!(
-                                " (μ = {m:.3}, tan α = {:.3})",
-                                self.scene.tan_alpha()
-                            ))
-                            .unwrap_or_default(),
-                        p.measure_time_s
-                    ));
+                    run.log(self.transient_words(prog.transient.as_ref(), t_now, steady, stopped));
                 }
             }
             Phase::Measuring => {
@@ -343,7 +408,12 @@ impl Study for ChuteStudy {
                 let ratio = stress
                     .then(|| probe.stress_ratio(&snap, BULK.0 * bed, BULK.1 * bed))
                     .flatten();
-                prog.series.push((t_now, ke, ratio));
+                prog.series.push(FlowSample {
+                    t: t_now,
+                    ke,
+                    vx: flowing.mean_vx(),
+                    ratio,
+                });
                 prog.ledger.numerics.energy.add(t_now, ke);
                 if sample {
                     prog.observer
@@ -352,6 +422,7 @@ impl Study for ChuteStudy {
                         .sample(&snap);
                 }
             }
+            Phase::Ended => {}
         }
         Ok(Ok(()))
     }
@@ -360,20 +431,51 @@ impl Study for ChuteStudy {
         &self,
         conn: &mut Connection,
         job: &JobRow,
-        _ctx: &JobContext,
+        ctx: &JobContext,
         prog: Progress,
         t_end: f64,
     ) -> anyhow::Result<()> {
-        let observer = prog
+        let p = &self.scene.p;
+        let measurement = prog.observer.as_ref().and_then(|_| {
+            let window: Vec<FlowSample> = prog
+                .series
+                .iter()
+                .filter(|s| s.t >= prog.measure_start_s - 1e-9)
+                .copied()
+                .collect();
+            let span = window.last()?.t - window.first()?.t;
+            check_window(&window, &p.steady_settings(span), prog.detector.tan_alpha())
+        });
+        let state = FlowState::judge(prog.transient.as_ref(), measurement.as_ref());
+        let results = prog
             .observer
             .as_ref()
-            .expect("measurement happened before the end");
-        let mut results = observer.finish();
-        results.summary.steady = prog.steady;
-        results.summary.steady_time_s = prog.steady_time_s;
-        results.summary.steady_stress_ratio = prog.steady_stress_ratio;
+            .filter(|_| state != FlowState::NotFlowing)
+            .map(|o| {
+                let mut r = o.finish();
+                r.summary.steady = state == FlowState::Steady;
+                r.summary.steady_time_s = prog.steady_time_s;
+                r.summary.steady_stress_ratio = prog.transient.and_then(|c| c.stress_ratio);
+                r
+            });
+        let flow = FlowRecord {
+            state,
+            measured: results.is_some(),
+            min_flow_velocity_m_per_s: p.min_flow_velocity_m_per_s(),
+            transient: prog.transient,
+            measurement,
+        };
+        if state != FlowState::Steady {
+            (ctx.log)(format!(
+                "job {}: recorded as {} ({})",
+                job.id,
+                state.as_str(),
+                state.words()
+            ));
+        }
         ChuteJobResults {
             results,
+            flow,
             series: prog.series,
             wall_time_s: prog.ledger.wall_time_s,
             particle_steps: prog.ledger.particle_steps,

@@ -21,6 +21,8 @@ use crate::engine::contact::{contact_time, ContactLaw, ContactPair, NormalModel}
 use crate::engine::shape::Spherocylinder;
 use crate::engine::walls::{Wall, WallShape};
 use crate::engine::{EngineConfig, State};
+use crate::observe::stationarity::MIN_BATCHES;
+use crate::observe::steady::SteadySettings;
 
 use super::blame::{time_step_problems, Reset, TimeStepInputs};
 use super::silo::FieldError;
@@ -94,10 +96,20 @@ pub struct ChuteParams {
     pub steady_max_time_s: f64,
     /// Trailing window over which the steady criteria must hold (s).
     pub steady_window_s: f64,
-    /// Largest relative change of the kinetic energy over the window.
+    /// Largest relative change |trend| · window / mean of the kinetic energy (the trend must
+    /// also be within its own batch-means error, `observe::stationarity`).
     pub steady_kinetic_tolerance: f64,
+    /// The same for the bed's mean V_x.
+    pub steady_velocity_tolerance: f64,
     /// Largest relative deviation of the bulk σ_xz/σ_zz from tan α.
     pub steady_stress_tolerance: f64,
+    /// Batch means per window for the trends' standard errors (≥ 4).
+    pub steady_batches: usize,
+    /// The bed is "not flowing" when its mean V_x is below this times √(g L): no D(z) then.
+    pub min_flow_velocity_ratio: f64,
+    /// Measure a flow that was not steady by `steady_max_time_s` anyway (recorded as not steady);
+    /// by default such a job measures nothing.
+    pub measure_unsteady: bool,
     /// Simulated measurement time after the steady state (s).
     pub measure_time_s: f64,
     /// Verlet skin as a fraction of d.
@@ -135,9 +147,13 @@ impl Default for ChuteParams {
             base_coverage: 0.5,
             steady_min_time_s: 20.0,
             steady_max_time_s: 200.0,
-            steady_window_s: 10.0,
-            steady_kinetic_tolerance: 0.05,
+            steady_window_s: 20.0,
+            steady_kinetic_tolerance: 0.02,
+            steady_velocity_tolerance: 0.02,
             steady_stress_tolerance: 0.05,
+            steady_batches: 8,
+            min_flow_velocity_ratio: 0.05,
+            measure_unsteady: false,
             measure_time_s: 50.0,
             skin_ratio: 0.2,
             replica: 0,
@@ -247,6 +263,36 @@ impl ChuteParams {
             err(
                 "stiffness_length",
                 "\"cylinder_length\" is undefined for ξ = 1 (l = 0): use \"total_length\"".into(),
+            );
+        }
+        for (field, tol) in [
+            ("steady_kinetic_tolerance", self.steady_kinetic_tolerance),
+            ("steady_velocity_tolerance", self.steady_velocity_tolerance),
+            ("steady_stress_tolerance", self.steady_stress_tolerance),
+        ] {
+            if !(tol > 0.0 && tol < 1.0) {
+                err(
+                    field,
+                    format!("expected a relative tolerance in (0, 1), got {tol}"),
+                );
+            }
+        }
+        if self.steady_batches < MIN_BATCHES {
+            err(
+                "steady_batches",
+                format!(
+                    "expected at least {MIN_BATCHES} batch means, got {}",
+                    self.steady_batches
+                ),
+            );
+        }
+        if !(self.min_flow_velocity_ratio >= 0.0 && self.min_flow_velocity_ratio.is_finite()) {
+            err(
+                "min_flow_velocity_ratio",
+                format!(
+                    "expected a multiple of √(g L) ≥ 0, got {}",
+                    self.min_flow_velocity_ratio
+                ),
             );
         }
         if !(self.steady_min_time_s >= 0.0 && self.steady_max_time_s >= self.steady_min_time_s) {
@@ -428,6 +474,23 @@ impl ChuteParams {
             ));
         }
         Ok(self.contact_time() / self.contact_steps)
+    }
+
+    /// The flowing threshold on the bed's mean V_x (m/s).
+    pub fn min_flow_velocity_m_per_s(&self) -> f64 {
+        self.min_flow_velocity_ratio * (self.gravity_m_per_s2 * self.particle_length_m).sqrt()
+    }
+
+    /// The steady-state criteria over a window of `window_s` seconds.
+    pub fn steady_settings(&self, window_s: f64) -> SteadySettings {
+        SteadySettings {
+            window_s,
+            tol_ke: self.steady_kinetic_tolerance,
+            tol_vx: self.steady_velocity_tolerance,
+            tol_ratio: self.steady_stress_tolerance,
+            batches: self.steady_batches,
+            min_flow_velocity_m_per_s: self.min_flow_velocity_m_per_s(),
+        }
     }
 
     /// Total simulated time the job may take (s): the longest wait for steady state plus the

@@ -1,19 +1,24 @@
-//! Results of a chute job: the rows of `ChuteResults` and the steady-state series, written for
-//! one job in one transaction. Each table's rows for the job are deleted first, so a retried
+//! Results of a chute job: the rows of `ChuteResults` (when it measured), the verdict on its
+//! flow with the stationarity criteria, and the flow's series, written for one job in one
+//! transaction. Each table's rows for the job are deleted first, so a retried
 //! commit replaces rather than duplicates. `ChuteJobResults::commit` writes them in the same
 //! transaction that marks the job done.
 
 use anyhow::Context;
 use rusqlite::{params, Connection, Transaction, TransactionBehavior};
 
-use crate::observe::chute::ChuteResults;
+use crate::observe::chute::{ChuteResults, FlowRecord};
+use crate::observe::steady::{FlowSample, WindowCheck};
 
 /// What a finished chute job stores.
 #[derive(Clone, Debug)]
 pub struct ChuteJobResults {
-    pub results: ChuteResults,
-    /// t (s), kinetic energy (J), bulk μ: the run's series, into `chute_series`.
-    pub series: Vec<(f64, f64, Option<f64>)>,
+    /// What the observer measured; None when the job measured nothing (not flowing, or not
+    /// steady by `steady_max_time_s`).
+    pub results: Option<ChuteResults>,
+    pub flow: FlowRecord,
+    /// The run's series, into `chute_series`.
+    pub series: Vec<FlowSample>,
     pub wall_time_s: f64,
     pub particle_steps: u64,
     pub sim_time_s: f64,
@@ -37,7 +42,12 @@ impl ChuteJobResults {
             })?;
         let write = status != "done";
         if write {
-            self.results.write(&tx, job_id, &self.series)?;
+            match &self.results {
+                Some(r) => r.write(&tx, job_id)?,
+                None => clear(&tx, job_id, RESULT_TABLES)?,
+            }
+            write_series(&tx, job_id, &self.series)?;
+            self.flow.write(&tx, job_id)?;
             self.numerics.write(&tx, job_id, self.dt_s)?;
             tx.execute(
                 "UPDATE jobs SET status = 'done', lease_owner = NULL, progress = 1.0, sim_time_s = ?2, wall_time_s = ?3, particle_steps = ?4,
@@ -50,9 +60,110 @@ impl ChuteJobResults {
     }
 }
 
+/// The tables of `ChuteResults`.
+const RESULT_TABLES: &[&str] = &[
+    "chute_summary",
+    "chute_blocks",
+    "chute_msd",
+    "chute_fields",
+    "chute_vz_pdf",
+    "chute_correlation",
+];
+
+fn clear(conn: &Connection, job_id: i64, tables: &[&str]) -> anyhow::Result<()> {
+    for table in tables {
+        conn.execute(&format!("DELETE FROM {table} WHERE job_id = ?1"), [job_id])
+            .with_context(|| format!("clearing {table} for job {job_id}"))?;
+    }
+    Ok(())
+}
+
+/// Writes `series` into `chute_series`, replacing the job's rows.
+fn write_series(conn: &Connection, job_id: i64, series: &[FlowSample]) -> anyhow::Result<()> {
+    clear(conn, job_id, &["chute_series"])?;
+    // A repeated time (a resumed run re-sampling its checkpoint's instant) keeps the later row.
+    let mut ins = conn.prepare(
+        "INSERT OR REPLACE INTO chute_series (job_id, t_s, kinetic_energy_j, stress_ratio, mean_vx_m_per_s)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+    )?;
+    for s in series {
+        anyhow::ensure!(
+            s.t.is_finite() && s.ke.is_finite() && s.vx.is_finite(),
+            "chute series: a sample at t = {} has kinetic energy {} and mean V_x {}",
+            s.t,
+            s.ke,
+            s.vx
+        );
+        ins.execute(params![
+            job_id,
+            s.t,
+            s.ke,
+            s.ratio.filter(|r| r.is_finite()),
+            s.vx
+        ])?;
+    }
+    Ok(())
+}
+
+impl FlowRecord {
+    /// Writes `chute_flow_state` and `chute_stationarity` for `job_id`, replacing its rows.
+    ///
+    /// # Errors
+    /// Database errors.
+    pub fn write(&self, conn: &Connection, job_id: i64) -> anyhow::Result<()> {
+        clear(conn, job_id, &["chute_flow_state", "chute_stationarity"])?;
+        conn.execute(
+            "INSERT INTO chute_flow_state (job_id, state, measured, min_flow_velocity_m_per_s)
+             VALUES (?1, ?2, ?3, ?4)",
+            params![
+                job_id,
+                self.state.as_str(),
+                i64::from(self.measured),
+                self.min_flow_velocity_m_per_s
+            ],
+        )?;
+        for (phase, check) in [
+            ("transient", &self.transient),
+            ("measurement", &self.measurement),
+        ] {
+            if let Some(c) = check {
+                write_check(conn, job_id, phase, c)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn write_check(conn: &Connection, job_id: i64, phase: &str, c: &WindowCheck) -> anyhow::Result<()> {
+    let fin = |v: f64| v.is_finite().then_some(v);
+    conn.execute(
+        "INSERT INTO chute_stationarity (job_id, phase, start_s, end_s, ke_mean_j, ke_change, ke_t,
+            vx_mean_m_per_s, vx_change, vx_t, t_critical, stress_ratio, ratio_ok, flowing, steady)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
+        params![
+            job_id,
+            phase,
+            c.start_s,
+            c.time_s,
+            c.ke.map(|t| t.mean),
+            c.ke.and_then(|t| fin(t.relative_change)),
+            c.ke.and_then(|t| fin(t.t_statistic)),
+            c.mean_vx_m_per_s,
+            c.vx.and_then(|t| fin(t.relative_change)),
+            c.vx.and_then(|t| fin(t.t_statistic)),
+            c.ke.or(c.vx).map(|t| t.t_critical),
+            c.stress_ratio.and_then(fin),
+            i64::from(c.ratio_ok),
+            i64::from(c.flowing),
+            i64::from(c.steady),
+        ],
+    )?;
+    Ok(())
+}
+
 impl ChuteResults {
-    /// Writes every chute table for `job_id`, and `series` (t (s), kinetic energy (J), bulk
-    /// μ) into `chute_series`, in one IMMEDIATE transaction.
+    /// Writes every chute table for `job_id`, and `series` into `chute_series`, in one
+    /// IMMEDIATE transaction.
     ///
     /// # Errors
     /// Database errors (among them: a transaction already open on `conn`: use `write` inside
@@ -61,25 +172,21 @@ impl ChuteResults {
         &self,
         conn: &Connection,
         job_id: i64,
-        series: &[(f64, f64, Option<f64>)],
+        series: &[FlowSample],
     ) -> anyhow::Result<()> {
         let tx = Transaction::new_unchecked(conn, TransactionBehavior::Immediate)?;
-        self.write(&tx, job_id, series)?;
+        self.write(&tx, job_id)?;
+        write_series(&tx, job_id, series)?;
         tx.commit()?;
         Ok(())
     }
 
-    /// The statements of `commit` without the transaction, for a caller that also marks the job
+    /// The result tables of `commit` (not the series) without the transaction, for a caller that also marks the job
     /// done in its own transaction (a `Transaction` derefs to `Connection`).
     ///
     /// # Errors
     /// As `commit`.
-    pub fn write(
-        &self,
-        conn: &Connection,
-        job_id: i64,
-        series: &[(f64, f64, Option<f64>)],
-    ) -> anyhow::Result<()> {
+    pub fn write(&self, conn: &Connection, job_id: i64) -> anyhow::Result<()> {
         // SQLite stores NaN as NULL: a NaN here would fail a NOT NULL constraint with a less
         // helpful message, or land as NULL in a nullable one.
         let finite = |what: &str, v: f64| -> anyhow::Result<f64> {
@@ -90,18 +197,7 @@ impl ChuteResults {
             Ok(v)
         };
         let opt = |v: Option<f64>| v.filter(|x| x.is_finite());
-        for table in [
-            "chute_summary",
-            "chute_blocks",
-            "chute_msd",
-            "chute_fields",
-            "chute_vz_pdf",
-            "chute_correlation",
-            "chute_series",
-        ] {
-            conn.execute(&format!("DELETE FROM {table} WHERE job_id = ?1"), [job_id])
-                .with_context(|| format!("clearing {table} for job {job_id}"))?;
-        }
+        clear(conn, job_id, RESULT_TABLES)?;
         let s = &self.summary;
         conn.execute(
             "INSERT INTO chute_summary (job_id, aspect_ratio, inclination_deg, total_length_m, diameter_m, particles,
@@ -200,18 +296,6 @@ impl ChuteResults {
                 c.r_m,
                 finite("c_m2_per_s2", c.c_m2_per_s2)?,
                 c.pairs as i64
-            ])?;
-        }
-        // A repeated time (a resumed run re-sampling its checkpoint's instant) keeps the later row.
-        let mut ins = conn.prepare(
-            "INSERT OR REPLACE INTO chute_series (job_id, t_s, kinetic_energy_j, stress_ratio) VALUES (?1, ?2, ?3, ?4)",
-        )?;
-        for &(t, ke, ratio) in series {
-            ins.execute(params![
-                job_id,
-                finite("series t_s", t)?,
-                finite("kinetic_energy_j", ke)?,
-                opt(ratio)
             ])?;
         }
         Ok(())

@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 6;
+pub const SCHEMA_VERSION: i64 = 7;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -120,6 +120,10 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
         // 5 → 6: whether the silo was flowing at each field-series sample (NULL for older rows).
         if !has_column(&tx, "silo_field_series", "flowing")? {
             tx.execute_batch("ALTER TABLE silo_field_series ADD COLUMN flowing INTEGER;")?;
+        }
+        // 6 → 7: the chute's bulk mean V_x series (the flow verdict's tables are new ones).
+        if !has_column(&tx, "chute_series", "mean_vx_m_per_s")? {
+            tx.execute_batch("ALTER TABLE chute_series ADD COLUMN mean_vx_m_per_s REAL;")?;
         }
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }

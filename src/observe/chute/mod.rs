@@ -1,13 +1,15 @@
 //! The chute observer (Soft Matter 2022): settings and geometry (`settings`), the streaming
 //! state and its per-snapshot stage (`observer`), the rows it produces (`results`) and the
-//! stage that produces them (`finish`).
+//! stage that produces them (`finish`), and the verdict on the flow (`flow_state`).
 
 mod finish;
+mod flow_state;
 mod observer;
 mod results;
 mod settings;
 
 pub use finish::PDF_HALF_RANGE_STD;
+pub use flow_state::{FlowRecord, FlowState};
 pub use observer::{ChuteObserver, ChuteSnapshot};
 pub use results::{
     ChuteBlockRow, ChuteCorrelationRow, ChuteFieldRow, ChuteMsdRow, ChuteResults, ChuteSummaryRow,
