@@ -24,7 +24,7 @@ fn campaign(dir: &Path) -> PathBuf {
             "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
             "contact_steps": 10.0,
             "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
-            "measure_time_s": 1.0
+            "measure_time_s": 1.0, "measure_unsteady": true
         },
         "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
         "run": {"precision": "f64", "checkpoint_interval_s": 0.25}
@@ -81,6 +81,8 @@ fn chute_rows(db: &Path) -> Vec<String> {
         ("chute_vz_pdf", "block, x"),
         ("chute_correlation", "block, r_m"),
         ("chute_series", "t_s"),
+        ("chute_flow_state", "job_id"),
+        ("chute_stationarity", "phase"),
     ] {
         let mut st = conn
             .prepare(&format!("SELECT * FROM {table} ORDER BY {order}"))
@@ -155,12 +157,15 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
                 "report",
                 "--figure",
                 f,
+                "--include-unsteady",
                 "--db",
                 db.to_str().unwrap(),
                 "--out",
                 figs.to_str().unwrap(),
             ],
         ));
+        // 1 s is no steady state: the figure says so, and draws it only because it was asked.
+        assert!(out.contains("1 of them NOT steady"), "{out}");
         for ext in ["svg", "png", "csv"] {
             let p = figs.join(format!("chute_{f}.{ext}"));
             assert!(
@@ -342,4 +347,75 @@ fn a_chute_of_spheres_runs_on_the_sphere_engine() {
     std::fs::write(&file, c.to_string()).unwrap();
     let out = ok(&run(d, &["plan", file.to_str().unwrap()]));
     assert!(out.contains("\"shape\":\"spherocylinder\""), "{out}");
+}
+
+/// A bed below its stopping angle (spheres at 10°) comes to rest after the pour: the job is
+/// recorded as not flowing, measures nothing (no summary, no D(z)), stores the criteria that
+/// decided it, and `sweep status` and the report say so.
+#[test]
+fn a_bed_at_rest_is_recorded_as_not_flowing() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(campaign(d)).unwrap()).unwrap();
+    let base = c["base"].as_object_mut().unwrap();
+    for (k, v) in [
+        ("aspect_ratio", json!(1.0)),
+        ("inclination_deg", json!(10.0)),
+        ("steady_min_time_s", json!(8.0)),
+        ("steady_max_time_s", json!(12.0)),
+        ("steady_window_s", json!(2.0)),
+        ("measure_unsteady", json!(false)),
+    ] {
+        base.insert(k.into(), v);
+    }
+    let file = d.join("rest.json");
+    std::fs::write(&file, c.to_string()).unwrap();
+    let db = d.join("sweep.db");
+    let args = launch_args(&file, &db);
+    ok(&run(
+        d,
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+    ));
+    let conn = Connection::open(&db).unwrap();
+    let (state, measured): (String, i64) = conn
+        .query_row("SELECT state, measured FROM chute_flow_state", [], |r| {
+            Ok((r.get(0)?, r.get(1)?))
+        })
+        .unwrap();
+    assert_eq!((state.as_str(), measured), ("not_flowing", 0));
+    let (phase, vx, flowing, end): (String, f64, i64, f64) = conn
+        .query_row(
+            "SELECT phase, vx_mean_m_per_s, flowing, end_s FROM chute_stationarity",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+        )
+        .unwrap();
+    // 0.05 √(g L) with g = 1 m/s², L = 0.125 m.
+    let threshold = 0.05 * 0.125f64.sqrt();
+    assert!(
+        phase == "transient" && flowing == 0 && vx < threshold,
+        "{vx}"
+    );
+    assert!((8.0..12.0).contains(&end), "decided at {end} s");
+    let summaries: i64 = conn
+        .query_row("SELECT COUNT(*) FROM chute_summary", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(summaries, 0);
+    let status = ok(&run(d, &["status", "--db", db.to_str().unwrap()]));
+    assert!(status.contains("flow: NOT FLOWING"), "{status}");
+    assert!(status.contains("nothing measured"), "{status}");
+    let out = ok(&run(
+        d,
+        &[
+            "report",
+            "--figure",
+            "fig4",
+            "--db",
+            db.to_str().unwrap(),
+            "--out",
+            d.join("figs").to_str().unwrap(),
+        ],
+    ));
+    assert!(out.contains("(not flowing, nothing measured)"), "{out}");
 }

@@ -78,7 +78,7 @@ fn chute_campaign() -> Value {
             "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 2.0,
             "contact_steps": 10.0,
             "steady_min_time_s": 0.2, "steady_max_time_s": 0.4, "steady_window_s": 0.2,
-            "measure_time_s": 0.4
+            "measure_time_s": 0.4, "measure_unsteady": true
         },
         "observers": {
             "chute": { "max_lag_s": 0.2, "fit_min_lag_s": 0.1, "correlation_every": 2 },

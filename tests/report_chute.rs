@@ -253,9 +253,14 @@ fn every_chute_figure_draws_and_lists_unfinished_jobs() {
                 "{}",
                 report.table
             );
+            // The 24° job was not steady: left out, and said so.
             assert!(
-                report.table.contains("6 done job(s) with a chute summary")
-                    && report.table.contains(NO_SUMMARY),
+                report.table.contains("5 done job(s) drawn")
+                    && report.table.contains(NO_SUMMARY)
+                    && report.table.contains(
+                        "1 done job(s) not steady, left out of the figure: \
+                         aspect_ratio=1,inclination_deg=24"
+                    ),
                 "{}",
                 report.table
             );
@@ -268,8 +273,9 @@ fn fig6_gives_back_the_synthetic_coefficient() {
     let dir = tempfile::tempdir().expect("tempdir");
     let conn = synthetic_db(dir.path());
     let report = render_figure(&conn, "fig6", Some("chute_test"), dir.path()).expect("fig6");
-    // Blocks with 6 L < z < 14 L: centres 6.5 L .. 13.5 L, 8 per job.
-    let n = 8 * CASES.len();
+    // Blocks with 6 L < z < 14 L: centres 6.5 L .. 13.5 L, 8 per job, the unsteady 24° job
+    // left out.
+    let n = 8 * (CASES.len() - 1);
     assert!(
         report.table.contains("H/L = 20.00 to 20.00") && report.table.contains("6 L < z < 14 L"),
         "{}",
@@ -374,4 +380,63 @@ fn the_campaign_scene_picks_the_figure_set() {
         render_figure(&conn, "chute:fig2", Some("silo_new"), dir.path()).expect_err("scene")
     );
     assert!(msg.contains("'silo' campaign"), "{msg}");
+}
+
+/// Law: a job whose flow was not steady is left out of every chute figure and listed with its
+/// verdict (a not-flowing job has no summary, and is not an unexplained "without summary"); with
+/// `include_unsteady` a measured one is drawn and marked "NOT steady" where jobs are named.
+#[test]
+fn unsteady_jobs_are_left_out_or_marked() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let conn = synthetic_db(dir.path());
+    let campaign: i64 = conn
+        .query_row("SELECT id FROM campaigns", [], |r| r.get(0))
+        .unwrap();
+    let stopped = add_job(
+        &conn,
+        campaign,
+        "aspect_ratio=2.5,inclination_deg=20",
+        "done",
+    );
+    let drifted: i64 = conn
+        .query_row(
+            "SELECT job_id FROM campaign_jobs WHERE label = 'aspect_ratio=1.3,inclination_deg=27'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    for (job, state, measured) in [(stopped, "not_flowing", 0), (drifted, "drifted", 1)] {
+        conn.execute(
+            "INSERT INTO chute_flow_state (job_id, state, measured, min_flow_velocity_m_per_s) \
+             VALUES (?1, ?2, ?3, 0.0177)",
+            params![job, state, measured],
+        )
+        .unwrap();
+    }
+    let out = dir.path().join("figures");
+    let report = render_figure(&conn, "fig2", Some("chute_test"), &out).expect("fig2");
+    let t = &report.table;
+    assert!(t.contains("4 done job(s) drawn\n"), "{t}");
+    assert!(
+        t.contains(
+            "3 done job(s) not steady, left out of the figure: \
+             aspect_ratio=1,inclination_deg=24 (not steady by steady_max_time_s); \
+             aspect_ratio=1.3,inclination_deg=27 (drifted while measured); \
+             aspect_ratio=2.5,inclination_deg=20 (not flowing, nothing measured)"
+        ),
+        "{t}"
+    );
+    assert!(!t.contains("inclination_deg=20\n"), "{t}");
+    let with = sweep::report::Output {
+        dir: out.clone(),
+        titles: true,
+        include_unsteady: true,
+    };
+    let report =
+        sweep::report::render_figure_with(&conn, "fig2", Some("chute_test"), &with).expect("fig2");
+    let t = &report.table;
+    assert!(
+        t.contains("6 done job(s) drawn, 2 of them NOT steady"),
+        "{t}"
+    );
 }

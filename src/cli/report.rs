@@ -19,6 +19,10 @@ pub struct Arguments {
     /// Draw figures without their title line (a paper's caption replaces it).
     #[arg(long)]
     pub no_title: bool,
+    /// Chute figures: draw also the jobs whose flow was not steady (drifted while measured, or
+    /// measured with `measure_unsteady`), marked "not steady"; by default they are left out.
+    #[arg(long)]
+    pub include_unsteady: bool,
     #[command(flatten)]
     pub db: DbArg,
 }
@@ -36,6 +40,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let out = sweep::report::Output {
         dir: a.out.clone(),
         titles: !a.no_title,
+        include_unsteady: a.include_unsteady,
     };
     if a.figure == "all" {
         return run_all(&conn, a.campaign.as_deref(), &out);

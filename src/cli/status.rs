@@ -47,6 +47,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     for c in camps {
         let rows = jobs::campaign_jobs(&conn, c.id)?;
+        let verdicts = sweep::store::chute_reads::flow_verdicts(&conn, c.id)?;
         let count = |s: &str| rows.iter().filter(|r| r.status == s).count();
         println!(
             "campaign {}{} ({}): {} jobs — {} done, {} running, {} pending, {} paused, {} failed",
@@ -118,6 +119,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "paused" => println!("         paused at its checkpoint: `sweep resume` continues it"),
                 _ => {}
             }
+            if let Some(v) = verdicts.get(&r.id).filter(|v| v.state != "steady") {
+                println!("         flow: {}", describe_flow(v));
+            }
             if let Some(e) = r.last_error.as_deref().filter(|_| r.status != "done") {
                 println!("         last error: {e}");
             }
@@ -129,6 +133,28 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// A chute job's verdict when it was not steady: which window decided, and its numbers.
+fn describe_flow(v: &sweep::store::chute_reads::FlowVerdict) -> String {
+    let state =
+        sweep::observe::chute::FlowState::parse(&v.state).map_or(v.state.as_str(), |s| s.words());
+    let pct = |x: Option<f64>| x.map_or("-".into(), |x| format!("{:.1} %", 100.0 * x));
+    let numbers = v.criteria.as_ref().map_or(String::new(), |(phase, vx, ke, dvx, mu)| {
+        format!(
+            " over the {phase} window: mean V_x {vx:.3} m/s (flowing from {:.3}), KE change {}, V_x change {}, μ {}",
+            v.min_flow_velocity_m_per_s,
+            pct(*ke),
+            pct(*dvx),
+            mu.map_or("-".into(), |m| format!("{m:.3}"))
+        )
+    });
+    let measured = if v.measured {
+        "measured, left out of figures"
+    } else {
+        "nothing measured"
+    };
+    format!("{}{numbers}; {measured}", state.to_uppercase())
 }
 
 /// Every job's latest Slurm task, and Slurm's view of them (None when Slurm cannot be asked).

@@ -24,6 +24,8 @@ pub struct Output {
     pub dir: PathBuf,
     /// Whether figures carry their title (a paper's caption replaces it: `--no-title`).
     pub titles: bool,
+    /// Whether chute figures also draw jobs whose flow was not steady (marked as such).
+    pub include_unsteady: bool,
 }
 
 impl Output {
@@ -32,6 +34,7 @@ impl Output {
         Self {
             dir: dir.to_path_buf(),
             titles: true,
+            include_unsteady: false,
         }
     }
 }

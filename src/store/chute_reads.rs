@@ -86,32 +86,45 @@ pub struct ChuteJob {
     pub total_length_m: f64,
     /// Bed height H (density at half its bulk value), m.
     pub bed_height_m: f64,
-    /// Whether the steady-state criteria held when measurement started.
+    /// Whether the flow was steady (`chute_flow_state`; before schema 7, whether the criteria
+    /// held when measurement started).
     pub steady: bool,
+    /// `chute_flow_state.state`; None for a job from before schema 7.
+    pub flow_state: Option<String>,
     /// Lag range of the MSD fit D = slope / 2, s.
     pub msd_fit_lags_s: (f64, f64),
     /// d_⊥, m.
     pub d_perp_m: f64,
 }
 
-/// The chute summaries of the campaign's jobs whose status is 'done', ordered by ξ, α, job id.
-/// Jobs not done are left out even with a partial summary (render lists them as missing).
+/// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
+/// (`chute_flow_state`; a job from before schema 7 has only the transient's verdict,
+/// `chute_summary.steady`), ordered by ξ, α, job id. Jobs not done are left out even with a
+/// partial summary (render lists them as missing); done jobs that were not steady are listed by
+/// `left_out_chute_jobs`.
 ///
 /// # Errors
 /// On a database error.
-pub fn done_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<ChuteJob>> {
+pub fn done_chute_jobs(
+    conn: &Connection,
+    campaign_id: i64,
+    include_unsteady: bool,
+) -> Result<Vec<ChuteJob>> {
     let mut stmt = conn.prepare(
         "SELECT j.id, cj.label, s.aspect_ratio, s.inclination_deg, s.total_length_m, \
                 s.bed_height_m, s.steady, s.msd_fit_min_lag_s, \
-                s.msd_fit_max_lag_s, s.d_perp_m \
+                s.msd_fit_max_lag_s, s.d_perp_m, f.state \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN chute_summary s ON s.job_id = j.id \
+         LEFT JOIN chute_flow_state f ON f.job_id = j.id \
          WHERE cj.campaign_id = ?1 AND j.status = 'done' \
+           AND (?2 OR COALESCE(f.state = 'steady', s.steady = 1)) \
          ORDER BY s.aspect_ratio, s.inclination_deg, j.id",
     )?;
     let rows = stmt
-        .query_map(params![campaign_id], |r| {
+        .query_map(params![campaign_id, include_unsteady], |r| {
+            let flow_state: Option<String> = r.get(10)?;
             Ok(ChuteJob {
                 job_id: r.get(0)?,
                 label: r.get(1)?,
@@ -119,7 +132,10 @@ pub fn done_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<ChuteJ
                 inclination_deg: r.get(3)?,
                 total_length_m: r.get(4)?,
                 bed_height_m: r.get(5)?,
-                steady: r.get::<_, i64>(6)? != 0,
+                steady: flow_state
+                    .as_deref()
+                    .map_or(r.get::<_, i64>(6)? != 0, |f| f == "steady"),
+                flow_state,
                 msd_fit_lags_s: (r.get(7)?, r.get(8)?),
                 d_perp_m: r.get(9)?,
             })
@@ -128,7 +144,46 @@ pub fn done_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<ChuteJ
     Ok(rows)
 }
 
-/// Labels of the campaign's done jobs that have no chute_summary row (not drawn), sorted.
+/// A done chute job the figures leave out, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeftOut {
+    pub label: String,
+    /// `chute_flow_state.state`, or "not_steady" for a job from before schema 7 whose
+    /// transient criteria failed.
+    pub state: String,
+    /// Whether its profiles were measured (and stored) all the same.
+    pub measured: bool,
+}
+
+/// The campaign's done chute jobs whose flow was not steady, sorted by label.
+///
+/// # Errors
+/// On a database error.
+pub fn left_out_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<LeftOut>> {
+    let mut stmt = conn.prepare(
+        "SELECT cj.label, COALESCE(f.state, 'not_steady'), \
+                COALESCE(f.measured, s.job_id IS NOT NULL) \
+         FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id \
+         LEFT JOIN chute_flow_state f ON f.job_id = j.id \
+         LEFT JOIN chute_summary s ON s.job_id = j.id \
+         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
+           AND (f.state <> 'steady' OR (f.state IS NULL AND s.steady = 0)) \
+         ORDER BY cj.label",
+    )?;
+    let rows = stmt
+        .query_map(params![campaign_id], |r| {
+            Ok(LeftOut {
+                label: r.get(0)?,
+                state: r.get(1)?,
+                measured: r.get::<_, i64>(2)? != 0,
+            })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// Labels of the campaign's done jobs that have no chute_summary row and no flow verdict that
+/// explains it (not drawn), sorted.
 ///
 /// # Errors
 /// On a database error.
@@ -137,6 +192,7 @@ pub fn done_without_summary(conn: &Connection, campaign_id: i64) -> Result<Vec<S
         "SELECT cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id \
          WHERE cj.campaign_id = ?1 AND j.status = 'done' \
            AND NOT EXISTS (SELECT 1 FROM chute_summary s WHERE s.job_id = j.id) \
+           AND NOT EXISTS (SELECT 1 FROM chute_flow_state f WHERE f.job_id = j.id) \
          ORDER BY cj.label",
     )?;
     let rows = stmt
@@ -313,5 +369,53 @@ pub fn block_transport(conn: &Connection, job_id: i64) -> Result<Vec<BlockTransp
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// A chute job's flow verdict, for `sweep status`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlowVerdict {
+    pub state: String,
+    pub measured: bool,
+    pub min_flow_velocity_m_per_s: f64,
+    /// The criteria of the window that decided ('measurement' sorts before 'transient', so it
+    /// wins when there was one), as
+    /// (phase, mean V_x, KE change, V_x change, μ).
+    pub criteria: Option<(String, f64, Option<f64>, Option<f64>, Option<f64>)>,
+}
+
+/// The flow verdicts of the campaign's chute jobs, by job id.
+///
+/// # Errors
+/// On a database error.
+pub fn flow_verdicts(
+    conn: &Connection,
+    campaign_id: i64,
+) -> Result<std::collections::BTreeMap<i64, FlowVerdict>> {
+    let mut stmt = conn.prepare(
+        "SELECT f.job_id, f.state, f.measured, f.min_flow_velocity_m_per_s, \
+                s.phase, s.vx_mean_m_per_s, s.ke_change, s.vx_change, s.stress_ratio \
+         FROM campaign_jobs cj JOIN chute_flow_state f ON f.job_id = cj.job_id \
+         LEFT JOIN chute_stationarity s ON s.job_id = f.job_id AND s.phase = \
+             (SELECT MIN(phase) FROM chute_stationarity x WHERE x.job_id = f.job_id) \
+         WHERE cj.campaign_id = ?1",
+    )?;
+    let rows = stmt
+        .query_map(params![campaign_id], |r| {
+            let phase: Option<String> = r.get(4)?;
+            Ok((
+                r.get::<_, i64>(0)?,
+                FlowVerdict {
+                    state: r.get(1)?,
+                    measured: r.get::<_, i64>(2)? != 0,
+                    min_flow_velocity_m_per_s: r.get(3)?,
+                    criteria: match phase {
+                        Some(p) => Some((p, r.get(5)?, r.get(6)?, r.get(7)?, r.get(8)?)),
+                        None => None,
+                    },
+                },
+            ))
+        })?
+        .collect::<rusqlite::Result<_>>()?;
     Ok(rows)
 }

@@ -81,7 +81,8 @@ pub fn campaign(
 }
 
 /// The tiny chute (ξ = 1.5, 4 L × 4 L × 4 L, n_c = 10, 1 s to the steady-state test and 1 s of
-/// measurement): one job, in `precision` ("f64" or "f32").
+/// measurement, too short to be steady: measured anyway with `measure_unsteady`): one job, in
+/// `precision` ("f64" or "f32").
 pub fn tiny_chute(name: &str, precision: &str, checkpoint_interval_s: f64) -> Value {
     json!({
         "name": name,
@@ -91,7 +92,7 @@ pub fn tiny_chute(name: &str, precision: &str, checkpoint_interval_s: f64) -> Va
             "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
             "contact_steps": 10.0,
             "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
-            "measure_time_s": 1.0
+            "measure_time_s": 1.0, "measure_unsteady": true
         },
         "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
         "run": {"precision": precision, "checkpoint_interval_s": checkpoint_interval_s}

@@ -5,8 +5,8 @@
 //! figure draws. Read-only; no plotting here.
 
 pub use crate::store::chute_reads::{
-    block_curves, blocks, done_chute_jobs, done_without_summary, shear_profile, BlockRow, ChuteJob,
-    CurveTable,
+    block_curves, blocks, done_chute_jobs, done_without_summary, left_out_chute_jobs,
+    shear_profile, BlockRow, ChuteJob, CurveTable,
 };
 
 use crate::report::silo::data::same_value;
@@ -45,6 +45,7 @@ mod tests {
             total_length_m: 0.125,
             bed_height_m: 2.5,
             steady: true,
+            flow_state: Some("steady".into()),
             msd_fit_lags_s: (1.0, 10.0),
             d_perp_m: 0.1,
         }

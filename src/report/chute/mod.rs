@@ -22,8 +22,10 @@ use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, sci, short, Table};
+use crate::observe::chute::FlowState;
 use crate::report::chute::data::{
-    block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, ChuteJob, CurveTable,
+    block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, left_out_chute_jobs,
+    ChuteJob, CurveTable,
 };
 use crate::report::silo::data::spread;
 
@@ -50,9 +52,10 @@ pub(crate) fn color(i: usize) -> usize {
 /// "ξ = 1.3, α = 27°"
 pub(crate) fn case_name(job: &ChuteJob) -> String {
     format!(
-        "ξ = {}, α = {}°",
+        "ξ = {}, α = {}°{}",
         short(job.aspect_ratio),
-        short(job.inclination_deg)
+        short(job.inclination_deg),
+        if job.steady { "" } else { " (NOT steady)" }
     )
 }
 
@@ -93,14 +96,24 @@ pub(crate) fn showcase_note(shown: &[&ChuteJob]) -> String {
     text
 }
 
-/// Notes every chute figure starts with: done jobs without a summary (not drawn) and jobs that
-/// were not steady when measurement started (drawn, but flagged).
+/// Notes every chute figure starts with: done jobs without a summary (not drawn) and jobs whose
+/// flow was not steady (left out: drifted while measured, not steady by steady_max_time_s, or
+/// not flowing).
 pub(crate) fn preface(
     conn: &Connection,
     campaign: &CampaignRef,
     jobs: &[ChuteJob],
 ) -> Result<String> {
-    let mut text = format!("{} done job(s) with a chute summary\n", jobs.len());
+    let unsteady = jobs.iter().filter(|j| !j.steady).count();
+    let mut text = format!(
+        "{} done job(s) drawn{}\n",
+        jobs.len(),
+        if unsteady > 0 {
+            format!(", {unsteady} of them NOT steady (--include-unsteady), marked")
+        } else {
+            String::new()
+        }
+    );
     let orphans = done_without_summary(conn, campaign.id)?;
     if !orphans.is_empty() {
         let _ = writeln!(
@@ -110,19 +123,48 @@ pub(crate) fn preface(
             orphans.join("; ")
         );
     }
-    let unsteady: Vec<&str> = jobs
-        .iter()
-        .filter(|j| !j.steady)
-        .map(|j| j.label.as_str())
-        .collect();
-    if !unsteady.is_empty() {
+    let left = left_out_chute_jobs(conn, campaign.id)?;
+    if !left.is_empty() {
+        let list: Vec<String> = left
+            .iter()
+            .map(|j| {
+                let words = FlowState::parse(&j.state).map_or(j.state.as_str(), |f| f.words());
+                let measured = if j.measured { "" } else { ", nothing measured" };
+                format!("{} ({words}{measured})", j.label)
+            })
+            .collect();
         let _ = writeln!(
             text,
-            "not steady when measurement started (drawn anyway): {}",
-            unsteady.join("; ")
+            "{} done job(s) not steady{}: {}",
+            left.len(),
+            if unsteady > 0 {
+                ", those measured drawn and marked"
+            } else {
+                ", left out of the figure"
+            },
+            list.join("; ")
         );
     }
     Ok(text)
+}
+
+/// The figure's caption with, when jobs were left out as not steady, how many.
+pub(crate) fn caption(conn: &Connection, campaign: &CampaignRef, title: String) -> Result<String> {
+    let left = left_out_chute_jobs(conn, campaign.id)?;
+    if left.is_empty() {
+        return Ok(title);
+    }
+    let count = |s: FlowState| left.iter().filter(|j| j.state == s.as_str()).count();
+    let parts: Vec<String> = [
+        FlowState::Drifted,
+        FlowState::NotSteady,
+        FlowState::NotFlowing,
+    ]
+    .into_iter()
+    .filter(|&s| count(s) > 0)
+    .map(|s| format!("{} {}", count(s), s.words()))
+    .collect();
+    Ok(format!("{title} — left out: {}", parts.join(", ")))
 }
 
 /// A panel that only says why it is empty.
@@ -140,7 +182,7 @@ pub(crate) fn shown_indices(n: usize) -> Vec<usize> {
 /// Fig. 2: MSD_z(τ)/L² per block, log-log, one panel per showcase job, with grey power laws of
 /// slope 2 (ballistic) and 1 (diffusive). Curves are not shifted in y (the paper shifts them).
 pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id)?;
+    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown));
@@ -249,10 +291,14 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         ));
     }
     let fig = Figure {
-        title: Some(format!(
-            "Fig. 2: MSD_z(τ) per block of height L, campaign {}",
-            campaign.name
-        )),
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. 2: MSD_z(τ) per block of height L, campaign {}",
+                campaign.name
+            ),
+        )?),
         columns: panels.len().min(2),
         panels,
         panel_size: (800, 640),

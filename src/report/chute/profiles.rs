@@ -11,7 +11,7 @@ use rusqlite::Connection;
 
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{blocks, closest, done_chute_jobs, shear_profile, ChuteJob};
-use crate::report::chute::{color, empty_panel, preface};
+use crate::report::chute::{caption, color, empty_panel, preface};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
@@ -43,7 +43,7 @@ fn profiles(
     number: u32,
     target_xi: f64,
 ) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id)?;
+    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let xis = distinct(jobs.iter().map(|j| j.aspect_ratio));
     let xi = closest(xis.iter().copied(), target_xi);
@@ -156,10 +156,14 @@ fn profiles(
         }
     }
     let fig = Figure {
-        title: Some(format!(
-            "Fig. {number}: D/D_max and γ̇/γ̇_max vs height, campaign {}",
-            campaign.name
-        )),
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. {number}: D/D_max and γ̇/γ̇_max vs height, campaign {}",
+                campaign.name
+            ),
+        )?),
         panels: vec![panel],
         columns: 1,
         panel_size: (1000, 700),

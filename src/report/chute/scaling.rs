@@ -11,7 +11,7 @@ use rusqlite::Connection;
 use crate::observe::fits::{linear_fit, LinearFit};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{blocks, done_chute_jobs, ChuteJob};
-use crate::report::chute::{color, preface, GREY};
+use crate::report::chute::{caption, color, preface, GREY};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
@@ -62,7 +62,7 @@ fn fit_line(fit: Option<&LinearFit>, x: &[f64], label: String, color: usize) -> 
 
 /// Fig. 6: (a) D/γ̇ vs d_⊥², (b) D vs γ̇ d_⊥², central blocks of all done jobs.
 pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id)?;
+    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let (lo, hi) = CENTRAL_BED;
     let mut points = Vec::new();
@@ -228,10 +228,14 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         ]);
     }
     let fig = Figure {
-        title: Some(format!(
-            "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}",
-            campaign.name
-        )),
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}",
+                campaign.name
+            ),
+        )?),
         panels: vec![a, b],
         columns: 2,
         panel_size: (800, 640),

@@ -12,7 +12,8 @@ use rusqlite::Connection;
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
 use crate::report::chute::{
-    case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices, GREY,
+    caption, case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices,
+    GREY,
 };
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
@@ -37,7 +38,7 @@ fn area(points: &[(f64, f64)]) -> f64 {
 /// Fig. 5: (a), (b) standardised v_z PDFs per block, log y, with the standard Gaussian;
 /// (c) the skewness of v_z vs z/L for both jobs.
 pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id)?;
+    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown));
@@ -166,10 +167,14 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     }
     panels.push(skew);
     let fig = Figure {
-        title: Some(format!(
-            "Fig. 5: standardised v_z PDFs and their skewness, campaign {}",
-            campaign.name
-        )),
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. 5: standardised v_z PDFs and their skewness, campaign {}",
+                campaign.name
+            ),
+        )?),
         columns: panels.len(),
         panels,
         panel_size: (640, 580),
@@ -198,7 +203,7 @@ fn gaussian(extent: f64) -> Series {
 /// the smallest-r bin, at r₀ (centre L/8), as the paper's Eq. (3) bins start at r = 0; the line
 /// goes through that bin so that its slope −1/l compares with the data's.
 pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id)?;
+    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown));
@@ -318,10 +323,14 @@ pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         ));
     }
     let fig = Figure {
-        title: Some(format!(
-            "Fig. 7: spatial correlation of v_z per block, campaign {}",
-            campaign.name
-        )),
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. 7: spatial correlation of v_z per block, campaign {}",
+                campaign.name
+            ),
+        )?),
         columns: panels.len().min(2),
         panels,
         panel_size: (760, 560),

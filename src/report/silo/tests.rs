@@ -489,6 +489,7 @@ fn figure_all_writes_every_figure_and_an_index_that_says_what_is_missing() {
     let conn = synthetic_db(&[0.0, 0.5, 1.0]);
     let dir = tempfile::tempdir().expect("tempdir");
     let out = crate::report::Output {
+        include_unsteady: false,
         dir: dir.path().to_path_buf(),
         titles: false,
     };
