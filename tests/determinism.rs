@@ -77,7 +77,9 @@ fn digest(db: &std::path::Path, queries: &[&str]) -> String {
 }
 
 const SILO_JOB_GOLDEN: &str = "52cad41b7c4a11ee";
-const CHUTE_JOB_GOLDEN: &str = "cfed65d74618c949";
+// The chute job's seed comes from its parameters: the steady-state ones added with the
+// stationarity test changed it.
+const CHUTE_JOB_GOLDEN: &str = "ec44c8b69814fc78";
 
 #[test]
 fn a_short_silo_job_stores_its_golden_results() {
