@@ -491,18 +491,35 @@ fn corrupt_and_truncated_frames_are_refused_by_name() {
 fn without_frames_the_latest_checkpoint_is_exported_and_said() {
     let run = run_job(&silo_campaign(json!({ "interval_s": 0.1 })));
     let dir = job_dir(run.path());
+    // The frames' times first: the checkpoint's frame must be on the same (the job's) clock.
+    ok(sweep(
+        run.path(),
+        &["export", "--job", "1", "--vtk", "frames"],
+    ));
+    let frame_times: Vec<f64> = pvd(&run.path().join("frames/particles.pvd"))
+        .into_iter()
+        .map(|f| f.0)
+        .collect();
     std::fs::remove_dir_all(dir.join("snapshots")).unwrap();
     let o = ok(sweep(run.path(), &["export", "--job", "1", "--vtk", "vtk"]));
     let err = stderr(&o);
     assert!(
-        err.contains("job 1 has no snapshot frames") && err.contains("latest checkpoint"),
+        err.contains("job 1 has no snapshot frames")
+            && err.contains("latest checkpoint")
+            && err.contains("the job's clock"),
         "{err}"
     );
     let (found, _) = sweep::checkpoint::load_latest(&dir, &read_hash(run.path()));
     let (_, _, state, _) = found.unwrap();
     let series = pvd(&run.path().join("vtk/particles.pvd"));
     assert_eq!(series.len(), 1);
-    assert_eq!(series[0].0, state.time);
+    // The silo's engine clock also counts the fill stage; the job's clock starts at the job.
+    assert!(
+        frame_times.iter().any(|&t| (t - series[0].0).abs() < 1e-12) && series[0].0 < state.time,
+        "checkpoint frame at {} (engine clock {}), frames at {frame_times:?}",
+        series[0].0,
+        state.time
+    );
     let v = Vtk::read(&run.path().join("vtk").join(&series[0].1));
     assert_eq!(v.attr("Piece", "NumberOfPoints"), state.len().to_string());
     // Particles in id order.

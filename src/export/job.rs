@@ -99,13 +99,24 @@ pub fn export_job(
     if listed.is_empty() {
         let (found, refused) = checkpoint::load_latest(&dir, &hash);
         report.refused.extend(refused);
-        if let Some((path, _, s, _)) = found {
+        if let Some((path, _, s, extra)) = found {
+            // The job's clock, as snapshot frames are stamped; a checkpoint from before it was
+            // recorded has only the engine's.
+            let job_time = serde_json::from_str::<serde_json::Value>(&extra)
+                .ok()
+                .and_then(|v| v.get("job_time_s").and_then(serde_json::Value::as_f64));
+            let (t, clock) = match job_time {
+                Some(t) => (t, "the job's clock, as snapshot frames"),
+                None => (
+                    s.time,
+                    "the engine's clock: the checkpoint predates the job's",
+                ),
+            };
             report.notes.push(format!(
-                "job {job_id} has no snapshot frames (set observers.snapshots.interval_s to record them): exported its latest checkpoint {} (simulated time {:.4} s) as one frame",
+                "job {job_id} has no snapshot frames (set observers.snapshots.interval_s to record them): exported its latest checkpoint {} (t = {t:.4} s, {clock}) as one frame",
                 path.display(),
-                s.time
             ));
-            let f = Frame::of_state(&s, &hash, 0, s.time);
+            let f = Frame::of_state(&s, &hash, 0, t);
             frames.push((f, format!("particles/checkpoint-{:012}.vtu", s.step)));
         } else {
             report.notes.push(format!(

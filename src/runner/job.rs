@@ -68,6 +68,10 @@ pub struct Ledger {
     pub wall_time_s: f64,
     #[serde(default)]
     pub numerics: crate::store::JobNumerics,
+    /// The job's clock (s): chunks × chunk length, the time observers and snapshot frames are
+    /// stamped with (the engine's own clock may include a shared fill stage). Read by `export`.
+    #[serde(default)]
+    pub job_time_s: f64,
 }
 
 /// How a fresh start went.
@@ -289,6 +293,7 @@ pub fn run<S: Study>(
         l.particle_steps += report.particle_steps;
         l.numerics.add(&report);
         let t_now = l.chunk as f64 * chunk_dt;
+        l.job_time_s = t_now;
         let run = JobRun {
             conn,
             job,
