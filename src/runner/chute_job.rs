@@ -229,7 +229,7 @@ impl Study for ChuteStudy {
             measure_start_chunk: 0,
         };
         Ok(Start::Ready(
-            Box::new(self.scene.initial_state(self.spec.seed())),
+            Box::new(self.scene.start_state(self.spec.seed())),
             prog,
         ))
     }
