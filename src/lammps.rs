@@ -11,6 +11,8 @@
 //! - The tangential springs of a settled bed are not carried over: LAMMPS starts them at zero.
 //! - LAMMPS computes in f64.
 
+pub mod chute;
+
 use std::fmt::Write as _;
 
 use anyhow::Context as _;

@@ -153,6 +153,12 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
     known
         .entry("origin_m")
         .or_insert_with(|| Value::from(vec![0.0; 3]));
+    // Chute parameters likewise left out at their defaults (older jobs keep their hashes).
+    if c.scene == SceneKind::Chute {
+        for k in ChuteParams::OMITTED_AT_DEFAULT {
+            known.entry(k).or_insert(Value::Null);
+        }
+    }
     // `precision` may also be swept (an accuracy study compares f64 with f32); it overrides
     // `run.precision` for its jobs. So may `backend` ("cpu" or "gpu"), and observer settings
     // named by their path ("observers.chute.cg_width_over_length").

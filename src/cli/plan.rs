@@ -19,6 +19,11 @@ pub struct Arguments {
     /// Engine threads per job the estimate assumes (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Also write each sphere chute job's scene (its initial state, law, gravity, dt, box) as a
+    /// LAMMPS data file and input, in DIR/job-K (K as numbered here), running the job's longest
+    /// time; `scripts/compare-lammps-chute.sh` runs both codes from it.
+    #[arg(long, value_name = "DIR")]
+    pub lammps: Option<std::path::PathBuf>,
 }
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
@@ -29,6 +34,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             return Ok(2);
         }
     };
+    if a.lammps.is_some() && file.scene != SceneKind::Chute {
+        eprintln!("sweep: error: --lammps writes chute jobs; {} is a silo campaign (see `sweep bench --lammps`)", a.file.display());
+        return Ok(2);
+    }
     let threads = if a.threads > 0 {
         a.threads
     } else {
@@ -114,6 +123,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             if k == 0 {
                 let effects = Effects::of(&scene.engine_config(), true, !j.chute().spheres());
                 println!("      effects: {}", serde_json::to_string(&effects)?);
+            }
+            if let Some(dir) = &a.lammps {
+                let run = sweep::lammps::chute::ChuteRun::of(j);
+                let input =
+                    sweep::lammps::chute::export(j, run, &dir.join(format!("job-{}", k + 1)))?;
+                println!("      LAMMPS: {}", input.display());
             }
             continue;
         }

@@ -288,7 +288,7 @@ impl Study for ChuteStudy {
             measure_start_s: 0.0,
         };
         Ok(Start::Ready(
-            Box::new(self.scene.initial_state(self.spec.seed())),
+            Box::new(self.scene.start_state(self.spec.seed())),
             prog,
         ))
     }

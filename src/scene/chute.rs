@@ -1,8 +1,9 @@
 //! Chute flow of spherocylinders (Hernández-Delfín, Weinhart & Hidalgo, Soft Matter 18, 3335,
 //! 2022): a box periodic in x and y over a rough base of fixed random spheres of radius L/2,
 //! gravity g (sin α, 0, −cos α), a linear spring–dashpot law with k_n = 2·10⁵ m_p g / ℓ and
-//! k_t = 2/7 k_n. Particles are poured in as a loose random gas and flow from rest; the job waits
-//! for the steady state and then measures.
+//! k_t = 2/7 k_n. Particles are poured in as a loose random gas and flow from rest, or start as
+//! a dense bed moving with a Bagnold profile (`initial_state`, `chute_warm_start.rs`); the job
+//! waits for the steady state and then measures.
 //!
 //! Choices the paper leaves open, each a parameter recorded with the job:
 //! - ℓ in k_n: the paper writes "m_p g / l" with l the cylinder length, which is 0 for ξ = 1 and
@@ -25,6 +26,7 @@ use crate::observe::stationarity::MIN_BATCHES;
 use crate::observe::steady::SteadySettings;
 
 use super::blame::{time_step_problems, Reset, TimeStepInputs};
+use super::chute_warm_start::{default_warm_inertial_number, InitialState};
 use super::silo::FieldError;
 
 /// Smallest periodic box side, in particle lengths L, a campaign may ask for.
@@ -116,6 +118,19 @@ pub struct ChuteParams {
     pub skin_ratio: f64,
     /// Replica index (seed).
     pub replica: u32,
+    /// How the flowing particles start: "pour" (a loose gas at rest, the default) or "bagnold"
+    /// (a dense lattice bed moving with a Bagnold profile; `chute_warm_start.rs`). Left out of
+    /// the job's parameters at its default, so older jobs keep their hashes.
+    #[serde(skip_serializing_if = "InitialState::is_pour")]
+    pub initial_state: InitialState,
+    /// Bagnold warm start: the inertial number I of the guess
+    /// V_x(z) = 2/3 (I/d) √(φ g cos α) (h^{3/2} − (h − z)^{3/2}). Default 0.1.
+    #[serde(skip_serializing_if = "default_warm_inertial_number")]
+    pub warm_inertial_number: f64,
+    /// Bagnold warm start: V_x at the bed's surface (m/s), instead of the amplitude from
+    /// `warm_inertial_number`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm_surface_velocity_m_per_s: Option<f64>,
     /// Moves the whole scene by this vector in the lab frame (m; default the origin). Nothing
     /// physical changes and the seed ignores it: a check that results do not depend on where
     /// the scene sits (the engine's rounding). The shared fill stage runs at the origin.
@@ -157,6 +172,9 @@ impl Default for ChuteParams {
             measure_time_s: 50.0,
             skin_ratio: 0.2,
             replica: 0,
+            initial_state: InitialState::Pour,
+            warm_inertial_number: super::chute_warm_start::DEFAULT_WARM_INERTIAL_NUMBER,
+            warm_surface_velocity_m_per_s: None,
             origin_m: [0.0; 3],
         }
     }
@@ -318,6 +336,7 @@ impl ChuteParams {
                 );
             }
         }
+        e.extend(self.warm_start_problems());
         if e.is_empty() {
             e.extend(self.time_step_problems());
         }
@@ -556,9 +575,10 @@ impl ChuteScene {
         }
     }
 
-    /// The base spheres (fixed, ids from 0) and the poured gas of spherocylinders (spheres for
-    /// ξ = 1) above them (ids after the base), at rest. Flowing particles are those with inverse mass > 0.
-    pub fn initial_state(&self, seed: u64) -> State<f64> {
+    /// The base spheres (fixed, ids from 0, a random monolayer of centres at z = 0) in an empty
+    /// state of the right kind: the sphere engine's for ξ = 1 (rotating under friction), the
+    /// oriented one otherwise.
+    pub(super) fn base_state(&self, seed: u64) -> State<f64> {
         let p = &self.p;
         let (lx, ly) = p.box_size();
         let rb = self.base_radius();
@@ -584,6 +604,17 @@ impl ChuteScene {
                 true,
             );
         }
+        s
+    }
+
+    /// The base spheres (fixed, ids from 0) and the poured gas of spherocylinders (spheres for
+    /// ξ = 1) above them (ids after the base), at rest. Flowing particles are those with inverse
+    /// mass > 0. `start_state` picks this or the warm start.
+    pub fn initial_state(&self, seed: u64) -> State<f64> {
+        let p = &self.p;
+        let (lx, ly) = p.box_size();
+        let rb = self.base_radius();
+        let mut s = self.base_state(seed);
         let shape = p.shape();
         let rods = super::fill_rods::box_random_rods(
             p.count(),
@@ -594,7 +625,7 @@ impl ChuteScene {
             INSERT_SOLID_FRACTION,
             seed ^ 0x9E37_79B9_7F4A_7C15,
         );
-        let n0 = base.len() as u32;
+        let n0 = s.len() as u32;
         for (k, r) in rods.iter().enumerate() {
             if p.spheres() {
                 let rho = p.particle_density_kg_per_m3;

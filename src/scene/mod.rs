@@ -3,6 +3,8 @@
 
 mod blame;
 pub mod chute;
+pub mod chute_warm_start;
+pub mod dense_bed;
 pub mod fill;
 pub mod fill_rods;
 pub mod silo;
