@@ -140,13 +140,15 @@ fn describe_flow(v: &sweep::store::chute_reads::FlowVerdict) -> String {
     let state =
         sweep::observe::chute::FlowState::parse(&v.state).map_or(v.state.as_str(), |s| s.words());
     let pct = |x: Option<f64>| x.map_or("-".into(), |x| format!("{:.1} %", 100.0 * x));
-    let numbers = v.criteria.as_ref().map_or(String::new(), |(phase, vx, ke, dvx, mu)| {
+    let numbers = v.criteria.as_ref().map_or(String::new(), |w| {
         format!(
-            " over the {phase} window: mean V_x {vx:.3} m/s (flowing from {:.3}), KE change {}, V_x change {}, μ {}",
+            " over the {} window: mean V_x {:.3} m/s (flowing from {:.3}), KE change {}, V_x change {}, μ {}",
+            w.phase,
+            w.mean_vx_m_per_s,
             v.min_flow_velocity_m_per_s,
-            pct(*ke),
-            pct(*dvx),
-            mu.map_or("-".into(), |m| format!("{m:.3}"))
+            pct(w.ke_change),
+            pct(w.vx_change),
+            w.stress_ratio.map_or("-".into(), |m| format!("{m:.3}"))
         )
     });
     let measured = if v.measured {

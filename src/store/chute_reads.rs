@@ -379,9 +379,18 @@ pub struct FlowVerdict {
     pub measured: bool,
     pub min_flow_velocity_m_per_s: f64,
     /// The criteria of the window that decided ('measurement' sorts before 'transient', so it
-    /// wins when there was one), as
-    /// (phase, mean V_x, KE change, V_x change, μ).
-    pub criteria: Option<(String, f64, Option<f64>, Option<f64>, Option<f64>)>,
+    /// wins when there was one).
+    pub criteria: Option<DecidingWindow>,
+}
+
+/// The stationarity criteria of one window (`chute_stationarity`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecidingWindow {
+    pub phase: String,
+    pub mean_vx_m_per_s: f64,
+    pub ke_change: Option<f64>,
+    pub vx_change: Option<f64>,
+    pub stress_ratio: Option<f64>,
 }
 
 /// The flow verdicts of the campaign's chute jobs, by job id.
@@ -410,7 +419,13 @@ pub fn flow_verdicts(
                     measured: r.get::<_, i64>(2)? != 0,
                     min_flow_velocity_m_per_s: r.get(3)?,
                     criteria: match phase {
-                        Some(p) => Some((p, r.get(5)?, r.get(6)?, r.get(7)?, r.get(8)?)),
+                        Some(phase) => Some(DecidingWindow {
+                            phase,
+                            mean_vx_m_per_s: r.get(5)?,
+                            ke_change: r.get(6)?,
+                            vx_change: r.get(7)?,
+                            stress_ratio: r.get(8)?,
+                        }),
                         None => None,
                     },
                 },
