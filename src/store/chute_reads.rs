@@ -381,8 +381,11 @@ pub struct FlowVerdict {
     /// The criteria of the window that decided ('measurement' sorts before 'transient', so it
     /// wins when there was one), as
     /// (phase, mean V_x, KE change, V_x change, μ).
-    pub criteria: Option<(String, f64, Option<f64>, Option<f64>, Option<f64>)>,
+    pub criteria: Option<DecidingCriteria>,
 }
+
+/// (phase, mean V_x, KE change, V_x change, μ) of the window that decided.
+pub type DecidingCriteria = (String, f64, Option<f64>, Option<f64>, Option<f64>);
 
 /// The flow verdicts of the campaign's chute jobs, by job id.
 ///
