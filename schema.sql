@@ -131,10 +131,10 @@ CREATE TABLE IF NOT EXISTS chute_summary (
 -- Per block of height L: D(z), shear rate and fields averaged over the block, v_z statistics.
 CREATE TABLE IF NOT EXISTS chute_blocks (
     job_id                  INTEGER NOT NULL REFERENCES jobs(id),
-    block                   INTEGER NOT NULL,       -- k: particles with mean height in [k L, (k+1) L)
+    block                   INTEGER NOT NULL,       -- k: MSD of particles whose whole trajectory's mean height is in [k L, (k+1) L) (msd_blocks "window": pairs by their lag window's mean height)
     z_m                     REAL NOT NULL,          -- block centre
-    diffusion_m2_per_s      REAL,                   -- D_z from the MSD fit; NULL if too few particles
-    diffusion_stderr_m2_per_s REAL,
+    diffusion_m2_per_s      REAL,                   -- D_z from the MSD fit over the whole measurement; NULL if too few particles
+    diffusion_stderr_m2_per_s REAL,                 -- standard error of D_z from msd_error_windows time windows: std of their D / sqrt(M) (data-weighted); NULL if a window is shorter than the longest fitted lag
     msd_fit_r               REAL,                   -- correlation coefficient of the MSD fit
     shear_rate_per_s        REAL NOT NULL,          -- dV_x/dz averaged over the block
     velocity_x_m_per_s      REAL NOT NULL,
@@ -152,7 +152,7 @@ CREATE TABLE IF NOT EXISTS chute_msd (
     block       INTEGER NOT NULL,
     lag_s       REAL NOT NULL,
     msd_m2      REAL NOT NULL,
-    pairs       INTEGER NOT NULL,                   -- (particle, origin) pairs averaged
+    pairs       INTEGER NOT NULL,                   -- (particle, origin) pairs averaged, assigned as in chute_blocks.block
     PRIMARY KEY (job_id, block, lag_s)
 );
 

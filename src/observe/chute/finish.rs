@@ -11,7 +11,6 @@ use super::results::{
 };
 use crate::observe::chute_stats::{correlation_length, d_perp};
 use crate::observe::coarse_grain::ZGrid;
-use crate::observe::msd::fit_diffusion;
 
 /// The standardised PDFs span ±5 standard deviations.
 pub const PDF_HALF_RANGE_STD: f64 = 5.0;
@@ -62,7 +61,7 @@ impl ChuteObserver {
         let particle_density = self.mass_sum / self.mass_count as f64 / particle_volume;
 
         let (mut blocks, mut msd, mut vz_pdf, mut correlation) = (vec![], vec![], vec![], vec![]);
-        for k in 0..self.blocks {
+        for (k, diffusion) in self.msd.results(lag_scale).iter().enumerate() {
             let (lo, hi) = (z0 + k as f64 * len, z0 + (k + 1) as f64 * len);
             let visits = self.block_particle_samples[k];
             let (Some(shear_k), Some(vx_k), Some(rho_k)) = (
@@ -76,9 +75,10 @@ impl ChuteObserver {
                 continue;
             }
             let block = k as u32;
-            let curve = self.msd.curve(k);
-            let lags: Vec<f64> = curve.lags_s.iter().map(|t| t * lag_scale).collect();
-            for ((&lag_s, &msd_m2), &pairs) in lags.iter().zip(&curve.msd_m2).zip(&curve.pairs) {
+            let curve = &diffusion.curve;
+            for ((&lag_s, &msd_m2), &pairs) in
+                curve.lags_s.iter().zip(&curve.msd_m2).zip(&curve.pairs)
+            {
                 msd.push(ChuteMsdRow {
                     block,
                     lag_s,
@@ -86,7 +86,7 @@ impl ChuteObserver {
                     pairs,
                 });
             }
-            let fit = fit_diffusion(&lags, &curve.msd_m2, st.fit_min_lag_s, st.fit_max_lag());
+            let fit = diffusion.fit;
 
             let m = &self.vz_moments[k];
             if let Some(std) = m.std() {
@@ -111,7 +111,7 @@ impl ChuteObserver {
                 block,
                 z_m: (k as f64 + 0.5) * len,
                 diffusion_m2_per_s: fit.map(|f| f.d),
-                diffusion_stderr_m2_per_s: fit.map(|f| f.stderr).filter(|s| s.is_finite()),
+                diffusion_stderr_m2_per_s: diffusion.stderr.filter(|s| s.is_finite()),
                 msd_fit_r: fit.map(|f| f.r).filter(|r| r.is_finite()),
                 shear_rate_per_s: shear_k,
                 velocity_x_m_per_s: vx_k,

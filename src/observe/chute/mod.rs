@@ -15,4 +15,6 @@ pub use results::{
     ChuteBlockRow, ChuteCorrelationRow, ChuteFieldRow, ChuteMsdRow, ChuteResults, ChuteSummaryRow,
     ChuteVzPdfRow,
 };
-pub use settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem, CHUNK_S};
+pub use settings::{
+    ChuteGeometry, ChuteObserverSettings, SettingProblem, CHUNK_S, MAX_ERROR_WINDOWS,
+};

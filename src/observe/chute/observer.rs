@@ -1,8 +1,9 @@
 //! The chute observer's state and its per-snapshot stage: coarse-grained profiles, MSD per
 //! block, v_z moments and PDFs per block, C(r) every few snapshots, and the mean orientation.
 //!
-//! Blocks are layers k = floor((z − z_base)/L): for the MSD by a particle's mean height over the
-//! lag window, for v_z statistics, C(r) and particle counts by its height in the snapshot.
+//! Blocks are layers k = floor((z − z_base)/L): for the MSD by the mean height of a particle's
+//! whole trajectory (or of the lag window, `msd_blocks`), for v_z statistics, C(r) and particle
+//! counts by its height in the snapshot.
 //! Everything here is serde-serialisable, so the observer is checkpointed mid-stream and resumes
 //! bit for bit.
 
@@ -12,7 +13,7 @@ use super::settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem};
 use crate::engine::contact::ContactRecord;
 use crate::observe::chute_stats::{cos_theta, Moments, StandardisedPdf, VzCorrelation};
 use crate::observe::coarse_grain::{bulk_stress_ratio, Kernel, ZGrid, ZProfile, ZProfileAverage};
-use crate::observe::msd::BlockMsd;
+use crate::observe::msd::{BlockMsd, MsdLayout};
 
 /// The flow direction: gravity is g (sin α, 0, −cos α).
 pub(super) const FLOW_DIR: [f64; 3] = [1.0, 0.0, 0.0];
@@ -89,13 +90,17 @@ impl ChuteObserver {
             kernel,
             blocks,
             profiles: ZProfileAverage::new(grid),
-            msd: BlockMsd::new(
-                settings.sample_interval_s,
-                settings.max_lag_s,
-                len,
-                z_base,
+            msd: BlockMsd::new(MsdLayout {
+                interval_s: settings.sample_interval_s,
+                max_lag_s: settings.max_lag_s,
+                block_height_m: len,
+                z_base_m: z_base,
                 blocks,
-            ),
+                assignment: settings.msd_blocks,
+                fit_min_lag_s: settings.fit_min_lag_s,
+                fit_max_lag_s: settings.fit_max_lag(),
+                error_windows: settings.msd_error_windows as usize,
+            }),
             vz_moments: vec![Moments::default(); blocks],
             vz_pdf: vec![StandardisedPdf::default(); blocks],
             correlation: VzCorrelation::new(

@@ -53,7 +53,10 @@ pub struct ChuteBlockRow {
     pub block: u32,
     /// Block centre (m).
     pub z_m: f64,
+    /// D_z from the MSD fit over the whole measurement.
     pub diffusion_m2_per_s: Option<f64>,
+    /// Standard error of D_z from `msd_error_windows` independent time windows (std of the
+    /// windows' D over √M, see `msd::window_stderr`), not from the fit's correlated lags.
     pub diffusion_stderr_m2_per_s: Option<f64>,
     pub msd_fit_r: Option<f64>,
     /// Mean of γ̇(z) over the block.

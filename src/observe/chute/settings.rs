@@ -4,12 +4,18 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::observe::msd::MsdBlocks;
+
 /// The chute job's chunk (s): the engine advances this much between two looks at the state.
 /// Every chunk starts from a fresh sort and neighbour list (so a resumed run repeats the same
 /// operations), which makes the chunk part of the trajectory's bits; it is therefore fixed, not
 /// the sampling interval, and jobs that differ only in their observers follow the same
 /// trajectory. Sampling intervals are multiples of it; a faster one shortens the chunk.
 pub const CHUNK_S: f64 = 0.05;
+
+/// Most time windows of D(z)'s error: each costs 2 · 4 · 12 bytes per particle in the
+/// trajectory assignment (see `msd::cells`).
+pub const MAX_ERROR_WINDOWS: u32 = 16;
 
 /// Settings of the chute observer (recorded with each job). Lengths are in units of the particle
 /// length L, so one campaign file serves every aspect ratio.
@@ -26,6 +32,14 @@ pub struct ChuteObserverSettings {
     pub fit_min_lag_s: f64,
     /// Longest lag of the diffusion fit (s); None (default) = `max_lag_s`.
     pub fit_max_lag_s: Option<f64>,
+    /// How the MSD is split into blocks of height L: "trajectory" (default, the paper's: each
+    /// particle once, by the mean height of its whole tracked trajectory) or "window" (each
+    /// (particle, origin) pair by the particle's mean height over [t, t + τ]).
+    pub msd_blocks: MsdBlocks,
+    /// Consecutive time windows M of the measurement for D(z)'s standard error (std of the
+    /// per-window D over √M). Default 4; 2 to 16. Each window should be much longer than the
+    /// fit's longest lag (no error is stored when one is shorter).
+    pub msd_error_windows: u32,
     /// Coarse-graining width w / L. Default 0.25, the paper's ω = L/4.
     pub cg_width_over_length: f64,
     /// Kernel cutoff in widths. Default 4, the paper's r_c = 4ω.
@@ -51,6 +65,8 @@ impl Default for ChuteObserverSettings {
             max_lag_s: 5.0,
             fit_min_lag_s: 1.0,
             fit_max_lag_s: None,
+            msd_blocks: MsdBlocks::Trajectory,
+            msd_error_windows: 4,
             cg_width_over_length: 0.25,
             cg_cutoff_widths: 4.0,
             field_dz_over_length: 0.125,
@@ -129,6 +145,15 @@ impl ChuteObserverSettings {
             self.correlation_max_r_over_length,
             "a ratio",
         );
+        if !(2..=MAX_ERROR_WINDOWS).contains(&self.msd_error_windows) {
+            p.push(SettingProblem {
+                field: "msd_error_windows",
+                message: format!(
+                    "expected 2 to {MAX_ERROR_WINDOWS} windows, got {}",
+                    self.msd_error_windows
+                ),
+            });
+        }
         if self.correlation_every == 0 {
             p.push(SettingProblem {
                 field: "correlation_every",
