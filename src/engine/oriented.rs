@@ -73,7 +73,9 @@ pub(super) fn close_kick<R: Real>(s: &mut State<R>, half: R) {
 /// What the gather of an oriented particle reads.
 pub(super) struct OrientedContext<'a, R: Real> {
     pub s: &'a State<R>,
-    pub neighbours: &'a [u32],
+    /// The neighbours in ascending order, in one or two pieces (a full list's row; or a half
+    /// list's earlier partners, then the later ones).
+    pub neighbours: [&'a [u32]; 2],
     pub alive: &'a [Status],
     pub law_pp: &'a super::contact::LawKernel<R>,
     pub law_pw: &'a super::contact::LawKernel<R>,
@@ -101,7 +103,7 @@ impl<R: Real> OrientedContext<'_, R> {
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let mut e = 0.0;
-        for &j in self.neighbours {
+        for &j in self.neighbours[0].iter().chain(self.neighbours[1]) {
             let j = j as usize;
             if self.alive[j] != Status::Alive || (fixed_i && s.inv_mass[j] == R::zero()) {
                 continue;
@@ -155,7 +157,7 @@ impl<R: Real> OrientedContext<'_, R> {
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let two = R::from_f64(2.0);
-        for &j in self.neighbours {
+        for &j in self.neighbours[0].iter().chain(self.neighbours[1]) {
             let j = j as usize;
             if self.alive[j] != Status::Alive {
                 continue;

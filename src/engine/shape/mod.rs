@@ -15,6 +15,6 @@ pub use segment::{
     closest_point_on_segment, closest_points, ClosestPoints, PARALLEL_SIN, POINT_LEN2,
 };
 pub use spherocylinder::{
-    contact_plane, contact_sphere, contact_spherocylinders, PairContact, PlaneContact,
-    Spherocylinder,
+    axis_distance2, contact_plane, contact_sphere, contact_spherocylinders, PairContact,
+    PlaneContact, Spherocylinder,
 };
