@@ -9,6 +9,7 @@ use crate::engine::oriented;
 use crate::engine::pair_pass::{PairSlot, BLOCK};
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
+use crate::engine::rod_kick::{self, RotLanes, LANES};
 use crate::engine::rod_pass::{RodContext, RodMotion, RodScratch, RodSum};
 use crate::engine::shape::{Quat, Spherocylinder};
 use crate::engine::verlet;
@@ -89,29 +90,72 @@ struct RodKick<'a, R: Real> {
 }
 
 impl<R: Real> RodKick<'_, R> {
-    /// Particle i (place l of block `k`): kick, free rotation and drift (`rods.rs` doc); returns
-    /// (it fell through the sink, it moved beyond the list's skin, beyond the pick's margin).
-    #[inline]
-    fn particle(&self, i: usize, l: usize, k: &mut RodBlock<'_, R>) -> (bool, bool, bool) {
-        let im = self.inv_mass[i];
-        if im == R::zero() || k.alive[l] != Status::Alive {
-            return (false, false, false);
+    /// The block's particles (from `first`): kick, free rotation (`LANES` at a time,
+    /// `rod_kick.rs`) and drift; returns whether one fell through the sink, moved beyond the
+    /// list's skin, beyond the pick's margin.
+    fn block(&self, first: usize, k: &mut RodBlock<'_, R>) -> (bool, bool, bool) {
+        let count = k.force.len();
+        let mut found = (false, false, false);
+        let mut lanes = RotLanes::<R>::default();
+        for g0 in (0..count).step_by(LANES) {
+            let group = g0..(g0 + LANES).min(count);
+            let mut moving = [false; LANES];
+            for l in group.clone() {
+                let i = first + l;
+                if self.inv_mass[i] == R::zero() || k.alive[l] != Status::Alive {
+                    continue;
+                }
+                moving[l - g0] = true;
+                lanes.set(
+                    l - g0,
+                    k.q[l],
+                    k.ang_mom[l],
+                    k.torque[l],
+                    self.inv_inertia[i],
+                );
+            }
+            rod_kick::rotate(&mut lanes, self.kick, self.dt);
+            for l in group {
+                if !moving[l - g0] {
+                    continue;
+                }
+                let f = self.particle(first + l, l, k, lanes.get(l - g0));
+                found = (found.0 | f.0, found.1 | f.1, found.2 | f.2);
+            }
         }
+        found
+    }
+
+    /// Particle i (place l of the block) with its rotation from the lanes (`rotated`, else the
+    /// scalar code): kick, drift, skin tests (`block`).
+    #[inline]
+    fn particle(
+        &self,
+        i: usize,
+        l: usize,
+        k: &mut RodBlock<'_, R>,
+        rotated: Option<(Quat<R>, V3<R>, V3<R>)>,
+    ) -> (bool, bool, bool) {
         let (v, x) = (&mut k.vel[l], &mut k.pos[l]);
-        verlet::kick(v, k.force[l], im, self.g, self.kick);
+        verlet::kick(v, k.force[l], self.inv_mass[i], self.g, self.kick);
         verlet::drift(x, &mut k.lo[l], *v, self.dt, &self.periodic);
         let h = self.half_length[i];
-        let turned = oriented::kick_rotate(
-            &mut k.q[l],
-            &mut k.ang_mom[l],
-            &mut k.omega[l],
-            k.torque[l],
-            self.inv_inertia[i],
-            h,
-            self.list_ref.map(|(_, a)| a[i]),
-            self.kick,
-            self.dt,
-        );
+        let ii = self.inv_inertia[i];
+        // As `oriented::kick_rotate`: a body without inverse inertia does not turn.
+        let turned = if ii.x == R::zero() {
+            R::zero()
+        } else {
+            if let Some((q, am, w)) = rotated {
+                (k.q[l], k.ang_mom[l], k.omega[l]) = (q, am, w);
+            } else {
+                let (q, am, w) = (&mut k.q[l], &mut k.ang_mom[l], &mut k.omega[l]);
+                oriented::kick_rotate(q, am, w, k.torque[l], ii, h, None, self.kick, self.dt);
+            }
+            match self.list_ref {
+                Some((_, a)) if h > R::zero() => (k.q[l].axis_z() - a[i]).norm() * h,
+                _ => R::zero(),
+            }
+        };
         let u = k.q[l].axis_z();
         k.axis[l] = u;
         let died = matches!(self.sink_z, Some(zs) if x.z < zs);
@@ -306,12 +350,9 @@ impl<R: Real> CpuEngine<R> {
                         }
                         out.fullest = out.fullest.max(k.nc[l]);
                     }
-                    if kick.is_some() {
-                        let (died, moved, repick) = step.particle(i, l, k);
-                        out.died |= died;
-                        out.moved |= moved;
-                        out.repick |= repick;
-                    }
+                }
+                if kick.is_some() {
+                    (out.died, out.moved, out.repick) = step.block(first, k);
                 }
                 out
             })
