@@ -12,10 +12,14 @@
 //! symmetric top (`shape::rigid`); ω = R I⁻¹ Rᵀ L is refreshed after every change of q or L, and is
 //! what contacts read.
 
-use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord};
+use super::contact::{
+    contact_force, elastic_energy, pair_effective_mass, wall_effective_mass, ContactInput,
+    ContactRecord,
+};
 use super::history::{wall_key, Rows};
 use super::particle::Status;
 use super::real::{Real, V3};
+use super::rod_pass::inertial;
 use super::shape::{angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder};
 use super::state::State;
 
@@ -182,16 +186,13 @@ impl<R: Real> OrientedContext<'_, R> {
             };
             let v_rel =
                 (s.vel[a] + s.omega[a].cross(pc.arm_i)) - (s.vel[b] + s.omega[b].cross(pc.arm_j));
-            let (ma, mb) = (s.mass[a], s.mass[b]);
-            let (fa, fb) = (s.inv_mass[a] == R::zero(), s.inv_mass[b] == R::zero());
-            // A fixed partner acts as infinitely heavy.
-            let m_eff = if fb {
-                ma
-            } else if fa {
-                mb
-            } else {
-                ma * mb / (ma + mb)
-            };
+            let m_eff = pair_effective_mass(
+                inertial(s, a),
+                inertial(s, b),
+                pc.arm_i,
+                pc.arm_j,
+                pc.normal,
+            );
             let c = ContactInput {
                 overlap: pc.overlap,
                 normal: pc.normal,
@@ -248,7 +249,7 @@ impl<R: Real> OrientedContext<'_, R> {
                     normal: pc.normal,
                     v_rel,
                     r_eff: shape.radius,
-                    m_eff: s.mass[i],
+                    m_eff: wall_effective_mass(inertial(s, i), pc.arm, pc.normal),
                 };
                 let key = wall_key(w);
                 let fc = match rows.as_deref_mut() {

@@ -9,7 +9,7 @@
 
 use multiversion::multiversion;
 
-use super::contact::LawKernel;
+use super::contact::{pair_effective_mass, Inertial, LawKernel};
 use super::real::{Real, V3};
 use super::shape::{PARALLEL_SIN, POINT_LEN2};
 
@@ -30,16 +30,11 @@ pub(super) struct RodLaneInput<R: Real> {
     pub(super) vb: [Col<R>; 3],
     pub(super) wb: [Col<R>; 3],
     pub(super) spring: [Col<R>; 3],
-    /// Half-lengths, radii and masses.
-    pub(super) ha: Col<R>,
-    pub(super) hb: Col<R>,
+    /// Radii.
     pub(super) ra: Col<R>,
     pub(super) rb: Col<R>,
-    pub(super) ma: Col<R>,
-    pub(super) mb: Col<R>,
-    /// Whether a, b is fixed (acts as infinitely heavy).
-    pub(super) fa: [bool; LANES],
-    pub(super) fb: [bool; LANES],
+    /// Mass, 1/m, 1/I⊥ (both zero when fixed) and l/2 of a and b (`Inertial`).
+    pub(super) body: [[Col<R>; 4]; 2],
 }
 
 /// What the group's pairs give, in canonical order.
@@ -60,10 +55,10 @@ pub(super) struct RodLaneOutput<R: Real> {
 }
 
 impl<R: Real> RodLaneInput<R> {
-    /// Writes lane `l`'s inputs: [d, u_a, u_b, v_a, ω_a, v_b, ω_b, spring] and [h_a, h_b,
-    /// r_a, r_b, m_a, m_b], fixed flags.
+    /// Writes lane `l`'s inputs: [d, u_a, u_b, v_a, ω_a, v_b, ω_b, spring], [r_a, r_b] and
+    /// the bodies.
     #[inline(always)]
-    pub(super) fn set(&mut self, l: usize, v: [V3<R>; 8], k: [R; 6], fixed: [bool; 2]) {
+    pub(super) fn set(&mut self, l: usize, v: [V3<R>; 8], r: [R; 2], body: [Inertial<R>; 2]) {
         let l = l % LANES;
         for (col, x) in [
             &mut self.d,
@@ -80,21 +75,27 @@ impl<R: Real> RodLaneInput<R> {
         {
             put(col, l, x);
         }
-        for (col, x) in [
-            &mut self.ha,
-            &mut self.hb,
-            &mut self.ra,
-            &mut self.rb,
-            &mut self.ma,
-            &mut self.mb,
-        ]
-        .into_iter()
-        .zip(k)
-        {
-            col[l] = x;
+        (self.ra[l], self.rb[l]) = (r[0], r[1]);
+        for (cols, b) in self.body.iter_mut().zip(body) {
+            for (col, x) in cols
+                .iter_mut()
+                .zip([b.mass, b.inv_mass, b.inv_i_perp, b.half_length])
+            {
+                col[l] = x;
+            }
         }
-        self.fa[l] = fixed[0];
-        self.fb[l] = fixed[1];
+    }
+
+    /// Body `k` (0: a, 1: b) of lane `l`.
+    #[inline(always)]
+    fn body(&self, k: usize, l: usize) -> Inertial<R> {
+        let b = &self.body[k];
+        Inertial {
+            mass: b[0][l],
+            inv_mass: b[1][l],
+            inv_i_perp: b[2][l],
+            half_length: b[3][l],
+        }
     }
 }
 
@@ -248,8 +249,9 @@ fn lane<R: Real, const HERTZ: bool>(
     let (ua, ub) = (get(&inp.ua, l), get(&inp.ub, l));
     let (ra, rb) = (inp.ra[l], inp.rb[l]);
     // contact_spherocylinders.
-    let hi = ua * inp.ha[l];
-    let hj = ub * inp.hb[l];
+    let (body_a, body_b) = (inp.body(0, l), inp.body(1, l));
+    let hi = ua * body_a.half_length;
+    let hj = ub * body_b.half_length;
     let (s, t, p, q, dist2) = closest(d - hi, hi + hi, -hj, hj + hj);
     let sum = ra + rb;
     out.touch[l] = dist2 < sum * sum;
@@ -265,8 +267,7 @@ fn lane<R: Real, const HERTZ: bool>(
     // RodContext::evaluate.
     let v_rel = (get(&inp.va, l) + get(&inp.wa, l).cross(arm_a))
         - (get(&inp.vb, l) + get(&inp.wb, l).cross(arm_b));
-    let (ma, mb) = (inp.ma[l], inp.mb[l]);
-    let m_eff = sel(inp.fb[l], ma, sel(inp.fa[l], mb, ma * mb / (ma + mb)));
+    let m_eff = pair_effective_mass(body_a, body_b, arm_a, arm_b, normal);
     let r_eff = ra * rb / (ra + rb);
     // contact_force.
     let n = normal;

@@ -9,7 +9,9 @@
 //! own entries), then its walls. Each pair is evaluated in one canonical order, the lower id as
 //! "a" (`oriented.rs`), and its spring is that of a's view.
 
-use super::contact::{contact_force, ContactInput, LawKernel};
+use super::contact::{
+    contact_force, pair_effective_mass, wall_effective_mass, ContactInput, Inertial, LawKernel,
+};
 use super::grid::Image;
 use super::pair_pass::{PairSlot, Reaction, BLOCK};
 use super::particle::Status;
@@ -19,6 +21,17 @@ use super::rod_lanes::{self, RodLaneInput, RodLaneOutput, LANES};
 use super::shape::{axis_distance2, contact_spherocylinders, Spherocylinder};
 use super::state::State;
 use super::walls::WallKernel;
+
+/// Particle k as the effective mass of its contacts sees it.
+#[inline(always)]
+pub(super) fn inertial<R: Real>(s: &State<R>, k: usize) -> Inertial<R> {
+    Inertial {
+        mass: s.mass[k],
+        inv_mass: s.inv_mass[k],
+        inv_i_perp: s.inv_inertia_body[k].x,
+        half_length: s.half_length[k],
+    }
+}
 
 /// What a rod pass reads: the state (positions, velocities, constants) and the axes.
 pub(super) struct RodContext<'a, R: Real> {
@@ -136,16 +149,13 @@ impl<R: Real> RodContext<'_, R> {
             contact_spherocylinders(self.centre_gap(a, b), self.axis[a], &sa, self.axis[b], &sb)?;
         let v_rel =
             (s.vel[a] + s.omega[a].cross(pc.arm_i)) - (s.vel[b] + s.omega[b].cross(pc.arm_j));
-        let (ma, mb) = (s.mass[a], s.mass[b]);
-        let (fa, fb) = (s.inv_mass[a] == R::zero(), s.inv_mass[b] == R::zero());
-        // A fixed partner acts as infinitely heavy.
-        let m_eff = if fb {
-            ma
-        } else if fa {
-            mb
-        } else {
-            ma * mb / (ma + mb)
-        };
+        let m_eff = pair_effective_mass(
+            inertial(s, a),
+            inertial(s, b),
+            pc.arm_i,
+            pc.arm_j,
+            pc.normal,
+        );
         let c = ContactInput {
             overlap: pc.overlap,
             normal: pc.normal,
@@ -219,15 +229,8 @@ impl<R: Real> RodContext<'_, R> {
                         s.omega[b],
                         spring,
                     ],
-                    [
-                        s.half_length[a],
-                        s.half_length[b],
-                        s.radius[a],
-                        s.radius[b],
-                        s.mass[a],
-                        s.mass[b],
-                    ],
-                    [s.inv_mass[a] == R::zero(), s.inv_mass[b] == R::zero()],
+                    [s.radius[a], s.radius[b]],
+                    [inertial(s, a), inertial(s, b)],
                 );
             }
             rod_lanes::evaluate(self.law, self.dt, &inp, &mut out);
@@ -380,7 +383,7 @@ impl<R: Real> RodSum<'_, R> {
                 normal: pc.normal,
                 v_rel,
                 r_eff: shape.radius,
-                m_eff: k.mass,
+                m_eff: wall_effective_mass(k.body, pc.arm, pc.normal),
             };
             let mut spring = if self.keep_springs {
                 sl.spring
@@ -408,6 +411,6 @@ pub(super) struct RodMotion<R: Real> {
     pub(super) vel: V3<R>,
     pub(super) omega: V3<R>,
     pub(super) axis: V3<R>,
-    pub(super) mass: R,
+    pub(super) body: Inertial<R>,
     pub(super) shape: Spherocylinder<R>,
 }

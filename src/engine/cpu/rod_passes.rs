@@ -4,6 +4,7 @@
 
 use super::passes::{block_bounds, scaled, split_blocks};
 use super::{CpuEngine, NEAR, NEAR_LIMIT};
+use crate::engine::contact::Inertial;
 use crate::engine::grid::Periodic;
 use crate::engine::oriented;
 use crate::engine::pair_pass::{PairSlot, BLOCK};
@@ -333,7 +334,12 @@ impl<R: Real> CpuEngine<R> {
                                 vel: k.vel[l],
                                 omega: k.omega[l],
                                 axis: k.axis[l],
-                                mass: mass[i],
+                                body: Inertial {
+                                    mass: mass[i],
+                                    inv_mass: step.inv_mass[i],
+                                    inv_i_perp: step.inv_inertia[i].x,
+                                    half_length: step.half_length[i],
+                                },
                                 shape: Spherocylinder {
                                     half_length: step.half_length[i],
                                     radius: radius[i],

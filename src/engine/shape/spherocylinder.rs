@@ -143,6 +143,15 @@ impl<R: Real> Spherocylinder<R> {
             + m_s * (r2 * f(0.4) + l2 * f(0.25) + l * r * f(3.0 / 8.0));
         V3::new(perp, perp, axial)
     }
+
+    /// The effective mass (kg) of the rod struck at the tip of its axis across the axis, its
+    /// lightest contact: 1/m* = 1/m + (l/2)²/I⊥ (`contact::pair_effective_mass`; m for a
+    /// sphere). Two such rods meet with half of it, which bounds the contact time from below.
+    pub fn tip_mass(&self, density: R) -> R {
+        let m = self.mass(density);
+        let h = self.half_length;
+        R::one() / (R::one() / m + h * h / self.inertia(density).x)
+    }
 }
 
 /// A unit vector perpendicular to the unit vector `u`, chosen deterministically: `u` crossed with
