@@ -33,11 +33,70 @@ pub(super) fn inertial<R: Real>(s: &State<R>, k: usize) -> Inertial<R> {
     }
 }
 
-/// What a rod pass reads: the state (positions, velocities, constants) and the axes.
+/// One rod's motion and constants packed in one record, what the pair pass reads of both rods
+/// of a pair (from a dozen state arrays that cost a dozen cache lines per rod). Copies of the
+/// state's values: written at each list build and by the kick.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct RodKin<R: Real> {
+    pub(super) pos: V3<R>,
+    pub(super) r: R,
+    /// The rest of the position (`position.rs`).
+    pub(super) lo: V3<R>,
+    /// l/2.
+    pub(super) h: R,
+    /// The unit axis, `orientation.axis_z()`.
+    pub(super) axis: V3<R>,
+    /// 1/m, zero when fixed.
+    pub(super) inv_m: R,
+    pub(super) vel: V3<R>,
+    pub(super) m: R,
+    pub(super) omega: V3<R>,
+    /// 1/I⊥, zero when fixed.
+    pub(super) inv_i: R,
+    pub(super) id: u32,
+}
+
+impl<R: Real> RodKin<R> {
+    /// Particle k of the state, with its axis `axis`.
+    pub(super) fn of(s: &State<R>, k: usize, axis: V3<R>) -> Self {
+        Self {
+            pos: s.pos[k],
+            r: s.radius[k],
+            lo: s.lo(k),
+            h: s.half_length[k],
+            axis,
+            inv_m: s.inv_mass[k],
+            vel: s.vel[k],
+            m: s.mass[k],
+            omega: s.omega[k],
+            inv_i: s.inv_inertia_body[k].x,
+            id: s.id[k],
+        }
+    }
+
+    #[inline(always)]
+    fn shape(&self) -> Spherocylinder<R> {
+        Spherocylinder {
+            half_length: self.h,
+            radius: self.r,
+        }
+    }
+
+    #[inline(always)]
+    fn body(&self) -> Inertial<R> {
+        Inertial {
+            mass: self.m,
+            inv_mass: self.inv_m,
+            inv_i_perp: self.inv_i,
+            half_length: self.h,
+        }
+    }
+}
+
+/// What a rod pass reads: the rods' records and liveness.
 pub(super) struct RodContext<'a, R: Real> {
-    pub(super) s: &'a State<R>,
-    /// Each particle's unit axis, `orientation[i].axis_z()` (kept by the kick).
-    pub(super) axis: &'a [V3<R>],
+    pub(super) kin: &'a [RodKin<R>],
     pub(super) alive: &'a [Status],
     pub(super) law: &'a LawKernel<R>,
     pub(super) image: Image<R>,
@@ -87,20 +146,10 @@ struct Evaluated<R: Real> {
 }
 
 impl<R: Real> RodContext<'_, R> {
-    #[inline(always)]
-    fn shape(&self, k: usize) -> Spherocylinder<R> {
-        Spherocylinder {
-            half_length: self.s.half_length[k],
-            radius: self.s.radius[k],
-        }
-    }
-
     /// c_a − c_b (minimum image), as `State::separation(b, a)`.
     #[inline(always)]
-    fn centre_gap(&self, a: usize, b: usize) -> V3<R> {
-        let s = self.s;
-        self.image
-            .fold(separation(s.pos[b], s.lo(b), s.pos[a], s.lo(a)))
+    fn centre_gap(&self, a: &RodKin<R>, b: &RodKin<R>) -> V3<R> {
+        self.image.fold(separation(b.pos, b.lo, a.pos, a.lo))
     }
 
     /// Picks the entries of the block (owners `owner`, partners `nbr` from entry `e0`) whose
@@ -119,15 +168,9 @@ impl<R: Real> RodContext<'_, R> {
         scratch.pick.clear();
         for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
             let j = nbr[e0 + e];
-            let (oi, ji) = (o as usize, j as usize);
-            let (so, sj) = (self.shape(oi), self.shape(ji));
-            let d2 = axis_distance2(
-                self.centre_gap(oi, ji),
-                self.axis[oi],
-                &so,
-                self.axis[ji],
-                &sj,
-            );
+            let (ko, kj) = (&self.kin[o as usize], &self.kin[j as usize]);
+            let (so, sj) = (ko.shape(), kj.shape());
+            let d2 = axis_distance2(self.centre_gap(ko, kj), ko.axis, &so, kj.axis, &sj);
             let cut = so.radius + sj.radius + margin;
             if d2 < cut * cut {
                 scratch.pick.push([e as u32, o, j]);
@@ -141,21 +184,13 @@ impl<R: Real> RodContext<'_, R> {
     /// touch: the operations of `OrientedContext::particle`, once for both rods.
     #[inline]
     fn evaluate(&self, o: usize, j: usize, spring: &mut V3<R>) -> Option<Evaluated<R>> {
-        let s = self.s;
-        let o_is_a = s.id[o] < s.id[j];
-        let (a, b) = if o_is_a { (o, j) } else { (j, o) };
-        let (sa, sb) = (self.shape(a), self.shape(b));
-        let pc =
-            contact_spherocylinders(self.centre_gap(a, b), self.axis[a], &sa, self.axis[b], &sb)?;
-        let v_rel =
-            (s.vel[a] + s.omega[a].cross(pc.arm_i)) - (s.vel[b] + s.omega[b].cross(pc.arm_j));
-        let m_eff = pair_effective_mass(
-            inertial(s, a),
-            inertial(s, b),
-            pc.arm_i,
-            pc.arm_j,
-            pc.normal,
-        );
+        let (ko, kj) = (&self.kin[o], &self.kin[j]);
+        let o_is_a = ko.id < kj.id;
+        let (a, b) = if o_is_a { (ko, kj) } else { (kj, ko) };
+        let (sa, sb) = (a.shape(), b.shape());
+        let pc = contact_spherocylinders(self.centre_gap(a, b), a.axis, &sa, b.axis, &sb)?;
+        let v_rel = (a.vel + a.omega.cross(pc.arm_i)) - (b.vel + b.omega.cross(pc.arm_j));
+        let m_eff = pair_effective_mass(a.body(), b.body(), pc.arm_i, pc.arm_j, pc.normal);
         let c = ContactInput {
             overlap: pc.overlap,
             normal: pc.normal,
@@ -195,7 +230,6 @@ impl<R: Real> RodContext<'_, R> {
         }
         let mut reach = 0;
         let mut max_ov = R::zero();
-        let s = self.s;
         let zero = V3::zero();
         let mut inp = RodLaneInput::<R>::default();
         let mut out = RodLaneOutput::<R>::default();
@@ -210,8 +244,9 @@ impl<R: Real> RodContext<'_, R> {
                     continue;
                 }
                 live[l] = true;
-                o_is_a[l] = s.id[oi] < s.id[ji];
-                let (a, b) = if o_is_a[l] { (oi, ji) } else { (ji, oi) };
+                let (ko, kj) = (&self.kin[oi], &self.kin[ji]);
+                o_is_a[l] = ko.id < kj.id;
+                let (a, b) = if o_is_a[l] { (ko, kj) } else { (kj, ko) };
                 let spring = if self.keep_springs {
                     slots[e as usize].spring
                 } else {
@@ -221,16 +256,16 @@ impl<R: Real> RodContext<'_, R> {
                     l,
                     [
                         self.centre_gap(a, b),
-                        self.axis[a],
-                        self.axis[b],
-                        s.vel[a],
-                        s.omega[a],
-                        s.vel[b],
-                        s.omega[b],
+                        a.axis,
+                        b.axis,
+                        a.vel,
+                        a.omega,
+                        b.vel,
+                        b.omega,
                         spring,
                     ],
-                    [s.radius[a], s.radius[b]],
-                    [inertial(s, a), inertial(s, b)],
+                    [a.r, b.r],
+                    [a.body(), b.body()],
                 );
             }
             rod_lanes::evaluate(self.law, self.dt, &inp, &mut out);

@@ -45,7 +45,7 @@ use super::kinematics::Kin;
 use super::pair_pass::{PairScratch, PairSlot};
 use super::particle::{Props, Status};
 use super::real::{Real, V3};
-use super::rod_pass::RodScratch;
+use super::rod_pass::{RodKin, RodScratch};
 use super::state::State;
 use super::team::Team;
 use super::walls::WallKernel;
@@ -101,6 +101,8 @@ pub struct CpuEngine<R: Real> {
     near_ref_axis: Vec<V3<R>>,
     rod_scratch: Vec<RodScratch<R>>,
     rod_walls: Vec<PairSlot<R>>,
+    /// The rods' packed records, what the pair pass reads.
+    rod_kin: Vec<RodKin<R>>,
     /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
     near_walls: Vec<u32>,
     /// The spheres whose wall sum runs (ascending): those that may touch a wall (`near_walls`
@@ -164,6 +166,7 @@ impl<R: Real> CpuEngine<R> {
             near_ref_axis: Vec::new(),
             rod_scratch: Vec::new(),
             rod_walls: Vec::new(),
+            rod_kin: Vec::new(),
             near_walls: Vec::new(),
             wall_list: Vec::new(),
             props: Vec::new(),

@@ -10,6 +10,7 @@ use crate::engine::oriented::OrientedContext;
 use crate::engine::pair_pass::PairSlot;
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
+use crate::engine::rod_pass::RodKin;
 
 impl<R: Real> CpuEngine<R> {
     /// Re-sorts the rods by cell and rebuilds the half lists; each entry's and wall's spring
@@ -65,6 +66,10 @@ impl<R: Real> CpuEngine<R> {
         self.axis.clear();
         self.axis.extend(s.orientation.iter().map(|q| q.axis_z()));
         self.rod_ref_axis.clone_from(&self.axis);
+        let axis = &self.axis;
+        self.rod_kin.clear();
+        self.rod_kin
+            .extend((0..n).map(|k| RodKin::of(&self.state, k, axis[k])));
     }
 
     /// Every touching contact of rod k as (partner key, spring), in row order: partners in

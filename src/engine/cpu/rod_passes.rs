@@ -11,7 +11,7 @@ use crate::engine::pair_pass::{PairSlot, BLOCK};
 use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 use crate::engine::rod_kick::{self, RotLanes, LANES};
-use crate::engine::rod_pass::{RodContext, RodMotion, RodScratch, RodSum};
+use crate::engine::rod_pass::{RodContext, RodKin, RodMotion, RodScratch, RodSum};
 use crate::engine::shape::{Quat, Spherocylinder};
 use crate::engine::verlet;
 
@@ -68,6 +68,7 @@ struct RodBlock<'a, R: Real> {
     omega: &'a mut [V3<R>],
     axis: &'a mut [V3<R>],
     walls: &'a mut [PairSlot<R>],
+    kin: &'a mut [RodKin<R>],
 }
 
 /// Per particle: its position and axis at some earlier step (a skin test's reference).
@@ -159,6 +160,8 @@ impl<R: Real> RodKick<'_, R> {
         };
         let u = k.q[l].axis_z();
         k.axis[l] = u;
+        let rec = &mut k.kin[l];
+        (rec.pos, rec.lo, rec.vel, rec.omega, rec.axis) = (*x, k.lo[l], *v, k.omega[l], u);
         let died = matches!(self.sink_z, Some(zs) if x.z < zs);
         if died {
             k.alive[l] = Status::Dying;
@@ -200,8 +203,7 @@ impl<R: Real> CpuEngine<R> {
             .zip(self.rod_scratch.iter_mut())
             .collect::<Vec<_>>();
         let ctx = RodContext {
-            s: &self.state,
-            axis: &self.axis,
+            kin: &self.rod_kin,
             alive: &self.alive,
             law: &self.law_pp,
             image: self.periodic.image(),
@@ -226,8 +228,7 @@ impl<R: Real> CpuEngine<R> {
             .zip(self.rod_scratch.iter_mut())
             .collect::<Vec<_>>();
         let ctx = RodContext {
-            s: &self.state,
-            axis: &self.axis,
+            kin: &self.rod_kin,
             alive: &self.alive,
             law: &self.law_pp,
             image: self.periodic.image(),
@@ -298,6 +299,7 @@ impl<R: Real> CpuEngine<R> {
             split_blocks(&mut s.omega, &parts).into_iter(),
             split_blocks(&mut self.axis, &parts).into_iter(),
             split_blocks(&mut self.rod_walls, &scaled(&parts, nw)).into_iter(),
+            split_blocks(&mut self.rod_kin, &parts).into_iter(),
         );
         for _ in 0..nblocks {
             blocks.push(RodBlock {
@@ -313,6 +315,7 @@ impl<R: Real> CpuEngine<R> {
                 omega: pieces.9.next().unwrap(),
                 axis: pieces.10.next().unwrap(),
                 walls: pieces.11.next().unwrap(),
+                kin: pieces.12.next().unwrap(),
             });
         }
         self.team
