@@ -22,6 +22,8 @@ const ENGINE_GOLDEN: &[(&str, usize, u64, Precision, &str)] = &[
     ("chute-bed", 3000, 300, Precision::F32, "d77599e6e46e8fd8"),
     ("chute-rods", 1000, 200, Precision::F64, "daaa093fd2c0c4a4"),
     ("chute-rods", 1000, 200, Precision::F32, "8a156e3555b6cbff"),
+    // Three blocks of the rods' passes: reactions handed across blocks.
+    ("chute-rods", 5000, 100, Precision::F32, "457310c7376206e3"),
 ];
 
 fn engine_checksum(
