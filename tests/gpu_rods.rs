@@ -224,6 +224,19 @@ fn seed_history(s: &mut State<f64>, cfg: &EngineConfig, seed: u64) {
             ]);
         }
     }
+    // Both rows of a pair hold its canonical spring, that of the lower id's view (what the
+    // engines write; the CPU's half lists read the pair's spring from one row).
+    let place: HashMap<u32, usize> = s.id.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+    for i in 0..s.len() {
+        for q in i * slots..(i + 1) * slots {
+            let key = s.history.partner[q];
+            if key == EMPTY || key >= wall_key(0) || key > s.id[i] {
+                continue;
+            }
+            let j = place[&key];
+            s.history.spring[q] = s.history.spring_of(j, s.id[i]);
+        }
+    }
 }
 
 /// Largest |a − b| / max(|b|, floor) over the particles.

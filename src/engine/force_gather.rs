@@ -28,7 +28,10 @@ impl<'a, R: Real> ForceContext<'a, R> {
         let cnt = self.list.count[i] as usize;
         OrientedContext {
             s: self.s,
-            neighbours: &self.list.index[i * self.list.stride..i * self.list.stride + cnt],
+            neighbours: [
+                &self.list.index[i * self.list.stride..i * self.list.stride + cnt],
+                &[],
+            ],
             alive: self.alive,
             law_pp: self.law_pp,
             law_pw: self.law_pw,

@@ -20,6 +20,9 @@ mod particle;
 pub mod periodic;
 mod position;
 pub mod real;
+mod rod_kick;
+mod rod_lanes;
+mod rod_pass;
 pub mod shape;
 #[cfg(target_arch = "x86_64")]
 mod simd;

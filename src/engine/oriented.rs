@@ -1,5 +1,7 @@
 //! The CPU engine's path for oriented particles (spherocylinders, with spheres among them as
-//! l = 0, such as the chute's rough base): the contact gather with segment geometry and the
+//! l = 0, such as the chute's rough base): the full-list contact gather with segment geometry
+//! (contact records and the elastic energy of observers; the step itself runs on half lists,
+//! `rod_pass.rs`, with the same operations per pair and the same order of each sum) and the
 //! rotational half of the integrator. Sphere runs never enter this file.
 //!
 //! Each pair is evaluated in one canonical order, the lower id as "a", by both of its particles
@@ -12,10 +14,14 @@
 //! symmetric top (`shape::rigid`); ω = R I⁻¹ Rᵀ L is refreshed after every change of q or L, and is
 //! what contacts read.
 
-use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord};
+use super::contact::{
+    contact_force, elastic_energy, pair_effective_mass, wall_effective_mass, ContactInput,
+    ContactRecord,
+};
 use super::history::{wall_key, Rows};
 use super::particle::Status;
 use super::real::{Real, V3};
+use super::rod_pass::inertial;
 use super::shape::{angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder};
 use super::state::State;
 
@@ -73,7 +79,9 @@ pub(super) fn close_kick<R: Real>(s: &mut State<R>, half: R) {
 /// What the gather of an oriented particle reads.
 pub(super) struct OrientedContext<'a, R: Real> {
     pub s: &'a State<R>,
-    pub neighbours: &'a [u32],
+    /// The neighbours in ascending order, in one or two pieces (a full list's row; or a half
+    /// list's earlier partners, then the later ones).
+    pub neighbours: [&'a [u32]; 2],
     pub alive: &'a [Status],
     pub law_pp: &'a super::contact::LawKernel<R>,
     pub law_pw: &'a super::contact::LawKernel<R>,
@@ -101,7 +109,7 @@ impl<R: Real> OrientedContext<'_, R> {
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let mut e = 0.0;
-        for &j in self.neighbours {
+        for &j in self.neighbours[0].iter().chain(self.neighbours[1]) {
             let j = j as usize;
             if self.alive[j] != Status::Alive || (fixed_i && s.inv_mass[j] == R::zero()) {
                 continue;
@@ -155,7 +163,7 @@ impl<R: Real> OrientedContext<'_, R> {
         }
         let fixed_i = s.inv_mass[i] == R::zero();
         let two = R::from_f64(2.0);
-        for &j in self.neighbours {
+        for &j in self.neighbours[0].iter().chain(self.neighbours[1]) {
             let j = j as usize;
             if self.alive[j] != Status::Alive {
                 continue;
@@ -180,16 +188,13 @@ impl<R: Real> OrientedContext<'_, R> {
             };
             let v_rel =
                 (s.vel[a] + s.omega[a].cross(pc.arm_i)) - (s.vel[b] + s.omega[b].cross(pc.arm_j));
-            let (ma, mb) = (s.mass[a], s.mass[b]);
-            let (fa, fb) = (s.inv_mass[a] == R::zero(), s.inv_mass[b] == R::zero());
-            // A fixed partner acts as infinitely heavy.
-            let m_eff = if fb {
-                ma
-            } else if fa {
-                mb
-            } else {
-                ma * mb / (ma + mb)
-            };
+            let m_eff = pair_effective_mass(
+                inertial(s, a),
+                inertial(s, b),
+                pc.arm_i,
+                pc.arm_j,
+                pc.normal,
+            );
             let c = ContactInput {
                 overlap: pc.overlap,
                 normal: pc.normal,
@@ -246,7 +251,7 @@ impl<R: Real> OrientedContext<'_, R> {
                     normal: pc.normal,
                     v_rel,
                     r_eff: shape.radius,
-                    m_eff: s.mass[i],
+                    m_eff: wall_effective_mass(inertial(s, i), pc.arm, pc.normal),
                 };
                 let key = wall_key(w);
                 let fc = match rows.as_deref_mut() {

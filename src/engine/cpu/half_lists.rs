@@ -199,19 +199,28 @@ impl<R: Real> CpuEngine<R> {
         );
     }
 
+    /// The history held by the slots as a table (`pairs_to_history`, `rods_to_history`).
+    fn history_from_slots(&self, slots: Option<usize>) -> Result<History<R>, u32> {
+        if self.state.oriented {
+            self.rods_to_history(slots)
+        } else {
+            self.pairs_to_history(slots)
+        }
+    }
+
     /// Puts the history back into the state in its format (`slots` per particle).
     pub(super) fn store_history(&mut self) -> Result<(), EngineError> {
         if self.slots == 0 || self.state.history.slots == self.slots {
             return Ok(());
         }
-        match self.pairs_to_history(Some(self.slots)) {
+        match self.history_from_slots(Some(self.slots)) {
             Ok(h) => {
                 self.state.history = h;
                 Ok(())
             }
             Err(id) => {
                 // Keep what fits, so the state stays readable; the run reports the overflow.
-                let mut h = self.pairs_to_history(None).expect("unsized rows");
+                let mut h = self.history_from_slots(None).expect("unsized rows");
                 let k = self.slots;
                 let w = h.slots;
                 let n = self.state.len();

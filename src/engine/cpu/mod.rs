@@ -14,19 +14,24 @@
 //! into the state's per-particle history table (keyed by partner id, the checkpoint and GPU
 //! format) at the end of each `advance`, and come from it at the start of the next.
 //!
-//! Spherocylinders keep the full-list gather (`oriented.rs`), where each particle gathers its
-//! own forces and updates only its own history rows.
+//! Spherocylinders run the same design (`rods.rs`): half lists, each near pair evaluated once
+//! (`rod_pass.rs`, `LANES` at a time in `rod_lanes.rs`) with force and torque on both rods,
+//! fixed-order sums fused with the kick, rotation and drift, on the team. The full-list gather
+//! (`oriented.rs`) remains for contact records and the elastic energy of observers.
 //!
 //! Files: `mod.rs` the engine, its constructor and the `Backend` impl (which dispatches to
 //! the two paths); `spheres.rs` the sphere chunk (the step loop); `passes.rs` the sphere
 //! step's block passes (pair pass, pick, sums with kick and drift, skin test);
 //! `half_lists.rs` the half lists' build and the history between the pair slots and the
 //! state's table; `rods.rs` the spherocylinder path; `contacts.rs` contact records and
-//! elastic energy for observers; `watchdog.rs` the energy budget and finiteness check.
+//! elastic energy for observers; `watchdog.rs` the energy budget and finiteness check;
+//! `rod_lists.rs` the rods' half lists and history; `rod_passes.rs` the rod step's passes.
 
 mod contacts;
 mod half_lists;
 mod passes;
+mod rod_lists;
+mod rod_passes;
 mod rods;
 mod spheres;
 mod watchdog;
@@ -40,6 +45,7 @@ use super::kinematics::Kin;
 use super::pair_pass::{PairScratch, PairSlot};
 use super::particle::{Props, Status};
 use super::real::{Real, V3};
+use super::rod_pass::{RodKin, RodScratch};
 use super::state::State;
 use super::team::Team;
 use super::walls::WallKernel;
@@ -86,6 +92,17 @@ pub struct CpuEngine<R: Real> {
     /// Positions at the last pick of the entries the pair pass tests (`pick_pairs`).
     near_ref: Vec<V3<R>>,
     wall_springs: Vec<V3<R>>,
+    /// Spherocylinders, while a chunk runs: each rod's unit axis, the axes at the last list
+    /// build and at the last pick (`near_ref` holds the positions), each block's pair-pass
+    /// lists, and a spring and touching flag per rod and wall. The pair slots and `half` serve
+    /// both paths.
+    axis: Vec<V3<R>>,
+    rod_ref_axis: Vec<V3<R>>,
+    near_ref_axis: Vec<V3<R>>,
+    rod_scratch: Vec<RodScratch<R>>,
+    rod_walls: Vec<PairSlot<R>>,
+    /// The rods' packed records, what the pair pass reads.
+    rod_kin: Vec<RodKin<R>>,
     /// The walls each sphere may touch before the next list build (bit w for wall w < 32).
     near_walls: Vec<u32>,
     /// The spheres whose wall sum runs (ascending): those that may touch a wall (`near_walls`
@@ -97,9 +114,7 @@ pub struct CpuEngine<R: Real> {
     slots: usize,
     /// Alive, or dying (fell through the sink this step, to be reported) or dead.
     alive: Vec<Status>,
-    // Scratch, per particle: new force, new torque, contact count.
-    f_new: Vec<V3<R>>,
-    t_new: Vec<V3<R>>,
+    /// Scratch, per particle: contact count.
     contacts: Vec<u32>,
     /// Shared so `advance` can enter it once per chunk: the per-step parallel passes then run
     /// inside the pool instead of handing work over to it several times a step.
@@ -146,13 +161,17 @@ impl<R: Real> CpuEngine<R> {
             pair_scratch: Vec::new(),
             near_ref: Vec::new(),
             wall_springs: Vec::new(),
+            axis: Vec::new(),
+            rod_ref_axis: Vec::new(),
+            near_ref_axis: Vec::new(),
+            rod_scratch: Vec::new(),
+            rod_walls: Vec::new(),
+            rod_kin: Vec::new(),
             near_walls: Vec::new(),
             wall_list: Vec::new(),
             props: Vec::new(),
             slots: state.history.slots,
             alive: Vec::new(),
-            f_new: Vec::new(),
-            t_new: Vec::new(),
             contacts: Vec::new(),
             pool,
             team: Team::new(threads),
@@ -237,7 +256,11 @@ impl<R: Real> Backend for CpuEngine<R> {
             r?;
             stored?;
         } else {
-            pool.install(|| self.advance_rods(steps, &mut report, &mut budget, check_energy))?;
+            let r =
+                pool.install(|| self.advance_rods(steps, &mut report, &mut budget, check_energy));
+            let stored = self.store_history();
+            r?;
+            stored?;
         }
         self.check_finite()?;
         // What a checkpoint would write and read back, so that a resumed run goes on with the

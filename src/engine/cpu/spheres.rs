@@ -124,7 +124,7 @@ impl<R: Real> CpuEngine<R> {
 
     /// Fails at the step where the history table would not hold this step's contacts (as the
     /// GPU does), not when the chunk writes the table back.
-    fn check_history_room(&self, fullest: u32, step: u64) -> Result<(), EngineError> {
+    pub(super) fn check_history_room(&self, fullest: u32, step: u64) -> Result<(), EngineError> {
         if self.slots == 0 || fullest as usize <= self.slots {
             return Ok(());
         }

@@ -17,7 +17,7 @@ impl<R: Real> CpuEngine<R> {
     }
 
     /// `energy_budget` but for the elastic energy (left at zero).
-    fn energy_budget_without_elastic(&self, steps: u64) -> EnergyBudget {
+    pub(super) fn energy_budget_without_elastic(&self, steps: u64) -> EnergyBudget {
         let s = &self.state;
         let mobile_mass_kg: f64 = (0..s.len())
             .filter(|&i| s.inv_mass[i] != R::zero())

@@ -103,7 +103,13 @@ pub fn pack(s: &State<f64>) -> Packed {
                 id: s.id[i],
                 alive: 1,
                 mass: s.mass[i] as f32,
-                inv_inertia: s.inv_inertia.get(i).copied().unwrap_or(0.0) as f32,
+                // Oriented runs: 1/I⊥, which the rods' effective mass reads (the rotation
+                // reads the rod records).
+                inv_inertia: if s.oriented {
+                    s.inv_inertia_body[i].x as f32
+                } else {
+                    s.inv_inertia.get(i).copied().unwrap_or(0.0) as f32
+                },
             })
             .collect(),
         load: (0..n)

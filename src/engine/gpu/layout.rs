@@ -287,6 +287,7 @@ pub struct Info {
     /// 1 alive, 0 removed by the sink (kept in place until the host compacts).
     pub alive: u32,
     pub mass: f32,
+    /// Spheres: 1/I; oriented runs: 1/I⊥ (the rods' effective mass).
     pub inv_inertia: f32,
 }
 

@@ -23,7 +23,7 @@
 //! is held fixed) and the kinetic energy oscillates at O(dt²) without drift. It stands in for the
 //! paper's "modified leap-frog" rotation (its ref. 29); `tests/spherocylinder.rs` checks it.
 
-use super::quat::{sin_cos, Quat};
+use super::quat::{sin_cos, sin_cos_small, Quat};
 use crate::engine::real::{Real, V3};
 
 /// Euler's equations in the body frame, I ω̇ + ω × (I ω) = τ: returns ω̇ (rad/s²) for body-frame
@@ -84,19 +84,48 @@ pub fn rotate_free<R: Real>(q: Quat<R>, l: V3<R>, inv_inertia: V3<R>, dt: R) -> 
 /// `inv_inertia.y` is not read.
 #[inline]
 pub fn rotate_free_symmetric<R: Real>(q: Quat<R>, l: V3<R>, inv_inertia: V3<R>, dt: R) -> Quat<R> {
+    rotate_symmetric_with(q, l, inv_inertia, dt, sin_cos_small)
+}
+
+/// `rotate_free_symmetric` with the sine and cosine of `sc`, branch-free (selects): the scalar
+/// code passes `sin_cos_small`, the SIMD lanes of the rod kick its polynomial.
+#[inline(always)]
+pub fn rotate_symmetric_with<R: Real>(
+    q: Quat<R>,
+    l: V3<R>,
+    inv_inertia: V3<R>,
+    dt: R,
+    sc: impl Fn(R) -> (R, R),
+) -> Quat<R> {
     let half = R::from_f64(0.5);
     // π3 is conserved by both factors, so it may be read before either.
     let pi3 = l.dot(q.axis_z());
-    let (sb, cb) = sin_cos((inv_inertia.z - inv_inertia.x) * pi3 * dt * half);
+    let (sb, cb) = sc((inv_inertia.z - inv_inertia.x) * pi3 * dt * half);
     let spin = Quat::from_parts(V3::new(R::zero(), R::zero(), sb), cb);
     let l_norm = l.norm();
-    let turned = if l_norm > R::zero() {
-        let (sa, ca) = sin_cos(l_norm * inv_inertia.x * dt * half);
-        Quat::from_parts(l * (sa / l_norm), ca) * q
-    } else {
-        q
+    let (sa, ca) = sc(l_norm * inv_inertia.x * dt * half);
+    let about_l = Quat::from_parts(l * (sa / l_norm), ca) * q;
+    // No momentum, no turn about it (the product above is then NaN).
+    let moving = l_norm > R::zero();
+    let turned = Quat {
+        x: if moving { about_l.x } else { q.x },
+        y: if moving { about_l.y } else { q.y },
+        z: if moving { about_l.z } else { q.z },
+        w: if moving { about_l.w } else { q.w },
     };
     (turned * spin).normalize()
+}
+
+/// The angles (rad) whose sine and cosine `rotate_symmetric_with` takes: the spin about the
+/// axis and the turn about L.
+#[inline(always)]
+pub fn symmetric_angles<R: Real>(q: Quat<R>, l: V3<R>, inv_inertia: V3<R>, dt: R) -> [R; 2] {
+    let half = R::from_f64(0.5);
+    let pi3 = l.dot(q.axis_z());
+    [
+        (inv_inertia.z - inv_inertia.x) * pi3 * dt * half,
+        l.norm() * inv_inertia.x * dt * half,
+    ]
 }
 
 /// The free rotation by the symmetric splitting R1(dt/2) R2(dt/2) R3(dt) R2(dt/2) R1(dt/2), each

@@ -143,6 +143,15 @@ impl<R: Real> Spherocylinder<R> {
             + m_s * (r2 * f(0.4) + l2 * f(0.25) + l * r * f(3.0 / 8.0));
         V3::new(perp, perp, axial)
     }
+
+    /// The effective mass (kg) of the rod struck at the tip of its axis across the axis, its
+    /// lightest contact: 1/m* = 1/m + (l/2)²/I⊥ (`contact::pair_effective_mass`; m for a
+    /// sphere). Two such rods meet with half of it, which bounds the contact time from below.
+    pub fn tip_mass(&self, density: R) -> R {
+        let m = self.mass(density);
+        let h = self.half_length;
+        R::one() / (R::one() / m + h * h / self.inertia(density).x)
+    }
 }
 
 /// A unit vector perpendicular to the unit vector `u`, chosen deterministically: `u` crossed with
@@ -219,6 +228,21 @@ pub fn contact_spherocylinders<R: Real>(
         arm_i: on_i - normal * (ri - half_ov),
         arm_j: on_j + normal * (rj - half_ov),
     })
+}
+
+/// The squared distance between the axes of spherocylinders i and j (the distance that
+/// `contact_spherocylinders` compares with ri + rj); `d` = ci − cj (m, minimum image).
+#[inline]
+pub fn axis_distance2<R: Real>(
+    d: V3<R>,
+    ui: V3<R>,
+    shape_i: &Spherocylinder<R>,
+    uj: V3<R>,
+    shape_j: &Spherocylinder<R>,
+) -> R {
+    let hi = ui * shape_i.half_length;
+    let hj = uj * shape_j.half_length;
+    closest_points(d - hi, hi + hi, -hj, hj + hj).dist2
 }
 
 /// The contact of spherocylinder i with a sphere j of radius `sphere_radius` (a fixed grain of the

@@ -261,6 +261,13 @@ fn touch_oriented(w: Wall, c: vec3<f32>, lo: vec3<f32>, u: vec3<f32>, hl: f32, r
     return best;
 }
 
+// |arm × n|²/I⊥ of a rod (h > 0; `inv_i` its 1/I⊥, in Info.inv_inertia for oriented runs), zero
+// for a sphere: contact/effective_mass.rs.
+fn turn_term(h: f32, inv_i: f32, arm: vec3<f32>, n: vec3<f32>) -> f32 {
+    let c = cross3(arm, n);
+    return select(0.0, dot3(c, c) * inv_i, h > 0.0);
+}
+
 // The oriented gather (oriented.rs `particle`): force, torque, largest overlap ratio and contact
 // count of particle i, its history rows rewritten.
 fn gather_oriented(i: u32, me: Info) -> Gathered {
@@ -302,6 +309,12 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         } else if (va.w == 0.0) {
             m_eff = mb;
         }
+        // contact/effective_mass.rs: a rod's turning lightens the contact.
+        if (sa.w > 0.0 || sb.w > 0.0) {
+            let turns = turn_term(sa.w, info[a].inv_inertia, pc.arm_a, pc.normal)
+                + turn_term(sb.w, info[b].inv_inertia, pc.arm_b, pc.normal);
+            m_eff = 1.0 / ((va.w + vb.w) + turns);
+        }
         let ra = pa.w;
         let rb = pb.w;
         var spring = vec3<f32>(0.0);
@@ -338,8 +351,11 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
             if (use_rows) {
                 spring = rows_get(key);
             }
-            let fc = contact_force(params.law_pw, wc.overlap, wc.normal, v_rel, ri, me.mass,
-                                   &spring);
+            var m_w = me.mass;
+            if (sh.w > 0.0) {
+                m_w = 1.0 / (v4.w + turn_term(sh.w, me.inv_inertia, wc.arm, wc.normal));
+            }
+            let fc = contact_force(params.law_pw, wc.overlap, wc.normal, v_rel, ri, m_w, &spring);
             if (use_rows) {
                 rows_put(i, key, spring);
             }
