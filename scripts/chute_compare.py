@@ -139,6 +139,26 @@ def block_mean(series, t0, t1, block):
     return mean_err(means)
 
 
+def trend(series, t0, t1, block):
+    """Least-squares slope of the block means against time, times the window, relative to the
+    mean, with its standard error (block means taken as independent)."""
+    nb = int((t1 - t0) / block)
+    pts = []
+    for k in range(nb):
+        v = [e for t, e in series if t0 + k * block - 1e-9 <= t < t0 + (k + 1) * block - 1e-9]
+        if v:
+            pts.append((t0 + (k + 0.5) * block, sum(v) / len(v)))
+    n = len(pts)
+    tm = sum(t for t, _ in pts) / n
+    em = sum(e for _, e in pts) / n
+    stt = sum((t - tm) ** 2 for t, _ in pts)
+    slope = sum((t - tm) * (e - em) for t, e in pts) / stt
+    res = sum((e - em - slope * (t - tm)) ** 2 for t, e in pts) / max(n - 2, 1)
+    err = math.sqrt(res / stt)
+    w = t1 - t0
+    return slope * w / em, err * w / em
+
+
 def at(series, t):
     return min(series, key=lambda s: abs(s[0] - t))[1]
 
@@ -230,6 +250,8 @@ def main():
     print("| quantity | sweep | LAMMPS | difference | target |\n|---|---:|---:|---:|---|")
     print(f"| KE in [{a.t0}, {a.t1}] | {ke_s[0]:.0f} +- {ke_s[1]:.0f} | {ke_l[0]:.0f} +- "
           f"{ke_l[1]:.0f} | {ke_s[0] / ke_l[0] - 1:+.3f} | |")
+    (ts, tse), (tl, tle) = trend(es, a.t0, a.t1, a.block), trend(el, a.t0, a.t1, a.block)
+    print(f"| KE trend x window / mean | {ts:+.3f} +- {tse:.3f} | {tl:+.3f} +- {tle:.3f} | | |")
     print(f"| surface V_x (z = {(ks + 0.5) * a.dz:.1f} d) | {us[0]:.3f} +- {us[1]:.3f} | "
           f"{ul[0]:.3f} +- {ul[1]:.3f} | {us[0] / ul[0] - 1:+.3f} | |")
     print(f"| bed height h (d) | {hs:.2f} | {hl:.2f} | {hs - hl:+.2f} | |")
