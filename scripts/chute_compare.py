@@ -7,7 +7,8 @@ centres (z = 0) by particle centre; V_x(z) = sum(v_x) / count per bin, phi(z) = 
 (Lx Ly dz). Over the window [t0, t1] the samples are cut into blocks of `block` s; each value is
 the mean of its block means, its error the standard error of those (blocks longer than the
 flow's correlation time are independent). The kinetic energy (translational + rotational, the
-flowing spheres) is compared the same way.
+flowing spheres) is compared the same way. sweep's own chute observer (coarse-grained V_x(z),
+phi(z) of its measurement window, `chute_fields`) is printed beside them as a cross-check.
 
 usage: chute_compare.py SWEEP_DB SWEEP_FRAMES_DIR LAMMPS_DIR --t0 T0 --t1 T1 [--block B]
 prints the history, the profiles and the verdict as markdown; exit 0 when it passes, 1 if not.
@@ -119,6 +120,23 @@ def energy_sweep(db):
     return c.execute("SELECT t_s, kinetic_energy_j FROM chute_series ORDER BY t_s").fetchall()
 
 
+def observer_profile(db):
+    """sweep's own chute observer over its measurement window (coarse-grained, `chute_fields`):
+    [(z, density, V_x)], a cross-check of the frame binning."""
+    c = sqlite3.connect(db)
+    return c.execute(
+        "SELECT z_m, density_kg_per_m3, velocity_x_m_per_s FROM chute_fields ORDER BY z_m"
+    ).fetchall()
+
+
+def interpolate(rows, z, col):
+    for a, b in zip(rows, rows[1:]):
+        if a[0] <= z <= b[0]:
+            w = (z - a[0]) / (b[0] - a[0]) if b[0] > a[0] else 0.0
+            return a[col] + w * (b[col] - a[col])
+    return float("nan")
+
+
 def energy_lammps(path, dt):
     out = []
     for line in open(path):
@@ -137,6 +155,26 @@ def block_mean(series, t0, t1, block):
         if v:
             means.append(sum(v) / len(v))
     return mean_err(means)
+
+
+def trend(series, t0, t1, block):
+    """Least-squares slope of the block means against time, times the window, relative to the
+    mean, with its standard error (block means taken as independent)."""
+    nb = int((t1 - t0) / block)
+    pts = []
+    for k in range(nb):
+        v = [e for t, e in series if t0 + k * block - 1e-9 <= t < t0 + (k + 1) * block - 1e-9]
+        if v:
+            pts.append((t0 + (k + 0.5) * block, sum(v) / len(v)))
+    n = len(pts)
+    tm = sum(t for t, _ in pts) / n
+    em = sum(e for _, e in pts) / n
+    stt = sum((t - tm) ** 2 for t, _ in pts)
+    slope = sum((t - tm) * (e - em) for t, e in pts) / stt
+    res = sum((e - em - slope * (t - tm)) ** 2 for t, e in pts) / max(n - 2, 1)
+    err = math.sqrt(res / stt)
+    w = t1 - t0
+    return slope * w / em, err * w / em
 
 
 def at(series, t):
@@ -198,8 +236,12 @@ def main():
           f"{a.block} s; bins of {a.dz} d by centre; bed height (phi at half its bulk value) "
           f"sweep {hs:.2f} d, LAMMPS {hl:.2f} d\n")
     print("## Profiles (mean of block means +- standard error)\n")
-    print("| z/d | V_x sweep | V_x LAMMPS | rel. diff | phi sweep | phi LAMMPS | diff |")
-    print("|---:|---:|---:|---:|---:|---:|---:|")
+    rho = float(next(l.split()[3] for l in data.split("Atoms # sphere")[1].splitlines()
+                     if l.strip() and l.split()[1] == "1"))
+    obs = observer_profile(a.db)
+    print("| z/d | V_x sweep | V_x LAMMPS | rel. diff | phi sweep | phi LAMMPS | diff | "
+          "sweep observer V_x, phi |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     worst_v, worst_phi, fails = 0.0, 0.0, []
     for k in range(nbins):
         z = (k + 0.5) * a.dz
@@ -222,7 +264,8 @@ def main():
         mark = ("V" if in_v else "") + ("phi" if in_phi else "")
         print(f"| {z:.1f} {mark} | {vs[k][0]:.3f} +- {vs[k][1]:.3f} | {vl[k][0]:.3f} +- "
               f"{vl[k][1]:.3f} | {rel:+.3f} +- {rel_err:.3f} | {ps[k][0]:.3f} +- {ps[k][1]:.3f} | "
-              f"{pl[k][0]:.3f} +- {pl[k][1]:.3f} | {dphi:+.3f} |")
+              f"{pl[k][0]:.3f} +- {pl[k][1]:.3f} | {dphi:+.3f} | {interpolate(obs, z, 2):.3f}, "
+              f"{interpolate(obs, z, 1) / rho:.3f} |")
     # Surface velocity: V_x of the bin one d below the lower of the two bed heights.
     ks = int(math.floor((h - 1.0) / a.dz))
     us, ul = vs[ks], vl[ks]
@@ -230,6 +273,8 @@ def main():
     print("| quantity | sweep | LAMMPS | difference | target |\n|---|---:|---:|---:|---|")
     print(f"| KE in [{a.t0}, {a.t1}] | {ke_s[0]:.0f} +- {ke_s[1]:.0f} | {ke_l[0]:.0f} +- "
           f"{ke_l[1]:.0f} | {ke_s[0] / ke_l[0] - 1:+.3f} | |")
+    (ts, tse), (tl, tle) = trend(es, a.t0, a.t1, a.block), trend(el, a.t0, a.t1, a.block)
+    print(f"| KE trend x window / mean | {ts:+.3f} +- {tse:.3f} | {tl:+.3f} +- {tle:.3f} | | |")
     print(f"| surface V_x (z = {(ks + 0.5) * a.dz:.1f} d) | {us[0]:.3f} +- {us[1]:.3f} | "
           f"{ul[0]:.3f} +- {ul[1]:.3f} | {us[0] / ul[0] - 1:+.3f} | |")
     print(f"| bed height h (d) | {hs:.2f} | {hl:.2f} | {hs - hl:+.2f} | |")

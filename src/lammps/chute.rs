@@ -90,7 +90,7 @@ fn constants(scene: &ChuteScene) -> anyhow::Result<Constants> {
         beta(law.restitution).abs(),
         beta(law.tangential_restitution).abs(),
     );
-    let dampflag = if bt == 0.0 { 0 } else { 1 };
+    let dampflag = i32::from(bt != 0.0);
     // γ for a contact of reduced mass m*: 2|β|√(k/m*).
     let gamma = |b: f64, k: f64, ms: f64| 2.0 * b * (k / ms).sqrt();
     let line = |ms: f64| {
@@ -292,7 +292,7 @@ mod tests {
         expand(&c, "t.json").unwrap().remove(0)
     }
 
-    fn section<'a>(text: &'a str, head: &str, next: Option<&str>) -> Vec<Vec<f64>> {
+    fn section(text: &str, head: &str, next: Option<&str>) -> Vec<Vec<f64>> {
         let rest = text.split(head).nth(1).unwrap();
         let body = next.map_or(rest, |n| rest.split(n).next().unwrap());
         body.lines()

@@ -113,9 +113,9 @@ impl DenseBed {
                             [0.0, 1.0, 0.0]
                         };
                         let s = 0.5 * OVER_RELAX * overlap;
-                        for k in 0..3 {
-                            push[i][k] += s * n[k];
-                            push[j][k] -= s * n[k];
+                        for (k, nk) in n.iter().enumerate() {
+                            push[i][k] += s * nk;
+                            push[j][k] -= s * nk;
                         }
                     }
                 }
