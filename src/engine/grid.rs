@@ -1,6 +1,6 @@
 //! Neighbour search: a uniform cell grid filled by a counting sort (O(N)), which also reorders the
 //! particles by cell so that neighbours sit close in memory, then either half lists (spheres'
-//! step: each pair once, `HalfList`) or full lists (spherocylinders, contact records). Both are
+//! step and the rods': each pair once, `HalfList`) or full lists (contact records). Both are
 //! built in a fixed order, so they do not depend on the thread count. Periodic axes use the
 //! minimum image.
 
@@ -265,8 +265,9 @@ pub fn build<R: Real>(
 /// concatenated in block order: the list does not depend on the thread count).
 const HALF_BLOCK: usize = 2048;
 
-/// Half neighbour lists of spheres in CSR form: particle i's partners j > i (sorted order) within
-/// r_i + r_j + skin, pairs of two fixed particles left out. Each pair appears once, so its force
+/// Half neighbour lists in CSR form: particle i's partners j > i (sorted order) within
+/// r_i + r_j + skin (r the reach: the radius, plus l/2 for a rod), pairs of two fixed particles
+/// left out. Each pair appears once, so its force
 /// is computed once (Newton's third law) and its tangential spring lives in its entry. The
 /// transposed index (`rstart`, `rslot`: the entries in which a particle is the partner j, in
 /// entry order) lets each particle sum its forces in a fixed order without atomics.
@@ -300,7 +301,7 @@ impl<R: Real> HalfList<R> {
     }
 }
 
-/// Sorts `state` (spheres) by cell and rebuilds the half list `list`; `fixed` pairs (both
+/// Sorts `state` by cell and rebuilds the half list `list`; `fixed` pairs (both
 /// inverse masses zero) are left out.
 pub fn build_half<R: Real>(
     state: &mut State<R>,

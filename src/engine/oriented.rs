@@ -1,5 +1,7 @@
 //! The CPU engine's path for oriented particles (spherocylinders, with spheres among them as
-//! l = 0, such as the chute's rough base): the contact gather with segment geometry and the
+//! l = 0, such as the chute's rough base): the full-list contact gather with segment geometry
+//! (contact records and the elastic energy of observers; the step itself runs on half lists,
+//! `rod_pass.rs`, with the same operations per pair and the same order of each sum) and the
 //! rotational half of the integrator. Sphere runs never enter this file.
 //!
 //! Each pair is evaluated in one canonical order, the lower id as "a", by both of its particles
