@@ -265,8 +265,9 @@ pub fn build<R: Real>(
 /// concatenated in block order: the list does not depend on the thread count).
 const HALF_BLOCK: usize = 2048;
 
-/// Half neighbour lists in CSR form (spheres and rods: cutoff from each reach): particle i's partners j > i (sorted order) within
-/// r_i + r_j + skin, pairs of two fixed particles left out. Each pair appears once, so its force
+/// Half neighbour lists in CSR form: particle i's partners j > i (sorted order) within
+/// r_i + r_j + skin (r the reach: the radius, plus l/2 for a rod), pairs of two fixed particles
+/// left out. Each pair appears once, so its force
 /// is computed once (Newton's third law) and its tangential spring lives in its entry. The
 /// transposed index (`rstart`, `rslot`: the entries in which a particle is the partner j, in
 /// entry order) lets each particle sum its forces in a fixed order without atomics.

@@ -233,7 +233,14 @@ impl<R: Real> RodContext<'_, R> {
         let zero = V3::zero();
         let mut inp = RodLaneInput::<R>::default();
         let mut out = RodLaneOutput::<R>::default();
-        for group in scratch.pick.chunks(LANES) {
+        let pick = &scratch.pick;
+        for (g, group) in pick.chunks(LANES).enumerate() {
+            // The next group's records are requested now, so that their loads overlap this
+            // group's work instead of stalling its gather.
+            for &[_, o, j] in pick.iter().skip((g + 1) * LANES).take(LANES) {
+                prefetch(&self.kin[o as usize]);
+                prefetch(&self.kin[j as usize]);
+            }
             // Which lanes hold a live pair, and whether its owner is "a".
             let mut live = [false; LANES];
             let mut o_is_a = [false; LANES];
@@ -342,6 +349,21 @@ impl<R: Real> RodContext<'_, R> {
         }
         scratch.reach = reach;
         max_ov
+    }
+}
+
+/// Asks the cache for the record at `r` (both of its lines: a record may straddle two).
+#[inline(always)]
+fn prefetch<T>(r: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p = (r as *const T).cast::<i8>();
+        // SAFETY: a prefetch is a hint: it never faults, whatever the address.
+        unsafe {
+            _mm_prefetch(p, _MM_HINT_T0);
+            _mm_prefetch(p.wrapping_add(std::mem::size_of::<T>() - 1), _MM_HINT_T0);
+        }
     }
 }
 
