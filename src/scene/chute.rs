@@ -470,15 +470,17 @@ impl ChuteParams {
         }
     }
 
-    /// t_c of the lightest pair (two particles, m* = m_p/2; against the fixed base m* = m_p).
+    /// t_c of the lightest pair: two rods struck across their axes at their tips, where rotation
+    /// makes each respond as its `tip_mass` (m* = m_tip/2; m_p/2 for spheres, the paper's t_c;
+    /// against the fixed base m* is twice that), so that `contact_steps` resolves every contact.
     pub fn contact_time(&self) -> f64 {
-        let m = self.particle_mass();
-        let r = 0.5 * self.particle_length_m / self.aspect_ratio;
+        let shape = self.shape();
+        let m_tip = shape.tip_mass(self.particle_density_kg_per_m3);
         contact_time(
             &self.law(),
             ContactPair {
-                r_eff: r / 2.0,
-                m_eff: m / 2.0,
+                r_eff: shape.radius / 2.0,
+                m_eff: m_tip / 2.0,
             },
             1.0,
         )
