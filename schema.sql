@@ -207,8 +207,10 @@ CREATE TABLE IF NOT EXISTS chute_flow_state (
 );
 
 -- The stationarity criteria (observe/stationarity.rs, observe/steady.rs) on the transient's last
--- window and on the measurement window. Trends: |slope| T / |mean| (change) and |slope| / se of
--- the batch-means fit (t), passed when change <= the job's tolerance and t <= t_critical.
+-- window and on the measurement window. Trends: |slope| T / |mean| (change; T the window's span,
+-- or for the transient the measurement's length when longer: the change the trend would make
+-- while measured) and |slope| / se of the batch-means fit (t), passed when change <= the job's
+-- tolerance and t <= t_critical.
 CREATE TABLE IF NOT EXISTS chute_stationarity (
     job_id              INTEGER NOT NULL REFERENCES jobs(id),
     phase               TEXT NOT NULL CHECK (phase IN ('transient', 'measurement')),

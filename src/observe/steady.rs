@@ -34,6 +34,10 @@ pub struct SteadySettings {
     pub batches: usize,
     /// Below this mean V_x (m/s) the bed is not flowing.
     pub min_flow_velocity_m_per_s: f64,
+    /// The change a trend makes is judged over this span (s) when it is longer than the
+    /// window's: waiting for the steady state, the coming measurement's length, so that a flow
+    /// passes only if its trend would stay within tolerance while it is measured.
+    pub horizon_s: f64,
 }
 
 impl Default for SteadySettings {
@@ -45,6 +49,7 @@ impl Default for SteadySettings {
             tol_ratio: 0.05,
             batches: 8,
             min_flow_velocity_m_per_s: 0.0,
+            horizon_s: 0.0,
         }
     }
 }
@@ -97,8 +102,18 @@ pub fn check_window(
     let ke: Vec<f64> = samples.iter().map(|s| s.ke).collect();
     let vx: Vec<f64> = samples.iter().map(|s| s.vx).collect();
     let mean_vx = vx.iter().sum::<f64>() / vx.len() as f64;
-    let ke = trend(&t, &ke, st.batches, st.tol_ke);
-    let vx = trend(&t, &vx, st.batches, st.tol_vx);
+    let span = last.t - first.t;
+    let over_horizon = |tr: Option<Trend>, tol: f64| {
+        tr.map(|mut tr| {
+            if st.horizon_s > span && span > 0.0 {
+                tr.relative_change *= st.horizon_s / span;
+                tr.passed = tr.relative_change <= tol && tr.t_statistic <= tr.t_critical;
+            }
+            tr
+        })
+    };
+    let ke = over_horizon(trend(&t, &ke, st.batches, st.tol_ke), st.tol_ke);
+    let vx = over_horizon(trend(&t, &vx, st.batches, st.tol_vx), st.tol_vx);
     let ratios: Vec<f64> = samples.iter().filter_map(|s| s.ratio).collect();
     let ratio = (!ratios.is_empty()).then(|| ratios.iter().sum::<f64>() / ratios.len() as f64);
     let ratio_ok = ratio.is_some_and(|r| ((r - tan_alpha) / tan_alpha).abs() < st.tol_ratio);
@@ -226,6 +241,30 @@ mod tests {
         }
         let c = last.unwrap();
         assert!(!c.flowing && !c.steady && c.ratio_ok);
+    }
+
+    #[test]
+    fn a_trend_is_judged_over_the_coming_measurement() {
+        // 1.5 % over a 10 s window: within 2 %, but 6 % over a 40 s measurement.
+        let s: Vec<FlowSample> = (0..101)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                let v = 1.0 + 0.0015 * t;
+                sample(t, 10.0 * v, v)
+            })
+            .collect();
+        let tan = 30f64.to_radians().tan();
+        let window = check_window(&s, &settings(), tan).unwrap();
+        // (A noiseless line is a significant trend: only the tolerance criterion is at stake.)
+        assert!(window.vx.unwrap().relative_change < 0.02, "{window:?}");
+        let horizon = SteadySettings {
+            horizon_s: 40.0,
+            ..settings()
+        };
+        let c = check_window(&s, &horizon, tan).unwrap();
+        let vx = c.vx.unwrap();
+        assert!((vx.relative_change - 4.0 * window.vx.unwrap().relative_change).abs() < 1e-12);
+        assert!(vx.relative_change > 0.02 && !c.steady && !vx.passed);
     }
 
     #[test]

@@ -502,9 +502,11 @@ impl ChuteParams {
         self.min_flow_velocity_ratio * (self.gravity_m_per_s2 * self.particle_length_m).sqrt()
     }
 
-    /// The steady-state criteria over a window of `window_s` seconds.
+    /// The steady-state criteria over a window of `window_s` seconds, trends judged over the
+    /// measurement's length when it is longer.
     pub fn steady_settings(&self, window_s: f64) -> SteadySettings {
         SteadySettings {
+            horizon_s: self.measure_time_s,
             window_s,
             tol_ke: self.steady_kinetic_tolerance,
             tol_vx: self.steady_velocity_tolerance,
