@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Builds sweep and runs the quick chute campaign (about 10 minutes on 2 cores), then draws the
-# chute paper's figures 3, 4 and 6 from the database.
+# Builds sweep and runs the quick chute campaign (about 5 minutes on 2 cores), then draws the
+# chute paper's figures 2-7 from the database.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release
