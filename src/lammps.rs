@@ -142,7 +142,13 @@ fn data_file(name: &str, sc: &BenchScene) -> String {
             p.z
         );
     }
-    // atom-ID vx vy vz wx wy wz
+    write_velocities(&mut out, s);
+    out
+}
+
+/// The data file's `Velocities` section (atom-ID vx vy vz wx wy wz), atoms numbered from 1 in
+/// state order.
+fn write_velocities(out: &mut String, s: &crate::engine::State<f64>) {
     let _ = writeln!(out, "\nVelocities\n");
     for i in 0..s.len() {
         let (v, w) = (s.vel[i], s.omega.get(i).copied().unwrap_or_default());
@@ -158,7 +164,6 @@ fn data_file(name: &str, sc: &BenchScene) -> String {
             w.z
         );
     }
-    out
 }
 
 fn input_file(name: &str, file: &str, sc: &BenchScene, steps: u64) -> anyhow::Result<String> {

@@ -180,21 +180,7 @@ fn data_file(scene: &ChuteScene, s: &State<f64>, base_mass: f64) -> String {
             x[2]
         );
     }
-    let _ = writeln!(out, "\nVelocities\n");
-    for i in 0..s.len() {
-        let (v, w) = (s.vel[i], s.omega.get(i).copied().unwrap_or_default());
-        let _ = writeln!(
-            out,
-            "{} {:e} {:e} {:e} {:e} {:e} {:e}",
-            i + 1,
-            v.x,
-            v.y,
-            v.z,
-            w.x,
-            w.y,
-            w.z
-        );
-    }
+    super::write_velocities(&mut out, s);
     out
 }
 
