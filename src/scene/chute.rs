@@ -657,10 +657,24 @@ mod tests {
     #[test]
     fn paper_defaults_give_the_papers_time_scales() {
         let s = ChuteScene::new(ChuteParams::default()).unwrap();
-        // k_n = 2e5 m g / L with m* = m/2: t_c ≈ π √(L / (4e5 g)) (slightly longer with damping).
+        // k_n = 2e5 m g / L with m* = m/2 (spheres, the paper's t_c): t_c ≈ π √(L / (4e5 g))
+        // (slightly longer with damping); rods with m* = m_tip/2, shorter by √(m_tip/m).
         let undamped = std::f64::consts::PI * (0.125f64 / 4e5).sqrt();
-        let tc = s.p.contact_time();
+        let spheres = ChuteParams {
+            aspect_ratio: 1.0,
+            ..ChuteParams::default()
+        };
+        let tc = spheres.contact_time();
         assert!(tc > undamped && tc < 1.05 * undamped, "t_c = {tc}");
+        let shape = s.p.shape();
+        let rho = s.p.particle_density_kg_per_m3;
+        let tip = (shape.tip_mass(rho) / shape.mass(rho)).sqrt();
+        assert!(tip > 0.8 && tip < 0.9, "√(m_tip/m) = {tip}");
+        let tc = s.p.contact_time();
+        assert!(
+            tc > tip * undamped && tc < 1.05 * tip * undamped,
+            "t_c = {tc}"
+        );
         assert!((s.dt - tc / 50.0).abs() < 1e-15);
         // 16 L × 16 L × 20 L at φ = 0.55 of ξ = 1.5 rods.
         let n = s.p.count();
