@@ -13,25 +13,15 @@ use rusqlite::Connection;
 use serde_json::json;
 use tempfile::TempDir;
 
+mod common;
+
+use common::cli::{tiny_chute, write_campaign};
+
 const BIN: &str = env!("CARGO_BIN_EXE_sweep");
 
+/// The shared tiny chute (`common::cli::tiny_chute`): f64, a checkpoint every 0.25 s.
 fn campaign(dir: &Path) -> PathBuf {
-    let c = json!({
-        "name": "chute_tiny",
-        "scene": "chute",
-        "base": {
-            "aspect_ratio": 1.5, "inclination_deg": 28.0,
-            "box_x_lengths": 4.0, "box_y_lengths": 4.0, "bed_height_lengths": 4.0,
-            "contact_steps": 10.0,
-            "steady_min_time_s": 0.5, "steady_max_time_s": 1.0, "steady_window_s": 0.5,
-            "measure_time_s": 1.0, "measure_unsteady": true
-        },
-        "observers": {"chute": {"max_lag_s": 0.3, "fit_min_lag_s": 0.1, "correlation_every": 2}},
-        "run": {"precision": "f64", "checkpoint_interval_s": 0.25}
-    });
-    let f = dir.join("tiny.json");
-    std::fs::write(&f, serde_json::to_string_pretty(&c).unwrap()).unwrap();
-    f
+    write_campaign(dir, "tiny.json", &tiny_chute("chute_tiny", "f64", 0.25))
 }
 
 fn run(dir: &Path, args: &[&str]) -> Output {
