@@ -10,6 +10,7 @@ mod janda;
 mod janda_bootstrap;
 mod line;
 mod minimise;
+mod pooled;
 mod stats;
 #[cfg(test)]
 mod tests;
@@ -20,4 +21,5 @@ pub use janda_bootstrap::{
     janda_bootstrap, JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
 pub use line::{linear_fit, LinearFit};
+pub use pooled::{pool, t_975, Pooled, PooledFrom, ReplicaEstimate};
 pub use stats::{mean_ci95, student_t_975};
