@@ -50,6 +50,7 @@ CREATE TABLE IF NOT EXISTS campaign_jobs (
     campaign_id INTEGER NOT NULL REFERENCES campaigns(id),
     job_id      INTEGER NOT NULL REFERENCES jobs(id),
     label       TEXT NOT NULL,             -- e.g. "orifice_diameter_m=0.015,rotation_frequency_hz=0.5,replica=0"
+    origin      TEXT,                      -- NULL: the campaign file; 'target': added by its target
     PRIMARY KEY (campaign_id, job_id)
 );
 
@@ -77,7 +78,8 @@ CREATE TABLE IF NOT EXISTS discharge_summary (
     discharged_count        INTEGER NOT NULL,
     clogs                   INTEGER NOT NULL,
     clogged_time_s          REAL NOT NULL,
-    permanently_clogged     INTEGER NOT NULL  -- 1 if the job stopped on a permanent clog
+    permanently_clogged     INTEGER NOT NULL, -- 1 if the job stopped on a permanent clog
+    q_blocks                INTEGER           -- blocks Q is the mean of (NULL before schema 8)
 );
 
 CREATE TABLE IF NOT EXISTS clogs (
@@ -315,4 +317,37 @@ CREATE TABLE IF NOT EXISTS silo_field_series (
 CREATE TABLE IF NOT EXISTS store_meta (
     key     TEXT PRIMARY KEY,
     value   TEXT NOT NULL
+);
+
+-- Campaigns with a `target` (schema 8): each point's state after the latest round, and every
+-- piece of work the target added (a job run longer, or a new replica), in the order chosen.
+CREATE TABLE IF NOT EXISTS target_points (
+    campaign_id     INTEGER NOT NULL REFERENCES campaigns(id),
+    point           TEXT NOT NULL,     -- the point's label without its replica index
+    observable      TEXT NOT NULL,     -- 'q' (silo) or 'd' (chute, the widest bulk block)
+    mean            REAL,              -- pooled over the point's replicas (SI)
+    ci95_rel        REAL,              -- half-width of its 95 % CI / |mean|; NULL: no estimate
+    ci_from         TEXT,              -- 'pooled blocks' or 'replica spread'
+    replicas        INTEGER NOT NULL,  -- replicas with an estimate
+    runs            INTEGER NOT NULL,  -- replicas run (some may have none: clogged)
+    measured_s      REAL NOT NULL,     -- simulated time of the point's jobs, summed
+    particle_steps  INTEGER NOT NULL,  -- what the point cost, fills included
+    met             INTEGER NOT NULL,  -- 1 when ci95_rel <= the target
+    status          TEXT NOT NULL,     -- 'met', 'working', 'capped: ...', 'no estimate: ...'
+    rounds          INTEGER NOT NULL,
+    PRIMARY KEY (campaign_id, point)
+);
+CREATE TABLE IF NOT EXISTS target_work (
+    id              INTEGER PRIMARY KEY,
+    campaign_id     INTEGER NOT NULL REFERENCES campaigns(id),
+    round           INTEGER NOT NULL,
+    point           TEXT NOT NULL,
+    job_id          INTEGER NOT NULL REFERENCES jobs(id),
+    action          TEXT NOT NULL,     -- 'extend' (the job runs on to to_s) or 'replica' (a new job)
+    from_s          REAL NOT NULL,     -- the job's end before (0 for a new replica)
+    to_s            REAL NOT NULL,     -- the job's end after
+    ci95_rel_before REAL,
+    ci95_rel_expected REAL,            -- what the work should bring the point to
+    particle_steps_expected REAL NOT NULL,
+    created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
 );

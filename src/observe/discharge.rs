@@ -86,6 +86,9 @@ pub struct DischargeSummary {
     pub q_kg_per_s: Option<f64>,
     pub q_ci95_kg_per_s: Option<f64>,
     pub q_method: String,
+    /// Blocks Q is the mean of (its CI is t over them): replicas are pooled by it.
+    #[serde(default)]
+    pub q_blocks: usize,
     pub flowing_time_s: f64,
     pub clogs: Vec<Clog>,
     pub permanently_clogged: bool,
@@ -242,6 +245,7 @@ impl Discharge {
                 blocks.last().map_or(window_end, |b| b.0 + 0.5 * st.block_s),
                 rates.len()
             ),
+            q_blocks: rates.len(),
             flowing_time_s: flowing,
             clogs,
             permanently_clogged: permanently,

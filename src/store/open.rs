@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 7;
+pub const SCHEMA_VERSION: i64 = 8;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -124,6 +124,17 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
         // 6 → 7: the chute's bulk mean V_x series (the flow verdict's tables are new ones).
         if !has_column(&tx, "chute_series", "mean_vx_m_per_s")? {
             tx.execute_batch("ALTER TABLE chute_series ADD COLUMN mean_vx_m_per_s REAL;")?;
+        }
+        // 7 → 8: campaign targets: Q's block count, jobs run on past their own end (the
+        // target's extensions), jobs a target added to a campaign (`target_*` tables are new).
+        for (table, column, kind) in [
+            ("discharge_summary", "q_blocks", "INTEGER"),
+            ("jobs", "extended_to_s", "REAL"),
+            ("campaign_jobs", "origin", "TEXT"),
+        ] {
+            if !has_column(&tx, table, column)? {
+                tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;
+            }
         }
         tx.pragma_update(None, "user_version", SCHEMA_VERSION)?;
     }

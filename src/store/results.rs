@@ -53,8 +53,8 @@ impl SiloResults {
         let s = &self.summary;
         tx.execute(
             "INSERT OR REPLACE INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, particle_diameter_m, bulk_density_kg_per_m3,
-                q_kg_per_s, q_ci95_kg_per_s, q_method, flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, permanently_clogged)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
+                q_kg_per_s, q_ci95_kg_per_s, q_method, flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, permanently_clogged, q_blocks)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
             params![
                 job_id,
                 self.orifice_diameter_m,
@@ -69,7 +69,8 @@ impl SiloResults {
                 self.discharge.count as i64,
                 s.clogs.len() as i64,
                 s.clogs.iter().map(|c| c.duration_s).sum::<f64>(),
-                s.permanently_clogged as i64
+                s.permanently_clogged as i64,
+                s.q_blocks as i64
             ],
         )?;
         self.numerics.write(&tx, job_id, self.dt_s)?;

@@ -27,6 +27,32 @@ pub struct DischargeRow {
     pub params_json: String,
     /// Whether the job stopped on a permanent clog.
     pub permanently_clogged: bool,
+    /// Blocks Q is the mean of (schema 8; older rows: parsed from q_method's `n=`).
+    pub q_blocks: Option<usize>,
+    /// The job's simulated discharge time and cost (`jobs`).
+    pub sim_time_s: f64,
+    pub particle_steps: i64,
+}
+
+impl DischargeRow {
+    /// Q as one replica's estimate (its blocks' standard error), for pooling replicas.
+    pub fn q_estimate(&self) -> Option<crate::observe::fits::ReplicaEstimate> {
+        crate::observe::fits::ReplicaEstimate::from_blocks(
+            self.q_kg_per_s?,
+            self.q_ci95_kg_per_s?,
+            self.q_blocks?,
+        )
+    }
+}
+
+/// `n=K` at the end of a q_method code: the block count of rows written before schema 8.
+fn blocks_in_method(method: &str) -> Option<usize> {
+    method
+        .rsplit(",n=")
+        .next()
+        .filter(|_| method.contains(",n="))?
+        .parse()
+        .ok()
 }
 
 /// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
@@ -40,7 +66,8 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
     let mut stmt = conn.prepare(
         "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
                 s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
-                s.q_ci95_kg_per_s, j.params_json, s.permanently_clogged \
+                s.q_ci95_kg_per_s, j.params_json, s.permanently_clogged, s.q_blocks, s.q_method, \
+                j.sim_time_s, j.particle_steps \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN discharge_summary s ON s.job_id = j.id \
@@ -60,6 +87,12 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
                 q_ci95_kg_per_s: r.get(7)?,
                 params_json: r.get(8)?,
                 permanently_clogged: r.get::<_, i64>(9)? != 0,
+                q_blocks: r
+                    .get::<_, Option<i64>>(10)?
+                    .map(|n| n as usize)
+                    .or_else(|| blocks_in_method(&r.get::<_, String>(11).unwrap_or_default())),
+                sim_time_s: r.get(12)?,
+                particle_steps: r.get(13)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -4,15 +4,29 @@
 
 pub use crate::store::silo_reads::{done_discharge_rows, mass_series, DischargeRow};
 
-use crate::observe::fits::mean_ci95;
+use crate::observe::fits::{mean_ci95, pool};
 
 /// Where a combined point's confidence interval comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CiSource {
-    /// Student t on the spread of ≥ 2 replicas' Q.
+    /// Student t on the spread of ≥ 2 replicas' Q (rows that do not say their block count).
     ReplicaSpread,
     /// The single job's own q_ci95_kg_per_s (over its flowing intervals).
     SingleJob,
+    /// Every replica's blocks pooled (`fits::pool`); from 3 replicas on, the wider of that and
+    /// their spread, which `pooled` says.
+    Pooled(crate::observe::fits::PooledFrom),
+}
+
+impl CiSource {
+    /// How the table names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            CiSource::ReplicaSpread => "replicas",
+            CiSource::SingleJob => "job",
+            CiSource::Pooled(f) => f.name(),
+        }
+    }
 }
 
 /// Q at one (D, f), combined over the replicas that measured it.
@@ -26,7 +40,7 @@ pub struct FlowPoint {
     pub particle_d_m: f64,
     /// Bulk density ρ_b, kg/m³.
     pub bulk_density_kg_per_m3: f64,
-    /// Mean Q over the replicas, kg/s.
+    /// Q over the replicas (pooled: weighted by their blocks; else their mean), kg/s.
     pub q: f64,
     /// Half-width of the 95 % CI of `q`, kg/s; None when unknown.
     pub ci: Option<f64>,
@@ -114,9 +128,12 @@ pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
             continue;
         };
         let qs: Vec<f64> = with_q.iter().filter_map(|r| r.q_kg_per_s).collect();
-        let (q, ci, ci_source) = match mean_ci95(&qs) {
-            Some((mean, hw)) => (mean, Some(hw), CiSource::ReplicaSpread),
-            None => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
+        let estimates: Option<Vec<_>> = with_q.iter().map(|r| r.q_estimate()).collect();
+        let pooled = estimates.as_deref().and_then(pool);
+        let (q, ci, ci_source) = match (pooled, mean_ci95(&qs)) {
+            (Some(p), _) => (p.mean, Some(p.ci95), CiSource::Pooled(p.from)),
+            (None, Some((mean, hw))) => (mean, Some(hw), CiSource::ReplicaSpread),
+            (None, None) => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
         };
         out.push(FlowPoint {
             d_m: first.orifice_diameter_m,
@@ -211,6 +228,9 @@ mod tests {
             q_ci95_kg_per_s: ci,
             params_json: "{}".into(),
             permanently_clogged: q.is_none(),
+            q_blocks: None,
+            sim_time_s: 2.0,
+            particle_steps: 0,
         }
     }
 

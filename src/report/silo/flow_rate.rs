@@ -381,10 +381,7 @@ fn mark_clogged(
 }
 
 fn ci_source_name(source: CiSource) -> &'static str {
-    match source {
-        CiSource::ReplicaSpread => "replicas",
-        CiSource::SingleJob => "job",
-    }
+    source.name()
 }
 
 /// The Beverloo fit at f = 0 as one line of text, or why there is none.
