@@ -111,6 +111,33 @@ impl JobSpec {
         }
     }
 
+    /// The time a target may extend (s): the silo's discharge, the chute's measurement.
+    pub fn own_time_s(&self) -> f64 {
+        match self.scene {
+            SceneKind::Silo => self.silo().discharge_time_s,
+            SceneKind::Chute => self.chute().measure_time_s,
+        }
+    }
+
+    /// The same point's replica `replica`: its own seed, fill and label.
+    pub fn replica(&self, replica: u32) -> JobSpec {
+        let mut j = self.clone();
+        if let Some(p) = j.silo.as_mut() {
+            p.replica = replica;
+        }
+        if let Some(p) = j.chute.as_mut() {
+            p.replica = replica;
+        }
+        j.label = match self.label.rsplit_once(",replica=") {
+            Some((head, _)) => format!("{head},replica={replica}"),
+            None if self.label.starts_with("replica=") || self.label.is_empty() => {
+                format!("replica={replica}")
+            }
+            None => format!("{},replica={replica}", self.label),
+        };
+        j
+    }
+
     /// Number of mobile particles at the start.
     pub fn particle_count(&self) -> usize {
         match self.scene {
@@ -468,6 +495,10 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
                     .collect(),
             });
         }
+    }
+    if let Some(t) = &c.target {
+        let own = jobs.iter().map(JobSpec::own_time_s).fold(0.0, f64::max);
+        problems.extend(t.problems(c.scene, c.replicas, own));
     }
     if !problems.is_empty() {
         return Err(CampaignError::Invalid {

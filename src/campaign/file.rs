@@ -150,6 +150,10 @@ pub struct CampaignFile {
     pub observers: Observers,
     #[serde(default)]
     pub run: RunSettings,
+    /// The confidence each point's result must reach; sweep adds work (longer runs, replicas)
+    /// until it does or a cap is reached. Absent: the jobs run as written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<super::target::Target>,
 }
 
 impl CampaignFile {

@@ -1,6 +1,7 @@
 //! Campaign files: the raw format (`file`, with where jobs run in `executor`), validation with
 //! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
 
+pub mod adaptive;
 mod diff;
 mod duplicates;
 mod error;
@@ -10,6 +11,7 @@ mod file;
 mod point;
 mod resources;
 mod schema;
+mod target;
 
 pub use diff::diff_fields;
 pub use error::{CampaignError, FieldProblem};
@@ -19,6 +21,7 @@ pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, Scen
 pub use point::point_key;
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};
 pub use schema::campaign_schema;
+pub use target::Target;
 
 /// Reads, parses, validates and expands a campaign file.
 ///

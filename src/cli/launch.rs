@@ -91,6 +91,11 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     };
     let executor = a.exec.executor.unwrap_or(file.run.executor);
     if executor == ExecutorKind::Slurm {
+        if file.target.is_some() {
+            println!(
+                "target: its rounds run on this machine: once the Slurm jobs have ended, `sweep resume --executor local` evaluates it and runs the work it adds"
+            );
+        }
         return super::submit::launch_slurm(&a, &file, &jobs);
     }
     let flags = a.exec.slurm_flags();
@@ -123,15 +128,110 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     );
     let work = work_dir(&conn, db)?;
     drop(conn);
-    run_jobs(
+    let code = run_jobs(
         &a.run,
-        work,
+        work.clone(),
         Some(cid),
         None,
         file.run.checkpoint_interval_s,
         jobs.len(),
         done as usize,
-    )
+    )?;
+    if file.target.is_none() {
+        return Ok(code);
+    }
+    pursue_target(&a.run, &work, cid, file.run.checkpoint_interval_s, code)
+}
+
+/// Rounds of a campaign's target: evaluate, add the work, run it, until nothing is added or a
+/// run does not end cleanly (an interrupt, a failure: `sweep resume` continues from there).
+fn pursue_target(
+    r: &RunArgs,
+    work: &Path,
+    cid: i64,
+    checkpoint_interval_s: f64,
+    mut code: i32,
+) -> anyhow::Result<i32> {
+    use sweep::runner::adaptive::{next_round, RoundOutcome};
+    loop {
+        if code != 0 {
+            println!(
+                "target: not evaluated (the last run did not end cleanly); continue with: sweep resume --db {}",
+                r.db.db.display()
+            );
+            return Ok(code);
+        }
+        let mut conn = sweep::store::open(&r.db.db)?;
+        match next_round(&mut conn, cid)? {
+            RoundOutcome::Unsettled(n) => {
+                println!("target: {n} job(s) of the campaign have not ended; not evaluated");
+                return Ok(code);
+            }
+            RoundOutcome::Finished(points) => {
+                print_points(&points);
+                return Ok(code);
+            }
+            RoundOutcome::Work {
+                round,
+                work: added,
+                points,
+            } => {
+                print_points(&points);
+                println!("target: round {round}: {} piece(s) of work", added.len());
+                for w in &added {
+                    let what = if w.action == "extend" {
+                        format!(
+                            "job {} runs on {:.2} -> {:.2} s",
+                            w.job_id, w.from_s, w.to_s
+                        )
+                    } else {
+                        format!("new replica, job {}", w.job_id)
+                    };
+                    println!(
+                        "  {}: {what}  (CI {} -> expected {}, {:.2e} particle-steps)",
+                        w.point,
+                        pct(w.ci95_rel_before),
+                        pct(w.ci95_rel_expected),
+                        w.particle_steps_expected
+                    );
+                }
+                let t = sweep::store::job_counts::campaign_done_count(&conn, cid)?;
+                let total = sweep::store::targets::campaign_jobs(&conn, cid)?.len();
+                drop(conn);
+                code = run_jobs(
+                    r,
+                    work.to_path_buf(),
+                    Some(cid),
+                    None,
+                    checkpoint_interval_s,
+                    total,
+                    t as usize,
+                )?;
+            }
+        }
+    }
+}
+
+fn pct(v: Option<f64>) -> String {
+    v.map_or_else(|| "n/a".into(), |x| format!("±{:.1} %", 100.0 * x))
+}
+
+/// One line per point of a target: its interval, replicas, time, and where it stands.
+fn print_points(points: &[sweep::store::targets::PointRow]) {
+    let met = points.iter().filter(|p| p.met).count();
+    println!("target: {met} of {} point(s) met", points.len());
+    for p in points {
+        println!(
+            "  {:<50} {} = {}  CI {:>9}  {} replica(s), {:.1} s  {}",
+            p.point,
+            p.observable,
+            p.mean.map_or_else(|| "n/a".into(), |m| format!("{m:.4e}")),
+            pct(p.ci95_rel),
+            p.replicas,
+            p.measured_s,
+            p.status
+        );
+    }
 }
 
 pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
@@ -177,7 +277,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     // Each job's own campaign sets its checkpoint interval; this is the fallback.
     let code = run_jobs(
         &a.run,
-        work,
+        work.clone(),
         None,
         a.max_attempts,
         sweep::campaign::RunSettings::default().checkpoint_interval_s,
@@ -185,5 +285,19 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         done as usize,
     )?;
     let marked_failed = decisions.iter().any(|d| d.action == "failed");
-    Ok(if code == 0 && marked_failed { 1 } else { code })
+    let mut code = if code == 0 && marked_failed { 1 } else { code };
+    // Campaigns with a target go on with their rounds where they stopped.
+    let conn = sweep::store::open(db)?;
+    let with_target = sweep::store::targets::campaigns_with_target(&conn)?;
+    drop(conn);
+    for cid in with_target {
+        let conn = sweep::store::open(db)?;
+        let interval = sweep::store::targets::campaign_file(&conn, cid)?.map_or(
+            sweep::campaign::RunSettings::default().checkpoint_interval_s,
+            |f| f.run.checkpoint_interval_s,
+        );
+        drop(conn);
+        code = pursue_target(&a.run, &work, cid, interval, code)?;
+    }
+    Ok(code)
 }

@@ -23,3 +23,9 @@ pub use missing::{campaign_completion, Completion};
 pub use plot::{Axis, Figure, Legend, Panel, Scale, Series, SeriesKind};
 pub use render::{figures_of, render_figure, render_figure_with, FigureReport, FIGURES};
 pub use table::Table;
+
+/// The silo's replicas combined into points, as fig3–fig5 combine them (campaign targets use
+/// the same statistic).
+pub mod silo_points {
+    pub use super::silo::data::{combine_replicas, CiSource, DischargeRow, FlowPoint};
+}

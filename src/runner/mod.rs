@@ -2,8 +2,10 @@
 //! of a study that plugs in through `job::Study` (`silo_job`, `chute_job`); `job_lock` says
 //! whether a job's process lives (an OS lock, a heartbeat thread). Two executors decide where:
 //! `pool` claims and runs a campaign's pending jobs K at a time on this machine, `slurm` hands
-//! them to Slurm as job arrays; `backend` picks and builds the simulation backend.
+//! them to Slurm as job arrays; `backend` picks and builds the simulation backend; `adaptive`
+//! adds the work a campaign's target asks for, round by round.
 
+pub mod adaptive;
 pub mod backend;
 pub mod chute_job;
 pub mod job;

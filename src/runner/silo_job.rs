@@ -183,19 +183,24 @@ pub fn run_silo_job(
     let chunk_steps = (spec.observers.discharge.sample_interval_s / scene.dt)
         .round()
         .max(1.0) as u64;
+    // A campaign's target may have run the job on past its own discharge time.
+    let end_s = job.target_time_s.max(spec.silo().discharge_time_s);
     let study = SiloStudy {
         spec,
         scene,
         chunk_steps,
+        end_s,
     };
     job::run(conn, job, lease, ctx, &study)
 }
 
-/// A silo job: its parameters, its scene and its chunk.
+/// A silo job: its parameters, its scene, its chunk and its end.
 struct SiloStudy {
     spec: JobSpec,
     scene: SiloScene,
     chunk_steps: u64,
+    /// Discharge time it runs to (s): its own, or longer where a target extended it.
+    end_s: f64,
 }
 
 impl SiloStudy {
@@ -279,14 +284,14 @@ impl Study for SiloStudy {
         let sp = &self.scene.p;
         // Without re-insertion the particles left are the initial ones minus those counted out.
         let remaining = p.initial_count - p.discharge.count as usize;
-        t_rel >= sp.discharge_time_s - 1e-12
+        t_rel >= self.end_s - 1e-12
             || p.discharge.permanently_clogged(t_rel)
             || (!sp.reinsert
                 && (remaining as f64) < sp.stop_remaining_fraction * p.initial_count as f64)
     }
 
     fn end_time(&self, _: &Progress) -> f64 {
-        self.scene.p.discharge_time_s
+        self.end_s
     }
 
     fn observe(

@@ -99,7 +99,8 @@ pub enum Registration {
     Changed { version: i64, changes: Vec<String> },
 }
 
-/// Registers a campaign and its jobs. Launching the same file twice adds nothing. A file whose
+/// Registers a campaign and its jobs. Launching the same file twice adds nothing (replicas its
+/// target added are the campaign's own, not the file's, and do not count as a change). A file whose
 /// jobs differ from the latest version launched under its name is refused (`Changed`, with the
 /// fields that differ) unless `new_version`, which registers it as the next version with its
 /// own jobs; jobs are shared between versions only where their resolved parameters are equal.
@@ -127,7 +128,7 @@ pub fn register(
             let mut stored: Vec<(String, String)> = tx
                 .prepare(
                     "SELECT j.hash, cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
-                     WHERE cj.campaign_id = ?1",
+                     WHERE cj.campaign_id = ?1 AND cj.origin IS NULL",
                 )?
                 .query_map([cid], |r| Ok((r.get(0)?, r.get(1)?)))?
                 .collect::<Result<_, _>>()?;

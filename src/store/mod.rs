@@ -5,7 +5,8 @@
 //! `chute_reads`; `fields` for coarse-grained fields), jobs handed to Slurm (`slurm_tasks`,
 //! `pending`) and their results ingested (`slurm_ingest`), job counts (`job_counts`), a finished
 //! silo job's headline (`silo_done`), what the accuracy map reads (`accuracy_reads`), benchmark
-//! runs (`bench_runs`), campaigns as reports find them (`campaign_reads`). Every write that marks
+//! runs (`bench_runs`), campaigns as reports find them (`campaign_reads`), a campaign target's work and points
+//! (`targets`). Every write that marks
 //! progress is one transaction.
 
 pub mod accuracy_reads;
@@ -28,6 +29,7 @@ pub mod silo_done;
 pub mod silo_reads;
 pub mod slurm_ingest;
 pub mod slurm_tasks;
+pub mod targets;
 #[cfg(test)]
 pub(crate) mod test_rows;
 

@@ -32,9 +32,18 @@ pub struct DischargeRow {
     /// The job's simulated discharge time and cost (`jobs`).
     pub sim_time_s: f64,
     pub particle_steps: i64,
+    /// How Q was obtained (`discharge_summary.q_method`).
+    pub q_method: String,
 }
 
 impl DischargeRow {
+    /// The end of Q's window (s since opening, `t_end=` of q_method): earlier than the run's
+    /// end when the block rates drifted there (M(t) no longer linear).
+    pub fn q_window_end_s(&self) -> Option<f64> {
+        let rest = self.q_method.split(",t_end=").nth(1)?;
+        rest.split(',').next()?.parse().ok()
+    }
+
     /// Q as one replica's estimate (its blocks' standard error), for pooling replicas.
     pub fn q_estimate(&self) -> Option<crate::observe::fits::ReplicaEstimate> {
         crate::observe::fits::ReplicaEstimate::from_blocks(
@@ -93,6 +102,7 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
                     .or_else(|| blocks_in_method(&r.get::<_, String>(11).unwrap_or_default())),
                 sim_time_s: r.get(12)?,
                 particle_steps: r.get(13)?,
+                q_method: r.get(11)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

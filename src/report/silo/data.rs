@@ -231,6 +231,7 @@ mod tests {
             q_blocks: None,
             sim_time_s: 2.0,
             particle_steps: 0,
+            q_method: String::new(),
         }
     }
 

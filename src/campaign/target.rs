@@ -1,0 +1,139 @@
+//! A campaign's `target`: the confidence it wants on each point's result, and the caps on the
+//! work it may add to get there (`runner::adaptive` adds it, `campaign::adaptive` chooses it).
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::error::FieldProblem;
+use super::file::SceneKind;
+
+/// When a campaign's points are known well enough, and how far sweep may go to get there.
+///
+/// Each point (the jobs of one parameter set, its replicas) is combined as the figures combine
+/// it (`observe::fits::pool`). A point whose 95 % interval is wider than asked gets more work:
+/// its job runs on from its last checkpoint (longer discharge or measurement), or a replica
+/// with a new seed is added, whichever shrinks the interval most per particle-step, until the
+/// target holds or a cap is reached.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Target {
+    /// Silo: the half-width of Q's 95 % confidence interval over Q, at every point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_ci95_rel: Option<f64>,
+    /// Chute: the half-width of D's 95 % confidence interval over D, in every bulk block
+    /// (0.2 H < z < 0.8 H) of every point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d_ci95_rel: Option<f64>,
+    /// Replicas a point may have in all (the file's `replicas` included).
+    #[serde(default = "default_max_replicas")]
+    pub max_replicas: u32,
+    /// Longest simulated time (s) a job may be run to: the silo's discharge, the chute's
+    /// measurement. Absent: jobs are not run longer, only replicated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_time_s: Option<f64>,
+    /// Rounds of added work at most (each round gives every point short of its target one
+    /// piece of work, then evaluates again).
+    #[serde(default = "default_max_rounds")]
+    pub max_rounds: u32,
+}
+
+fn default_max_replicas() -> u32 {
+    8
+}
+
+fn default_max_rounds() -> u32 {
+    8
+}
+
+impl Target {
+    /// The relative half-width asked for the campaign's observable.
+    pub fn ci95_rel(&self) -> f64 {
+        self.q_ci95_rel.or(self.d_ci95_rel).unwrap_or(f64::NAN)
+    }
+
+    /// The observable's name in the store ('q' or 'd').
+    pub fn observable(&self) -> &'static str {
+        if self.q_ci95_rel.is_some() {
+            "q"
+        } else {
+            "d"
+        }
+    }
+
+    /// What is wrong with it for a campaign of `scene` with `replicas` replicas whose jobs run
+    /// `own_time_s` (each job's own discharge or measurement time, the longest).
+    pub fn problems(&self, scene: SceneKind, replicas: u32, own_time_s: f64) -> Vec<FieldProblem> {
+        let mut out = Vec::new();
+        let mut bad = |field: &str, message: String| {
+            out.push(FieldProblem {
+                path: format!("target.{field}"),
+                message,
+            })
+        };
+        match scene {
+            SceneKind::Silo => {
+                if self.q_ci95_rel.is_none() {
+                    bad(
+                        "q_ci95_rel",
+                        "a silo target needs q_ci95_rel (the relative half-width of Q's 95 % CI, e.g. 0.03)".into(),
+                    );
+                }
+                if self.d_ci95_rel.is_some() {
+                    bad(
+                        "d_ci95_rel",
+                        "is a chute target; a silo campaign sets q_ci95_rel".into(),
+                    );
+                }
+            }
+            SceneKind::Chute => {
+                if self.d_ci95_rel.is_none() {
+                    bad(
+                        "d_ci95_rel",
+                        "a chute target needs d_ci95_rel (the relative half-width of D's 95 % CI in the bulk blocks, e.g. 0.1)".into(),
+                    );
+                }
+                if self.q_ci95_rel.is_some() {
+                    bad(
+                        "q_ci95_rel",
+                        "is a silo target; a chute campaign sets d_ci95_rel".into(),
+                    );
+                }
+            }
+        }
+        for (field, v) in [
+            ("q_ci95_rel", self.q_ci95_rel),
+            ("d_ci95_rel", self.d_ci95_rel),
+        ] {
+            if let Some(v) = v {
+                if !(v > 0.0 && v < 1.0) {
+                    bad(
+                        field,
+                        format!("expected a fraction in (0, 1), e.g. 0.03, got {v}"),
+                    );
+                }
+            }
+        }
+        if self.max_replicas < replicas.max(1) {
+            bad(
+                "max_replicas",
+                format!(
+                    "expected at least the file's replicas ({}), got {}",
+                    replicas.max(1),
+                    self.max_replicas
+                ),
+            );
+        }
+        if let Some(t) = self.max_time_s {
+            if !(t >= own_time_s) {
+                bad(
+                    "max_time_s",
+                    format!("expected seconds >= the jobs' own time ({own_time_s} s), got {t}"),
+                );
+            }
+        }
+        if self.max_rounds == 0 {
+            bad("max_rounds", "expected at least 1 round".into());
+        }
+        out
+    }
+}

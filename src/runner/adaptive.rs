@@ -1,0 +1,338 @@
+//! A campaign's target, one round at a time: once every job of the campaign has ended, each
+//! point's replicas are combined exactly as the figures combine them, the points short of the
+//! target get their next piece of work (`campaign::adaptive::decide`), widest interval first,
+//! and the work is registered (a done job set to run on, or a new replica job) for the
+//! executor to run. Decisions read only finished results, so an interrupted and resumed
+//! campaign takes the same decisions as an uninterrupted one.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use anyhow::{Context, Result};
+use rusqlite::{Connection, TransactionBehavior};
+
+use crate::campaign::adaptive::{decide, Decision, PointState, RunState, Work};
+use crate::campaign::{point_key, CampaignFile, JobSpec, SceneKind, Target};
+use crate::observe::fits::{Pooled, PooledFrom};
+use crate::report::silo_points::{combine_replicas, CiSource, DischargeRow};
+use crate::scene::silo::SiloScene;
+use crate::store::silo_reads::done_discharge_rows;
+use crate::store::targets::{self, PointRow, TargetJob, WorkRow};
+
+/// What an evaluation of a campaign's target found.
+#[derive(Debug)]
+pub enum RoundOutcome {
+    /// Jobs of the campaign have not ended yet (pending, running or paused): nothing decided.
+    Unsettled(usize),
+    /// No work added: every point met the target or reached a cap.
+    Finished(Vec<PointRow>),
+    /// Work was added as round `round` (the executor runs it next).
+    Work {
+        round: u32,
+        work: Vec<WorkRow>,
+        points: Vec<PointRow>,
+    },
+}
+
+/// A point of the campaign: its key, its jobs (by id), and its label without a replica.
+struct Point<'a> {
+    key: String,
+    label: String,
+    jobs: Vec<&'a TargetJob>,
+}
+
+/// The label of a job without its `replica=K`.
+fn point_label(label: &str) -> String {
+    label
+        .split(',')
+        .filter(|p| !p.starts_with("replica="))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+fn points_of(jobs: &[TargetJob]) -> Vec<Point<'_>> {
+    let mut out: Vec<Point> = Vec::new();
+    for j in jobs {
+        let key = point_key(&j.params_json);
+        match out.iter_mut().find(|p| p.key == key) {
+            Some(p) => p.jobs.push(j),
+            None => out.push(Point {
+                key,
+                label: point_label(&j.label),
+                jobs: vec![j],
+            }),
+        }
+    }
+    out
+}
+
+fn spec_of(j: &TargetJob) -> Result<JobSpec> {
+    let mut s: JobSpec = serde_json::from_str(&j.params_json)
+        .with_context(|| format!("job {}: stored parameters unreadable", j.job_id))?;
+    s.label = j.label.clone();
+    Ok(s)
+}
+
+/// The point's state for the decision, and its stored row (without status and rounds).
+fn silo_point(
+    p: &Point,
+    rows: &BTreeMap<i64, &DischargeRow>,
+    filled: &BTreeSet<String>,
+    observable: &str,
+) -> Result<(PointState, PointRow, JobSpec)> {
+    let spec = spec_of(p.jobs[0])?;
+    let sp = spec.silo();
+    let scene = SiloScene::new(sp.clone()).map_err(|e| anyhow::anyhow!(e))?;
+    let d = &spec.observers.discharge;
+    let steps_per_s = sp.particle_count as f64 / scene.dt;
+    let done: Vec<DischargeRow> = p
+        .jobs
+        .iter()
+        .filter_map(|j| rows.get(&j.job_id).map(|r| (*r).clone()))
+        .collect();
+    let combined = combine_replicas(&done);
+    let estimate = combined.first().and_then(|fp| {
+        let ci = fp.ci?;
+        let from = match fp.ci_source {
+            CiSource::Pooled(f) => f,
+            _ => PooledFrom::Blocks,
+        };
+        Some(Pooled {
+            mean: fp.q,
+            ci95: ci,
+            se: f64::NAN,
+            dof: f64::NAN,
+            replicas: fp.replicas,
+            from,
+        })
+    });
+    let blocks_of = |r: &DischargeRow| {
+        r.q_blocks.map_or_else(
+            || {
+                ((r.sim_time_s - d.skip_initial_s) / d.block_s)
+                    .floor()
+                    .max(0.0)
+            },
+            |n| n as f64,
+        )
+    };
+    let weight: f64 = done
+        .iter()
+        .filter(|r| r.q_kg_per_s.is_some())
+        .map(blocks_of)
+        .sum();
+    let chunk_s = d.sample_interval_s;
+    let runs: Vec<RunState> = p
+        .jobs
+        .iter()
+        .map(|j| {
+            let end_s = j.target_time_s.max(sp.discharge_time_s);
+            let not_extendable = match rows.get(&j.job_id) {
+                None => Some(format!("job {} {}", j.job_id, j.status)),
+                Some(r) if r.permanently_clogged => {
+                    Some(format!("job {} clogged for good", j.job_id))
+                }
+                Some(_) if !sp.reinsert && j.sim_time_s < end_s - 1.5 * chunk_s => Some(format!(
+                    "job {} emptied the silo (stop_remaining_fraction)",
+                    j.job_id
+                )),
+                // Q's window stopped where the block rates drift: more time adds no blocks.
+                Some(r)
+                    if r.q_window_end_s().is_some_and(|t| {
+                        t < 0.8 * j.sim_time_s && t < j.sim_time_s - 3.0 * d.block_s
+                    }) =>
+                {
+                    Some(format!(
+                        "job {}: Q's window ends at {:.2} s of {:.2} s (M(t) not linear after)",
+                        j.job_id,
+                        r.q_window_end_s().unwrap_or(0.0),
+                        j.sim_time_s
+                    ))
+                }
+                Some(_) => None,
+            };
+            RunState {
+                job_id: j.job_id,
+                end_s,
+                not_extendable,
+            }
+        })
+        .collect();
+    // A new replica's fill is shared with the points that already filled that replica index.
+    let next = spec.replica(next_replica(p)?);
+    let fill = if filled.contains(&next.fill_key().0) {
+        0.0
+    } else {
+        sp.particle_count as f64 * sp.settle_max_time_s.min(1.0) / scene.dt
+    };
+    let state = PointState {
+        label: p.label.clone(),
+        estimate,
+        weight,
+        weight_per_s: 1.0 / d.block_s,
+        runs,
+        steps_per_s,
+        replica_cost: fill + steps_per_s * sp.discharge_time_s,
+        replica_weight: ((sp.discharge_time_s - d.skip_initial_s) / d.block_s)
+            .floor()
+            .max(0.0),
+        quantum_s: d.block_s,
+    };
+    let row = PointRow {
+        point: p.label.clone(),
+        observable: observable.into(),
+        mean: estimate.map(|e| e.mean),
+        ci95_rel: estimate.map(|e| e.ci95_rel()),
+        ci_from: combined.first().map(|fp| fp.ci_source.name().to_string()),
+        replicas: combined.first().map_or(0, |fp| fp.replicas),
+        runs: p.jobs.len(),
+        measured_s: p.jobs.iter().map(|j| j.sim_time_s).sum(),
+        particle_steps: p.jobs.iter().map(|j| j.particle_steps).sum(),
+        met: false,
+        status: String::new(),
+        rounds: 0,
+    };
+    Ok((state, row, spec))
+}
+
+/// The next replica index of a point: one past the largest it has.
+fn next_replica(p: &Point) -> Result<u32> {
+    let mut top = 0;
+    for j in &p.jobs {
+        let s = spec_of(j)?;
+        let r = s
+            .silo
+            .as_ref()
+            .map(|x| x.replica)
+            .or(s.chute.as_ref().map(|x| x.replica))
+            .unwrap_or(0);
+        top = top.max(r);
+    }
+    Ok(top + 1)
+}
+
+/// Evaluates campaign `campaign_id`'s target and, where points fall short, registers the next
+/// round of work. Stores every point's state (`target_points`) and the work (`target_work`).
+///
+/// # Errors
+/// Database errors, unreadable stored parameters, or a campaign without a target.
+pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcome> {
+    let file: CampaignFile = targets::campaign_file(conn, campaign_id)?
+        .with_context(|| format!("no campaign with id {campaign_id}"))?;
+    let target: Target = file
+        .target
+        .clone()
+        .with_context(|| format!("campaign '{}' has no target", file.name))?;
+    let jobs = targets::campaign_jobs(conn, campaign_id)?;
+    let open = jobs
+        .iter()
+        .filter(|j| !matches!(j.status.as_str(), "done" | "failed"))
+        .count();
+    if open > 0 {
+        return Ok(RoundOutcome::Unsettled(open));
+    }
+    if file.scene != SceneKind::Silo {
+        anyhow::bail!(
+            "campaign '{}': targets run on silo campaigns (q_ci95_rel); chute targets are not built yet",
+            file.name
+        );
+    }
+    let rows = done_discharge_rows(conn, campaign_id)?;
+    let by_job: BTreeMap<i64, &DischargeRow> = rows.iter().map(|r| (r.job_id, r)).collect();
+    let mut filled = BTreeSet::new();
+    for j in jobs.iter().filter(|j| j.status == "done") {
+        filled.insert(spec_of(j)?.fill_key().0);
+    }
+    let rounds_done = targets::rounds(conn, campaign_id)?;
+    let out_of_rounds = rounds_done >= target.max_rounds;
+    let mut rows_out = Vec::new();
+    let mut planned: Vec<(f64, usize, Decision, JobSpec, String)> = Vec::new();
+    for (k, p) in points_of(&jobs).iter().enumerate() {
+        let (state, mut row, spec) = silo_point(p, &by_job, &filled, target.observable())?;
+        let decision = decide(&state, &target);
+        row.rounds = rounds_done;
+        match &decision {
+            Decision::Met => {
+                row.met = true;
+                row.status = "met".into();
+            }
+            Decision::Capped(why) => row.status = format!("capped: {why}"),
+            Decision::Work { .. } if out_of_rounds => {
+                row.status = format!("capped: max_rounds = {} reached", target.max_rounds)
+            }
+            Decision::Work { ci_rel_before, .. } => {
+                row.status = "working".into();
+                let next = spec.replica(next_replica(p)?);
+                // Widest interval first (no estimate yet counts as the widest).
+                planned.push((
+                    ci_rel_before.unwrap_or(f64::INFINITY),
+                    k,
+                    decision.clone(),
+                    next,
+                    p.label.clone(),
+                ));
+            }
+        }
+        rows_out.push(row);
+    }
+    planned.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let round = rounds_done + 1;
+    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+    targets::save_points(&tx, campaign_id, &rows_out)?;
+    let mut work = Vec::new();
+    for (_, _, decision, next, label) in planned {
+        let Decision::Work {
+            work: w,
+            ci_rel_before,
+            ci_rel_expected,
+            cost,
+        } = decision
+        else {
+            continue;
+        };
+        let (job_id, action, from_s, to_s) = match w {
+            Work::Extend {
+                job_id,
+                from_s,
+                to_s,
+            } => {
+                anyhow::ensure!(
+                    targets::extend(&tx, job_id, to_s)?,
+                    "job {job_id} is not done: it cannot be run on"
+                );
+                (job_id, "extend", from_s, to_s)
+            }
+            Work::Replica => {
+                let id = targets::add_replica(
+                    &tx,
+                    campaign_id,
+                    &next,
+                    i64::from(file.run.max_attempts),
+                )?;
+                (id, "replica", 0.0, next.own_time_s())
+            }
+        };
+        let row = WorkRow {
+            round,
+            point: label,
+            job_id,
+            action: action.into(),
+            from_s,
+            to_s,
+            ci95_rel_before: ci_rel_before,
+            ci95_rel_expected: ci_rel_expected,
+            particle_steps_expected: cost,
+        };
+        targets::record_work(&tx, campaign_id, &row)?;
+        work.push(row);
+    }
+    tx.commit()?;
+    Ok(if work.is_empty() {
+        RoundOutcome::Finished(rows_out)
+    } else {
+        RoundOutcome::Work {
+            round,
+            work,
+            points: rows_out,
+        }
+    })
+}

@@ -1,0 +1,228 @@
+//! Campaign targets end to end (`"target"` in a campaign file): a tiny refilled silo whose two
+//! points are run on and replicated until Q's 95 % interval holds. The rounds stop at each
+//! point as soon as its interval is within the target and never add work to a point that
+//! already is; the work order and the results are the same run twice and after a kill and
+//! `sweep resume`; a job run on from its checkpoint gives the bits of the same job run longer
+//! from the start.
+
+mod common;
+
+use std::path::Path;
+
+use common::cli::*;
+use rusqlite::params;
+use serde_json::{json, Value};
+use sweep::observe::fits::{pool, ReplicaEstimate};
+use tempfile::TempDir;
+
+const GOAL: f64 = 0.06;
+
+/// Two points (D = 4.1 d, f = 0 and 1 Hz), 600 particles, 1 s each to start with.
+fn tiny_target() -> Value {
+    let mut c = campaign("tiny_target", &[0.024], &[0.0, 1.0], 0.2);
+    let base = c["base"].as_object_mut().unwrap();
+    base.insert("particle_count".into(), json!(600));
+    base.insert("discharge_time_s".into(), json!(1.0));
+    base.insert("reinsert".into(), json!(true));
+    c["target"] = json!({"q_ci95_rel": GOAL, "max_replicas": 3, "max_time_s": 3.0});
+    c
+}
+
+/// The work a target added, keyed by job hash (ids may differ between databases).
+fn work(db: &Path) -> Vec<Vec<String>> {
+    rows(
+        db,
+        "SELECT w.round, w.point, j.hash, w.action, w.from_s, w.to_s, w.ci95_rel_before,
+                w.ci95_rel_expected
+         FROM target_work w JOIN jobs j ON j.id = w.job_id ORDER BY w.id",
+    )
+}
+
+fn launch_target(dir: &Path) -> (std::path::PathBuf, String) {
+    let file = write_campaign(dir, "t.json", &tiny_target());
+    let db = dir.join("sweep.db");
+    let o = launch_ok(dir, &file, &db);
+    (db, stdout(&o))
+}
+
+#[test]
+fn each_point_gets_work_until_its_interval_holds_and_no_longer() {
+    let dir = TempDir::new().unwrap();
+    let (db, out) = launch_target(dir.path());
+    let conn = read_db(&db);
+    // No work was ever added to a point whose interval already held.
+    let mut q = conn
+        .prepare("SELECT point, round, ci95_rel_before FROM target_work ORDER BY id")
+        .unwrap();
+    let added: Vec<(String, i64, Option<f64>)> = q
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .unwrap()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert!(!added.is_empty(), "1 s runs cannot reach ±6 %:\n{out}");
+    for (point, round, before) in &added {
+        assert!(
+            before.is_none_or(|b| b > GOAL),
+            "round {round} added work to {point} at ±{before:?}, already within the target"
+        );
+    }
+    // Every point ended met, and its interval is the pooled interval of its replicas' Q.
+    let mut q = conn
+        .prepare("SELECT point, ci95_rel, met, status, replicas FROM target_points")
+        .unwrap();
+    let points: Vec<(String, Option<f64>, bool, String, i64)> = q
+        .query_map([], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?))
+        })
+        .unwrap()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert_eq!(points.len(), 2, "{points:?}");
+    for (point, ci, met, status, replicas) in &points {
+        assert!(*met && status == "met", "{point}: {status}\n{out}");
+        let f = if point.ends_with("=0.0") { 0.0 } else { 1.0 };
+        let mut q = conn
+            .prepare(
+                "SELECT s.q_kg_per_s, s.q_ci95_kg_per_s, s.q_blocks FROM discharge_summary s
+                 WHERE s.rotation_frequency_hz = ?1 AND s.q_kg_per_s IS NOT NULL",
+            )
+            .unwrap();
+        let est: Vec<ReplicaEstimate> = q
+            .query_map(params![f], |r| {
+                Ok(
+                    ReplicaEstimate::from_blocks(
+                        r.get(0)?,
+                        r.get(1)?,
+                        r.get::<_, i64>(2)? as usize,
+                    )
+                    .unwrap(),
+                )
+            })
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(est.len() as i64, *replicas, "{point}");
+        let p = pool(&est).unwrap();
+        let ci = ci.unwrap();
+        assert!(
+            (p.ci95_rel() - ci).abs() < 1e-12,
+            "{point}: {} vs {ci}",
+            p.ci95_rel()
+        );
+        assert!(ci <= GOAL, "{point}: ±{ci} is not within ±{GOAL}");
+    }
+    // The replicas the target added are the campaign's own: the same file launches again.
+    let again = launch_ok(dir.path(), &dir.path().join("t.json"), &db);
+    assert!(stdout(&again).contains("0 new"), "{}", stdout(&again));
+    assert_eq!(
+        work(&db).len(),
+        added.len(),
+        "no work added by a second launch"
+    );
+}
+
+#[test]
+fn the_rounds_take_the_same_work_in_the_same_order_twice_and_after_a_kill() {
+    let a = TempDir::new().unwrap();
+    let (db_a, _) = launch_target(a.path());
+    // Killed once the first round's work is running, then resumed.
+    let b = TempDir::new().unwrap();
+    let file = write_campaign(b.path(), "t.json", &tiny_target());
+    let db_b = b.path().join("sweep.db");
+    let mut child = spawn(
+        b.path(),
+        &[
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db_b.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ],
+        "launch.log",
+    );
+    let seen = wait_for(&mut child, "a round's work running", || {
+        db_b.exists()
+            && read_db(&db_b)
+                .query_row(
+                    "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
+                     WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
+                    [],
+                    |r| r.get::<_, i64>(0),
+                )
+                .unwrap_or(0)
+                > 0
+    });
+    assert!(seen, "the campaign ended before its first round ran");
+    kill(&mut child);
+    let o = resume(b.path(), &db_b);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert_eq!(work(&db_a), work(&db_b), "the target chose other work");
+    assert_same_results(&results(&db_a), &results(&db_b));
+}
+
+#[test]
+fn a_job_run_on_gives_the_bits_of_the_job_run_longer_from_the_start() {
+    let mut c = one_job(0.1);
+    c["base"]["reinsert"] = json!(true);
+    // Run to 0.4 s, then on to 0.7 s from its checkpoint.
+    let a = TempDir::new().unwrap();
+    let file = write_campaign(a.path(), "one.json", &c);
+    let db_a = a.path().join("sweep.db");
+    launch_ok(a.path(), &file, &db_a);
+    {
+        let mut conn = sweep::store::open(&db_a).unwrap();
+        let tx = conn.transaction().unwrap();
+        assert!(sweep::store::targets::extend(&tx, 1, 0.7).unwrap());
+        tx.commit().unwrap();
+    }
+    let o = resume(a.path(), &db_a);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    // The same job, told to run to 0.7 s before it ever ran.
+    let b = TempDir::new().unwrap();
+    let file = write_campaign(b.path(), "one.json", &c);
+    let db_b = b.path().join("sweep.db");
+    {
+        let (f, jobs) = sweep::campaign::load(&file).unwrap();
+        let mut conn = sweep::store::open(&db_b).unwrap();
+        sweep::store::jobs::register(&mut conn, "one.json", &f, &jobs, false).unwrap();
+        conn.execute("UPDATE jobs SET target_time_s = 0.7", [])
+            .unwrap();
+    }
+    let o = resume(b.path(), &db_b);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let (ra, rb) = (results(&db_a), results(&db_b));
+    assert!(
+        count(&db_a, "SELECT COUNT(*) FROM jobs WHERE sim_time_s > 0.69") > 0,
+        "the run on reached 0.7 s"
+    );
+    assert_same_results(&ra, &rb);
+}
+
+#[test]
+fn a_target_that_does_not_fit_the_campaign_is_refused_by_field() {
+    let dir = TempDir::new().unwrap();
+    let mut c = tiny_target();
+    c["target"] = json!({"d_ci95_rel": 0.1, "max_replicas": 0, "max_time_s": 0.5});
+    let file = write_campaign(dir.path(), "bad.json", &c);
+    let o = sweep_cmd(dir.path())
+        .args(["launch", file.to_str().unwrap(), "--db", "x.db"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    for field in [
+        "target.q_ci95_rel",
+        "target.d_ci95_rel",
+        "target.max_replicas",
+        "target.max_time_s",
+    ] {
+        assert!(
+            e.contains(&format!("bad.json: {field}")),
+            "{field} not named:\n{e}"
+        );
+    }
+    assert!(!dir.path().join("x.db").exists(), "nothing registered");
+}
