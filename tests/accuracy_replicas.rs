@@ -1,0 +1,78 @@
+//! The accuracy map's statistic (`report::accuracy_shift`) on a real measurement: the normal
+//! restitution of a head-on Hertz–Mindlin collision of two spheres (the silo's contact law,
+//! e = 0.5), measured by the engine at n_c = t_c/dt = 100 (the reference) and at n_c = 5.
+//! "Replicas" are collisions at random impact speeds (0.1–2 m/s) and random phases of the
+//! first touch within a step, drawn from a seeded stream; each gives one e without an error of
+//! its own, so each side's interval comes from its replicas' spread.
+//!
+//! - A second, independent set of n_c = 100 replicas is the reference's setting again: its shift
+//!   interval covers zero ("within noise").
+//! - n_c = 5 integrates the contact in five velocity-Verlet steps, which misses part of the
+//!   damping's work and of the force's peak: its restitution is biased, and its interval excludes
+//!   zero ("shifted").
+//!
+//! A failure of the first means the interval is too narrow (or the engine not repeatable); of
+//! the second, that the statistic cannot see a bias of the integrator.
+
+mod common;
+
+use common::Noise;
+use sweep::engine::contact::{ContactLaw, Elasticity, NormalModel};
+use sweep::engine::CpuEngine;
+use sweep::report::accuracy_shift::{bare_replica, shift_of_replicas};
+
+const R: f64 = 0.0029;
+const RHO: f64 = 2655.0;
+const E_N: f64 = 0.5;
+
+fn hertz() -> ContactLaw {
+    ContactLaw {
+        normal: NormalModel::Hertz(Elasticity::YoungShear {
+            youngs_modulus_pa: 3.0e7,
+            shear_modulus_pa: 1.0e6,
+        }),
+        restitution: E_N,
+        tangential_restitution: E_N,
+        friction: 0.0,
+    }
+}
+
+/// `replicas` collisions at n_c, each at a random speed and phase drawn from `seed`; their e.
+fn restitutions(n_c: f64, replicas: usize, seed: u64) -> Vec<f64> {
+    let mut noise = Noise::new(seed);
+    (0..replicas)
+        .map(|_| {
+            // Speeds log-uniform in [0.1, 2] m/s, phases uniform in [0, 1).
+            let v = 0.1 * 20f64.powf(0.5 + 0.5 * noise.next());
+            let phase = 0.5 + 0.5 * noise.next();
+            let (config, state) = common::collision::head_on_phased(hertz(), v, n_c, R, RHO, phase);
+            common::collision::collide(&mut CpuEngine::new(config, state, 1), v, R).0
+        })
+        .collect()
+}
+
+#[test]
+fn restitution_at_coarse_dt_is_shifted_and_a_replica_set_of_the_reference_is_not() {
+    let reference = restitutions(100.0, 8, 1);
+    let again = restitutions(100.0, 8, 2);
+    let coarse = restitutions(5.0, 8, 3);
+    // The reference is the law's target (e_n within 1 %: `tests/engine_collisions.rs`).
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    assert!((mean(&reference) - E_N).abs() < 0.01 * E_N, "{reference:?}");
+    let bare = |x: &[f64]| x.iter().copied().map(bare_replica).collect::<Vec<_>>();
+    let same = shift_of_replicas(&bare(&again), &bare(&reference)).unwrap();
+    let biased = shift_of_replicas(&bare(&coarse), &bare(&reference)).unwrap();
+    assert!(
+        same.within_noise(),
+        "n_c = 100 against itself: shift {:.2e} ± {:.2e}",
+        same.rel,
+        same.ci95_rel
+    );
+    assert!(
+        !biased.within_noise(),
+        "n_c = 5: shift {:.2e} ± {:.2e}",
+        biased.rel,
+        biased.ci95_rel
+    );
+    assert_eq!((biased.replicas, biased.reference_replicas), (8, 8));
+}
