@@ -595,12 +595,10 @@ pub(crate) fn accuracy(
         Axis::log("wall time per replica (s)"),
         Axis::linear(format!("shift of {name} against the reference (%)")),
     );
-    p.title = Some(format!(
-        "{name}: shift ± 95 % CI vs cost ({replicas} replicas per setting)"
-    ));
+    p.title = Some(format!("{name}: shift ± 95 % CI vs cost"));
     p.notes = vec![
         format!(
-            "n = replicas pooled; reference: {} replicas",
+            "n = replicas pooled ({replicas} per setting; reference: {})",
             pooled_count(r0)
         ),
         "within noise: the CI covers 0".into(),
@@ -648,11 +646,10 @@ pub(crate) fn accuracy(
     let panels = vec![p, ov];
     let fig = Figure {
         title: Some(format!(
-            "Accuracy vs cost, campaign {}: shift of {name} against setting {} ({} replicas \
-             each; reference {})",
+            "Accuracy vs cost, campaign {}: shift of {name} against setting {} (replicas per \
+             setting: {replicas}; reference: {})",
             campaign.name,
             r0 + 1,
-            replicas,
             pooled_count(r0)
         )),
         columns: panels.len(),
