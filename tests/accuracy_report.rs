@@ -176,3 +176,88 @@ fn a_bad_precision_is_refused_with_its_path() {
         "{e}"
     );
 }
+
+/// A chute accuracy campaign of one replica per setting: the bulk D of a job is the mean of D_z
+/// over its central blocks (0.2 H < z < 0.8 H) with the standard error √(Σ se²)/n of their
+/// window errors (4 windows: 3 degrees of freedom); the shift's interval is Welch's from the
+/// two jobs' errors. Blocks outside the centre (one without an error) are left out.
+#[test]
+fn a_chute_setting_of_one_replica_uses_its_window_errors() {
+    let text = r#"{"name": "accc", "scene": "chute", "base": {"measure_time_s": 8.0},
+                   "zip": {"contact_steps": [100, 50, 10]}}"#;
+    let c = CampaignFile::parse_str(text, "accc.json").unwrap();
+    let jobs = expand(&c, "accc.json").unwrap();
+    let dir = tempfile::TempDir::new().unwrap();
+    let mut conn = sweep::store::open(&dir.path().join("c.db")).unwrap();
+    sweep::store::jobs::register(&mut conn, "accc.json", &c, &jobs, false).unwrap();
+    // D_z (m²/s) and its standard error per block at z = 0.1, 0.3, 0.5, 0.7, 0.9 m (H = 1 m).
+    let d: [[f64; 5]; 3] = [
+        [9.0, 1.00, 1.10, 0.90, 5.0],
+        [9.0, 1.02, 1.06, 0.98, 5.0],
+        [9.0, 1.30, 1.40, 1.20, 5.0],
+    ];
+    let se = [0.03, 0.04, 0.05];
+    for (k, j) in jobs.iter().enumerate() {
+        let id: i64 = conn
+            .query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| {
+                r.get(0)
+            })
+            .unwrap();
+        conn.execute(
+            "UPDATE jobs SET status = 'done', wall_time_s = ?2, particle_steps = 1000000 WHERE id = ?1",
+            params![id, 100.0 / (k + 1) as f64],
+        )
+        .unwrap();
+        conn.execute(
+            "INSERT INTO chute_summary (job_id, aspect_ratio, inclination_deg, total_length_m, diameter_m,
+                particles, bed_height_m, measure_start_s, measure_end_s, samples, msd_fit_min_lag_s,
+                msd_fit_max_lag_s, mean_cos_theta, d_perp_m, cg_width_m, steady)
+             VALUES (?1, 1.5, 30, 0.1, 0.05, 500, 1.0, 10, 18, 160, 1, 3, 0.5, 0.06, 0.025, 1)",
+            params![id],
+        )
+        .unwrap();
+        for (b, z) in [0.1, 0.3, 0.5, 0.7, 0.9].iter().enumerate() {
+            let err = (b > 0).then_some(se[(b + k) % 3]);
+            conn.execute(
+                "INSERT INTO chute_blocks (job_id, block, z_m, diffusion_m2_per_s,
+                    diffusion_stderr_m2_per_s, shear_rate_per_s, velocity_x_m_per_s,
+                    solid_fraction, mean_particles)
+                 VALUES (?1, ?2, ?3, ?4, ?5, 2.0, 1.0, 0.5, 40)",
+                params![id, b as i64, z, d[k][b], err],
+            )
+            .unwrap();
+        }
+    }
+    let out = dir.path().join("figs");
+    let rep = render_figure(&conn, "accuracy", Some("accc"), &out).unwrap();
+    let csv = std::fs::read_to_string(out.join("chute_accuracy.csv")).unwrap();
+    let mut lines = csv.lines().map(csv_cells);
+    let header = lines.next().unwrap();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no {name} column in {header:?}"))
+    };
+    let rows: Vec<Vec<String>> = lines.collect();
+    assert_eq!(rows.len(), 3, "{}", rep.table);
+    // Each central triple has the errors 0.03, 0.04, 0.05 in some order.
+    let se_job = (0.03f64.powi(2) + 0.04f64.powi(2) + 0.05f64.powi(2)).sqrt() / 3.0;
+    let half = student_t_975(6) * (2.0 * se_job * se_job).sqrt();
+    let bulk = |k: usize| (d[k][1] + d[k][2] + d[k][3]) / 3.0;
+    let ci_ref: f64 = rows[0][col("ci95_D_pct")].parse().unwrap();
+    assert!(
+        (ci_ref - 100.0 * student_t_975(3) * se_job / bulk(0)).abs() < 6e-3,
+        "the reference's own interval: {ci_ref}"
+    );
+    for (k, verdict) in [(1, "within noise"), (2, "shifted")] {
+        let row = &rows[k];
+        let shift: f64 = row[col("shift_D_pct")].parse().unwrap();
+        let ci: f64 = row[col("ci95_D_pct")].parse().unwrap();
+        let expect = 100.0 * (bulk(k) - bulk(0)) / bulk(0);
+        assert!((shift - expect).abs() < 6e-3, "{shift} vs {expect}");
+        assert!((ci - 100.0 * half / bulk(0)).abs() < 6e-3, "{ci}");
+        assert_eq!(row[col("verdict")], verdict);
+        assert_eq!(row[col("replicas")], "1");
+    }
+}
