@@ -660,3 +660,28 @@ pub(crate) fn accuracy(
     let files = write_all(&fig, &table, out_dir, &stem)?;
     Ok(Drawn { text, files })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_split_outside_brackets() {
+        assert_eq!(
+            split_label("contact_steps=50,origin_m=[100.0,0.0,0.0],precision=\"f32\",replica=1"),
+            [
+                "contact_steps=50",
+                "origin_m=[100.0,0.0,0.0]",
+                "precision=\"f32\"",
+                "replica=1"
+            ]
+        );
+    }
+
+    #[test]
+    fn replica_counts_read_as_one_number_or_a_range() {
+        assert_eq!(replica_range([4, 4].into_iter()), "4");
+        assert_eq!(replica_range([1, 4, 3].into_iter()), "1–4");
+        assert_eq!(replica_range(std::iter::empty()), "0");
+    }
+}
