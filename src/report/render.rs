@@ -49,7 +49,7 @@ const SILO_FIGURES: [(&str, &str); 11] = [
     ),
     (
         "accuracy",
-        "error of Q vs wall time per numerical setting (accuracy campaign)",
+        "shift of Q ± 95 % CI (replicas pooled) vs wall time per numerical setting (accuracy campaign)",
     ),
 ];
 
@@ -81,7 +81,7 @@ const CHUTE_FIGURES: [(&str, &str); 7] = [
     ),
     (
         "accuracy",
-        "error of D(z) and shear rate(z) vs wall time per numerical setting (accuracy campaign)",
+        "shift of the bulk D ± 95 % CI (replicas pooled) vs wall time per numerical setting (accuracy campaign)",
     ),
 ];
 

@@ -347,6 +347,9 @@ pub struct BlockTransport {
     pub z_m: f64,
     /// D_z, m²/s; None when the block had too few particles.
     pub diffusion_m2_per_s: Option<f64>,
+    /// Standard error of D_z from the `msd_error_windows` time windows, m²/s; None when a
+    /// window was shorter than the longest fitted lag.
+    pub diffusion_stderr_m2_per_s: Option<f64>,
     /// dV_x/dz averaged over the block, 1/s.
     pub shear_rate_per_s: f64,
 }
@@ -357,7 +360,8 @@ pub struct BlockTransport {
 /// On a database error.
 pub fn block_transport(conn: &Connection, job_id: i64) -> Result<Vec<BlockTransport>> {
     let mut st = conn.prepare(
-        "SELECT block, z_m, diffusion_m2_per_s, shear_rate_per_s FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
+        "SELECT block, z_m, diffusion_m2_per_s, diffusion_stderr_m2_per_s, shear_rate_per_s \
+         FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
     )?;
     let rows = st
         .query_map([job_id], |r| {
@@ -365,7 +369,8 @@ pub fn block_transport(conn: &Connection, job_id: i64) -> Result<Vec<BlockTransp
                 block: r.get(0)?,
                 z_m: r.get(1)?,
                 diffusion_m2_per_s: r.get(2)?,
-                shear_rate_per_s: r.get(3)?,
+                diffusion_stderr_m2_per_s: r.get(3)?,
+                shear_rate_per_s: r.get(4)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -6,6 +6,19 @@ use sweep::engine::{Backend, EngineConfig, State};
 /// Two spheres of radius `r` and density `rho` approaching at relative speed `v` along x, touching
 /// after about 5 steps, with dt = t_c / n_c (t_c at speed `v`). No gravity, no walls.
 pub fn head_on(law: ContactLaw, v: f64, n_c: f64, r: f64, rho: f64) -> (EngineConfig, State<f64>) {
+    head_on_phased(law, v, n_c, r, rho, 0.0)
+}
+
+/// As `head_on`, with the touch delayed by `phase` (a fraction of a step, in [0, 1)): where
+/// within a step the contact begins, which a coarse step resolves differently.
+pub fn head_on_phased(
+    law: ContactLaw,
+    v: f64,
+    n_c: f64,
+    r: f64,
+    rho: f64,
+    phase: f64,
+) -> (EngineConfig, State<f64>) {
     let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
     let tc = contact_time(
         &law,
@@ -25,7 +38,7 @@ pub fn head_on(law: ContactLaw, v: f64, n_c: f64, r: f64, rho: f64) -> (EngineCo
             0
         },
     );
-    let gap = 0.5 * v * 5.0 * dt;
+    let gap = v * (2.5 + phase) * dt;
     s.push_sphere(
         0,
         [-(r + gap / 2.0), 0.0, 0.0],
