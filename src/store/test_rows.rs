@@ -66,6 +66,9 @@ pub(crate) struct Summary {
     pub clogs: i64,
     pub clogged_time_s: f64,
     pub permanently_clogged: bool,
+    /// Blocks Q is the mean of (`discharge_summary.q_blocks`); None as in rows from before
+    /// schema 8 (replicas then combine by their spread, not their pooled blocks).
+    pub q_blocks: Option<i64>,
 }
 
 pub(crate) fn discharge_summary(conn: &Connection, job: i64, s: &Summary) {
@@ -73,7 +76,8 @@ pub(crate) fn discharge_summary(conn: &Connection, job: i64, s: &Summary) {
         "INSERT INTO discharge_summary (job_id, orifice_diameter_m, rotation_frequency_hz, \
          particle_diameter_m, bulk_density_kg_per_m3, q_kg_per_s, q_ci95_kg_per_s, q_method, \
          flowing_time_s, discharged_mass_kg, discharged_count, clogs, clogged_time_s, \
-         permanently_clogged) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, 'synthetic', ?8, ?9, ?10, ?11, ?12, ?13)",
+         permanently_clogged, q_blocks) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, 'synthetic', ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
         params![
             job,
             s.d,
@@ -88,6 +92,7 @@ pub(crate) fn discharge_summary(conn: &Connection, job: i64, s: &Summary) {
             s.clogs,
             s.clogged_time_s,
             s.permanently_clogged,
+            s.q_blocks,
         ],
     )
     .expect("insert summary");
