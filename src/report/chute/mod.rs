@@ -10,6 +10,7 @@
 
 pub(crate) mod data;
 mod profiles;
+pub(crate) mod replicas;
 mod scaling;
 mod velocity;
 
@@ -27,6 +28,7 @@ use crate::report::chute::data::{
     block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, left_out_chute_jobs,
     ChuteJob, CurveTable,
 };
+use crate::report::chute::replicas::replicas_of;
 use crate::report::silo::data::spread;
 
 pub(crate) use crate::report::chute::profiles::{fig3, fig4};
@@ -72,8 +74,9 @@ pub(crate) fn showcase_jobs(jobs: &[ChuteJob]) -> Vec<&ChuteJob> {
     out
 }
 
-/// Text naming the showcase jobs that a figure draws.
-pub(crate) fn showcase_note(shown: &[&ChuteJob]) -> String {
+/// Text naming the showcase jobs that a figure draws and, for a point with replicas among
+/// `jobs`, that the curves are this one replica's.
+pub(crate) fn showcase_note(shown: &[&ChuteJob], jobs: &[ChuteJob]) -> String {
     let mut text = String::from(
         "showcase jobs (done job with xi closest to 1.3 then alpha closest to 27 deg; \
          xi closest to 2.5 then alpha closest to 30 deg):",
@@ -89,6 +92,14 @@ pub(crate) fn showcase_note(shown: &[&ChuteJob]) -> String {
             short(j.inclination_deg),
             j.label
         );
+        let n = replicas_of(jobs, j).len();
+        if n > 1 {
+            let _ = write!(
+                text,
+                " (1 of its point's {n} replicas: its curves; block values over replicas in \
+                 fig3/fig4/fig6 and the skewness of fig5)"
+            );
+        }
     }
     if !shown.is_empty() {
         text.push('\n');
@@ -185,7 +196,7 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
-    text.push_str(&showcase_note(&shown));
+    text.push_str(&showcase_note(&shown, &jobs));
     text.push_str(
         "MSD_z(tau) per block from chute_msd, up to 8 blocks per panel spread over the bed; \
          D and its fit R from chute_blocks (fit lag range per job below)\n",

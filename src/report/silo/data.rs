@@ -198,8 +198,7 @@ pub fn replica_label(replicas: usize) -> Option<String> {
 }
 
 /// The figure note that explains [`replica_label`]'s texts.
-pub const REPLICA_NOTE: &str =
-    "n=K beside a point: K replicas combined (95 % CI pooled over their blocks, or over them)";
+pub const REPLICA_NOTE: &str = "n=K beside a point: K replicas combined; bars: their 95 % CI";
 
 /// The points at which every run clogged before Q could be measured (no replica has Q).
 pub fn clogged_points(rows: &[DischargeRow]) -> Vec<CloggedPoint> {
