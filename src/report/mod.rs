@@ -26,5 +26,5 @@ pub use index::{render_all, AllFigures};
 pub use missing::{campaign_completion, Completion};
 pub use plot::{Axis, Figure, Legend, Panel, Scale, Series, SeriesKind};
 pub use render::{figures_of, render_figure, render_figure_with, FigureReport, FIGURES};
-pub use silo::data::{pooled_q_points, CiSource, FlowPoint};
+pub use silo::data::{pooled_q_points, CiSource, FlowPoint, QPoint};
 pub use table::Table;

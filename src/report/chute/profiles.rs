@@ -29,6 +29,9 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     profiles(conn, campaign, out_dir, 4, 2.5)
 }
 
+/// One height of a drawn profile: (z/L, value, half-width of its 95 % CI, replicas).
+type ProfilePoint = (f64, f64, Option<f64>, usize);
+
 /// The largest finite value of `points` (by y) as (x, y); None when there is none.
 fn max_point(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     points
@@ -136,7 +139,7 @@ fn profiles(
                 let l = point.total_length_m;
                 let l2 = l * l;
                 // (z/L, D/L², CI/L² (finite), replicas with a D)
-                let d: Vec<(f64, f64, Option<f64>, usize)> = point
+                let d: Vec<ProfilePoint> = point
                     .blocks
                     .iter()
                     .filter_map(|b| {
@@ -145,21 +148,20 @@ fn profiles(
                         Some((b.z_m / l, p.mean / l2, ci, p.replicas))
                     })
                     .collect();
-                let (shear, from): (Vec<(f64, f64, Option<f64>, usize)>, &str) =
-                    if point.shear_field.is_empty() {
-                        let b = point.blocks.iter().map(|b| {
-                            let g = b.shear_rate;
-                            (b.z_m / l, g.mean, g.ci95, g.replicas)
-                        });
-                        (b.collect(), "blocks")
-                    } else {
-                        let f = point
-                            .shear_field
-                            .iter()
-                            .map(|&(z, g)| (z / l, g.mean, g.ci95, g.replicas));
-                        (f.collect(), "fields")
-                    };
-                let xy = |v: &[(f64, f64, Option<f64>, usize)]| -> Vec<(f64, f64)> {
+                let (shear, from): (Vec<ProfilePoint>, &str) = if point.shear_field.is_empty() {
+                    let b = point.blocks.iter().map(|b| {
+                        let g = b.shear_rate;
+                        (b.z_m / l, g.mean, g.ci95, g.replicas)
+                    });
+                    (b.collect(), "blocks")
+                } else {
+                    let f = point
+                        .shear_field
+                        .iter()
+                        .map(|&(z, g)| (z / l, g.mean, g.ci95, g.replicas));
+                    (f.collect(), "fields")
+                };
+                let xy = |v: &[ProfilePoint]| -> Vec<(f64, f64)> {
                     v.iter().map(|p| (p.0, p.1)).collect()
                 };
                 let d_max = max_point(&xy(&d));
@@ -182,9 +184,7 @@ fn profiles(
                     label.clone(),
                 ]);
                 let c = color(i);
-                let mut add = |quantity: &str,
-                               pts: &[(f64, f64, Option<f64>, usize)],
-                               max: Option<(f64, f64)>| {
+                let mut add = |quantity: &str, pts: &[ProfilePoint], max: Option<(f64, f64)>| {
                     // A non-positive maximum cannot normalise the profile: it is listed, not drawn.
                     let max = max.map(|m| m.1).filter(|m| *m > 0.0);
                     let mut norm = Vec::new();

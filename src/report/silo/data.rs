@@ -156,6 +156,10 @@ fn combine_group(group: &[&DischargeRow]) -> Option<FlowPoint> {
     })
 }
 
+/// One silo point as [`pooled_q_points`] gives it: (point key, label without `replica=K`, the
+/// point's done jobs, its combined Q).
+pub type QPoint = (String, String, Vec<i64>, Option<FlowPoint>);
+
 /// Every point of the campaign's done silo jobs with the flow rate Fig. 3–5 draw for it, as
 /// (point key (`campaign::point_key`), its label without `replica=K`, the point's done jobs
 /// (with or without Q), its combined Q (None when no replica has Q)): the
@@ -168,7 +172,7 @@ fn combine_group(group: &[&DischargeRow]) -> Option<FlowPoint> {
 pub fn pooled_q_points(
     conn: &rusqlite::Connection,
     campaign_id: i64,
-) -> anyhow::Result<Vec<(String, String, Vec<i64>, Option<FlowPoint>)>> {
+) -> anyhow::Result<Vec<QPoint>> {
     let rows = done_discharge_rows(conn, campaign_id)?;
     Ok(points_of(&rows)
         .iter()
