@@ -6,7 +6,10 @@
 //! L = chute_summary.total_length_m of each job, so D is in L²/s, as the paper plots.
 //!
 //! Figs. 2, 5 and 7 show the paper's two showcase cases: the done job with ξ closest to 1.3 (then
-//! α closest to 27°) and the one with ξ closest to 2.5 (then α closest to 30°).
+//! α closest to 27°) and the one with ξ closest to 2.5 (then α closest to 30°); their curves are
+//! that one job's, the text says how many replicas its point has. Figs. 3, 4, 6 and Fig. 5's
+//! skewness combine the steady replicas of a point (`replicas`): D pooled with its 95 % CI, the
+//! other block values their mean.
 
 pub(crate) mod data;
 mod profiles;

@@ -46,8 +46,9 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     text.push_str(&showcase_note(&shown, &jobs));
     text.push_str(
         "PDF of (v_z - <v_z>)/std per block from chute_vz_pdf (up to 8 blocks per panel), grey: \
-         the standard Gaussian; skewness and std from chute_blocks; pdf_area = trapezoid \
-         integral over the bins\n",
+         the standard Gaussian; std from chute_blocks of the showcase job; skewness vs height: \
+         the mean over the steady replicas of its point (95 % Student-t bars from 2 replicas \
+         on, n=K beside a point); pdf_area = trapezoid integral over the bins\n",
     );
     let mut table = Table::new(&[
         "xi",
