@@ -321,9 +321,12 @@ fn fig3_and_fig4_normalise_by_the_maxima_at_the_paper_xi() {
         let mut d_max = f64::NEG_INFINITY;
         let mut labels = std::collections::BTreeSet::new();
         for line in csv.lines().skip(1) {
-            // xi, alpha_deg, quantity, z_over_L, value, value_over_max
+            // xi, alpha_deg, quantity, z_over_L, value, value_over_max, ci95, ci95_over_max,
+            // replicas
             let (label, cells) = csv_cells(line);
             assert_eq!(cells[0], xi.to_string(), "{line}");
+            // One run per point here: no replicas to combine, no interval over them.
+            assert_eq!(cells.last(), Some(&"1"), "replicas: {line}");
             labels.insert(label.to_string());
             if cells[2] == "D_L2_per_s" {
                 let r: f64 = cells[5].parse().expect("ratio");

@@ -95,6 +95,10 @@ pub struct ChuteJob {
     pub msd_fit_lags_s: (f64, f64),
     /// d_⊥, m.
     pub d_perp_m: f64,
+    /// jobs.params_json (its `campaign::point_key` groups replicas).
+    pub params_json: String,
+    /// Length of the measurement, measure_end_s − measure_start_s, s.
+    pub measure_s: f64,
 }
 
 /// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
@@ -113,7 +117,8 @@ pub fn done_chute_jobs(
     let mut stmt = conn.prepare(
         "SELECT j.id, cj.label, s.aspect_ratio, s.inclination_deg, s.total_length_m, \
                 s.bed_height_m, s.steady, s.msd_fit_min_lag_s, \
-                s.msd_fit_max_lag_s, s.d_perp_m, f.state \
+                s.msd_fit_max_lag_s, s.d_perp_m, f.state, j.params_json, \
+                s.measure_end_s - s.measure_start_s \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN chute_summary s ON s.job_id = j.id \
@@ -138,7 +143,31 @@ pub fn done_chute_jobs(
                 flow_state,
                 msd_fit_lags_s: (r.get(7)?, r.get(8)?),
                 d_perp_m: r.get(9)?,
+                params_json: r.get(11)?,
+                measure_s: r.get(12)?,
             })
+        })?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows)
+}
+
+/// Every done job of the campaign as (job id, label, params_json), by job id: what groups
+/// a chute campaign's jobs into points (with or without a summary).
+///
+/// # Errors
+/// On a database error.
+pub fn done_campaign_jobs(
+    conn: &Connection,
+    campaign_id: i64,
+) -> Result<Vec<(i64, String, String)>> {
+    let mut stmt = conn.prepare(
+        "SELECT j.id, cj.label, j.params_json FROM campaign_jobs cj \
+         JOIN jobs j ON j.id = cj.job_id \
+         WHERE cj.campaign_id = ?1 AND j.status = 'done' ORDER BY j.id",
+    )?;
+    let rows = stmt
+        .query_map(params![campaign_id], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?))
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
     Ok(rows)
@@ -210,10 +239,17 @@ pub struct BlockRow {
     pub z_m: f64,
     /// D_z, m²/s; None when the block had too few particles.
     pub diffusion_m2_per_s: Option<f64>,
+    /// Standard error of D_z from the measurement's `msd_error_windows` time windows, m²/s;
+    /// None when a window was shorter than the longest fitted lag.
+    pub diffusion_stderr_m2_per_s: Option<f64>,
     /// Correlation coefficient of the MSD fit.
     pub msd_fit_r: Option<f64>,
     /// dV_x/dz averaged over the block, 1/s.
     pub shear_rate_per_s: f64,
+    /// V_x averaged over the block, m/s.
+    pub velocity_x_m_per_s: f64,
+    /// Solid fraction φ averaged over the block.
+    pub solid_fraction: f64,
     /// Standard deviation of v_z, m/s.
     pub vz_std_m_per_s: Option<f64>,
     /// Skewness of v_z.
@@ -229,7 +265,8 @@ pub struct BlockRow {
 pub fn blocks(conn: &Connection, job_id: i64) -> Result<Vec<BlockRow>> {
     let mut stmt = conn.prepare(
         "SELECT block, z_m, diffusion_m2_per_s, msd_fit_r, shear_rate_per_s, vz_std_m_per_s, \
-                vz_skewness, correlation_length_m \
+                vz_skewness, correlation_length_m, diffusion_stderr_m2_per_s, \
+                velocity_x_m_per_s, solid_fraction \
          FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
     )?;
     let rows = stmt
@@ -243,6 +280,9 @@ pub fn blocks(conn: &Connection, job_id: i64) -> Result<Vec<BlockRow>> {
                 vz_std_m_per_s: r.get(5)?,
                 vz_skewness: r.get(6)?,
                 correlation_length_m: r.get(7)?,
+                diffusion_stderr_m2_per_s: r.get(8)?,
+                velocity_x_m_per_s: r.get(9)?,
+                solid_fraction: r.get(10)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -82,7 +82,10 @@ impl Pooled {
 }
 
 /// Two-sided 95 % t quantile at fractional degrees of freedom, rounded down (conservative).
+/// A dof within 1e-9 below an integer (Welch–Satterthwaite's 9 computed as 8.999…) counts as
+/// that integer.
 pub fn t_975(dof: f64) -> f64 {
+    let dof = dof + 1e-9;
     if !(dof >= 1.0) {
         return f64::INFINITY;
     }

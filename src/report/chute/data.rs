@@ -5,8 +5,8 @@
 //! figure draws. Read-only; no plotting here.
 
 pub use crate::store::chute_reads::{
-    block_curves, blocks, done_chute_jobs, done_without_summary, left_out_chute_jobs,
-    shear_profile, BlockRow, ChuteJob, CurveTable,
+    block_curves, blocks, done_campaign_jobs, done_chute_jobs, done_without_summary,
+    left_out_chute_jobs, shear_profile, BlockRow, ChuteJob, CurveTable,
 };
 
 use crate::report::silo::data::same_value;
@@ -48,6 +48,8 @@ mod tests {
             flow_state: Some("steady".into()),
             msd_fit_lags_s: (1.0, 10.0),
             d_perp_m: 0.1,
+            params_json: "{}".into(),
+            measure_s: 240.0,
         }
     }
 

@@ -6,10 +6,14 @@
 //! L = chute_summary.total_length_m of each job, so D is in L²/s, as the paper plots.
 //!
 //! Figs. 2, 5 and 7 show the paper's two showcase cases: the done job with ξ closest to 1.3 (then
-//! α closest to 27°) and the one with ξ closest to 2.5 (then α closest to 30°).
+//! α closest to 27°) and the one with ξ closest to 2.5 (then α closest to 30°); their curves are
+//! that one job's, the text says how many replicas its point has. Figs. 3, 4, 6 and Fig. 5's
+//! skewness combine the steady replicas of a point (`replicas`): D pooled with its 95 % CI, the
+//! other block values their mean.
 
 pub(crate) mod data;
 mod profiles;
+pub(crate) mod replicas;
 mod scaling;
 mod velocity;
 
@@ -27,6 +31,7 @@ use crate::report::chute::data::{
     block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, left_out_chute_jobs,
     ChuteJob, CurveTable,
 };
+use crate::report::chute::replicas::{combine_point, replicas_of};
 use crate::report::silo::data::spread;
 
 pub(crate) use crate::report::chute::profiles::{fig3, fig4};
@@ -72,8 +77,9 @@ pub(crate) fn showcase_jobs(jobs: &[ChuteJob]) -> Vec<&ChuteJob> {
     out
 }
 
-/// Text naming the showcase jobs that a figure draws.
-pub(crate) fn showcase_note(shown: &[&ChuteJob]) -> String {
+/// Text naming the showcase jobs that a figure draws and, for a point with replicas among
+/// `jobs`, that the curves are this one replica's.
+pub(crate) fn showcase_note(shown: &[&ChuteJob], jobs: &[ChuteJob]) -> String {
     let mut text = String::from(
         "showcase jobs (done job with xi closest to 1.3 then alpha closest to 27 deg; \
          xi closest to 2.5 then alpha closest to 30 deg):",
@@ -89,6 +95,14 @@ pub(crate) fn showcase_note(shown: &[&ChuteJob]) -> String {
             short(j.inclination_deg),
             j.label
         );
+        let n = replicas_of(jobs, j).len();
+        if n > 1 {
+            let _ = write!(
+                text,
+                " (1 of its point's {n} replicas: its curves; block values over replicas in \
+                 fig3/fig4/fig6 and the skewness of fig5)"
+            );
+        }
     }
     if !shown.is_empty() {
         text.push('\n');
@@ -185,10 +199,11 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
-    text.push_str(&showcase_note(&shown));
+    text.push_str(&showcase_note(&shown, &jobs));
     text.push_str(
         "MSD_z(tau) per block from chute_msd, up to 8 blocks per panel spread over the bed; \
-         D and its fit R from chute_blocks (fit lag range per job below)\n",
+         D and its fit R from chute_blocks (fit lag range per job below); D_point: D of the \
+         block pooled over the steady replicas of the job's point, with its 95 % CI\n",
     );
     let mut table = Table::new(&[
         "xi",
@@ -200,6 +215,9 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         "MSD_end_L2",
         "D_L2/s",
         "fit_R",
+        "D_point_L2/s",
+        "D_point_ci95_L2/s",
+        "replicas",
         "drawn",
     ]);
     let mut csv = Table::new(&[
@@ -215,6 +233,8 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     for job in &shown {
         let l = job.total_length_m;
         let rows = blocks(conn, job.job_id)?;
+        // D of the block over the steady replicas of the job's point, with its 95 % CI.
+        let point = combine_point(conn, &replicas_of(&jobs, job))?;
         let curves = block_curves(conn, job.job_id, CurveTable::Msd)?;
         let picked = shown_indices(curves.len());
         let mut panel = Panel::new(Axis::log("τ (s)"), Axis::log("MSD_z / L²"));
@@ -222,6 +242,11 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         let (mut first, mut last) = (Vec::new(), Vec::new());
         for (i, c) in curves.iter().enumerate() {
             let row = rows.iter().find(|r| r.block == c.block);
+            let pooled = point
+                .blocks
+                .iter()
+                .find(|b| b.block == c.block)
+                .and_then(|b| b.diffusion);
             let z_l = row.map(|r| r.z_m / l);
             let end = c.points.last().copied();
             let drawn = picked.contains(&i);
@@ -238,6 +263,12 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                     3,
                 ),
                 fixed(row.and_then(|r| r.msd_fit_r), 4),
+                sci(pooled.map(|p| p.mean / (l * l)), 3),
+                sci(
+                    pooled.map(|p| p.ci95 / (l * l)).filter(|c| c.is_finite()),
+                    2,
+                ),
+                pooled.map_or(0, |p| p.replicas).to_string(),
                 if drawn { "yes" } else { "no" }.into(),
             ]);
             if !drawn {

@@ -2,7 +2,8 @@
 //! every inclination α of one aspect ratio ξ — Fig. 3 the campaign's ξ closest to 1.3, Fig. 4
 //! the one closest to 2.5 (the paper's choices). D comes from chute_blocks; γ̇ from the
 //! coarse-grained chute_fields profile for 0 ≤ z ≤ H, or from the block averages when a job has
-//! no field rows. D_max and γ̇_max are the maxima of what is drawn.
+//! no field rows. D_max and γ̇_max are the maxima of what is drawn. Replicas of one point are
+//! combined (`replicas`): D pooled with its 95 % CI, γ̇ their mean.
 
 use std::fmt::Write as _;
 
@@ -10,11 +11,12 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::data::{blocks, closest, done_chute_jobs, shear_profile, ChuteJob};
+use crate::report::chute::data::{closest, done_chute_jobs, ChuteJob};
+use crate::report::chute::replicas::{combine_point, group_points, replicas_caption};
 use crate::report::chute::{caption, color, empty_panel, preface};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, same_value};
+use crate::report::silo::data::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// Fig. 3: the profiles at the campaign's ξ closest to 1.3.
@@ -26,6 +28,9 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
 pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     profiles(conn, campaign, out_dir, 4, 2.5)
 }
+
+/// One height of a drawn profile: (z/L, value, half-width of its 95 % CI, replicas).
+type ProfilePoint = (f64, f64, Option<f64>, usize);
 
 /// The largest finite value of `points` (by y) as (x, y); None when there is none.
 fn max_point(points: &[(f64, f64)]) -> Option<(f64, f64)> {
@@ -52,13 +57,14 @@ fn profiles(
     let mut table = Table::new(&[
         "alpha_deg",
         "D_max_L2/s",
+        "D_max_ci95_L2/s",
         "z(D_max)/L",
         "shear_max_1/s",
         "z(shear_max)/L",
         "blocks_D",
         "shear_from",
         "replicas",
-        "job",
+        "point",
     ]);
     let mut csv = Table::new(&[
         "label",
@@ -68,9 +74,13 @@ fn profiles(
         "z_over_L",
         "value",
         "value_over_max",
+        "ci95",
+        "ci95_over_max",
+        "replicas",
     ]);
     let mut panel = Panel::new(x_axis(), y_axis());
     panel.legend = Legend::Outside;
+    let mut max_replicas = 0;
     match xi {
         None => {
             text.push_str("no done job with a chute summary\n");
@@ -79,79 +89,148 @@ fn profiles(
         Some(xi) => {
             let _ = writeln!(
                 text,
-                "xi = {} (the campaign's xi closest to the paper's {}; present: {}); one done job \
-                 per alpha (the lowest job id when there are replicas)\n\
-                 markers: D/D_max from chute_blocks; lines: shear rate / its max, from \
-                 chute_fields for 0 <= z <= H (block averages when a job has no field rows); \
-                 D in L^2/s with L = total_length_m",
+                "xi = {} (the campaign's xi closest to the paper's {}; present: {}); one point \
+                 per alpha (the one with the lowest job id when several differ in another \
+                 parameter), its steady replicas combined\n\
+                 markers: D/D_max from chute_blocks, D pooled over the replicas from each one's D \
+                 and its standard error over msd_error_windows windows (Student t over the \
+                 replicas when one lacks its error), error bars 95 % CI / D_max; lines: shear \
+                 rate / its max, replica mean, from chute_fields for 0 <= z <= H (block \
+                 averages when a job has no field rows); D in L^2/s with L = total_length_m",
                 short(xi),
                 short(target_xi),
                 xis.iter().map(|x| short(*x)).collect::<Vec<_>>().join(", ")
             );
             panel.title = Some(format!("ξ = {}", short(xi)));
-            let at_xi: Vec<&ChuteJob> = jobs
+            let at_xi: Vec<ChuteJob> = jobs
                 .iter()
                 .filter(|j| same_value(j.aspect_ratio, xi))
+                .cloned()
                 .collect();
+            let points = group_points(&at_xi);
             let alphas = distinct(at_xi.iter().map(|j| j.inclination_deg));
             for (i, &alpha) in alphas.iter().enumerate() {
-                let same: Vec<&&ChuteJob> = at_xi
+                let same: Vec<&Vec<&ChuteJob>> = points
                     .iter()
-                    .filter(|j| same_value(j.inclination_deg, alpha))
+                    .filter(|g| same_value(g[0].inclination_deg, alpha))
                     .collect();
-                let job = same[0];
-                let l = job.total_length_m;
-                let rows = blocks(conn, job.job_id)?;
-                let d: Vec<(f64, f64)> = rows
+                let point = combine_point(conn, same[0])?;
+                let label = point.label();
+                let replicas = point.pooled.len();
+                max_replicas = max_replicas.max(replicas);
+                if same.len() > 1 {
+                    let _ = writeln!(
+                        text,
+                        "alpha = {}: {} points differ in another parameter; drawn: {label}",
+                        short(alpha),
+                        same.len()
+                    );
+                }
+                if !point.not_pooled.is_empty() {
+                    let names: Vec<&str> =
+                        point.not_pooled.iter().map(|j| j.label.as_str()).collect();
+                    let _ = writeln!(
+                        text,
+                        "alpha = {}: not steady, not pooled: {}",
+                        short(alpha),
+                        names.join("; ")
+                    );
+                }
+                let l = point.total_length_m;
+                let l2 = l * l;
+                // (z/L, D/L², CI/L² (finite), replicas with a D)
+                let d: Vec<ProfilePoint> = point
+                    .blocks
                     .iter()
-                    .filter_map(|r| r.diffusion_m2_per_s.map(|d| (r.z_m / l, d / (l * l))))
+                    .filter_map(|b| {
+                        let p = b.diffusion?;
+                        let ci = Some(p.ci95 / l2).filter(|c| c.is_finite());
+                        Some((b.z_m / l, p.mean / l2, ci, p.replicas))
+                    })
                     .collect();
-                let field = shear_profile(conn, job.job_id, job.bed_height_m)?;
-                let (shear, from): (Vec<(f64, f64)>, &str) = if field.is_empty() {
-                    let b = rows.iter().map(|r| (r.z_m / l, r.shear_rate_per_s));
+                let (shear, from): (Vec<ProfilePoint>, &str) = if point.shear_field.is_empty() {
+                    let b = point.blocks.iter().map(|b| {
+                        let g = b.shear_rate;
+                        (b.z_m / l, g.mean, g.ci95, g.replicas)
+                    });
                     (b.collect(), "blocks")
                 } else {
-                    let f = field.iter().map(|&(z, g)| (z / l, g));
+                    let f = point
+                        .shear_field
+                        .iter()
+                        .map(|&(z, g)| (z / l, g.mean, g.ci95, g.replicas));
                     (f.collect(), "fields")
                 };
-                let d_max = max_point(&d);
-                let g_max = max_point(&shear);
+                let xy = |v: &[ProfilePoint]| -> Vec<(f64, f64)> {
+                    v.iter().map(|p| (p.0, p.1)).collect()
+                };
+                let d_max = max_point(&xy(&d));
+                let d_max_ci = d_max.and_then(|m| {
+                    d.iter()
+                        .find(|p| p.0 == m.0 && p.1 == m.1)
+                        .and_then(|p| p.2)
+                });
+                let g_max = max_point(&xy(&shear));
                 table.push(vec![
                     short(alpha),
                     sci(d_max.map(|p| p.1), 3),
+                    sci(d_max_ci, 2),
                     fixed(d_max.map(|p| p.0), 2),
                     sci(g_max.map(|p| p.1), 3),
                     fixed(g_max.map(|p| p.0), 2),
                     d.len().to_string(),
                     from.into(),
-                    same.len().to_string(),
-                    job.label.clone(),
+                    replicas.to_string(),
+                    label.clone(),
                 ]);
                 let c = color(i);
-                let mut add = |quantity: &str, pts: &[(f64, f64)], max: Option<(f64, f64)>| {
+                let mut add = |quantity: &str, pts: &[ProfilePoint], max: Option<(f64, f64)>| {
                     // A non-positive maximum cannot normalise the profile: it is listed, not drawn.
                     let max = max.map(|m| m.1).filter(|m| *m > 0.0);
                     let mut norm = Vec::new();
-                    for &(z, v) in pts {
+                    for &(z, v, ci, n) in pts {
                         let r = max.map(|m| v / m);
+                        let ci_r = max.zip(ci).map(|(m, c)| c / m);
                         csv.push(vec![
-                            job.label.clone(),
+                            label.clone(),
                             csv_num(Some(xi)),
                             csv_num(Some(alpha)),
                             quantity.into(),
                             csv_num(Some(z)),
                             csv_num(Some(v)),
                             csv_num(r),
+                            csv_num(ci),
+                            csv_num(ci_r),
+                            n.to_string(),
                         ]);
-                        norm.extend(r.map(|r| (z, r)));
+                        if let Some(r) = r {
+                            norm.push((z, r, ci_r, n));
+                        }
                     }
-                    norm.into_iter().unzip::<f64, f64, Vec<f64>, Vec<f64>>()
+                    norm
                 };
-                let (gz, gy) = add("shear_rate_per_s", &shear, g_max);
-                let (dz, dy) = add("D_L2_per_s", &d, d_max);
-                panel.series.push(Series::line(None, c, gz, gy));
-                let label = format!("α = {}°", short(alpha));
-                panel.series.push(Series::points(Some(label), c, dz, dy));
+                let g = add("shear_rate_per_s", &shear, g_max);
+                let dn = add("D_L2_per_s", &d, d_max);
+                panel.series.push(Series::line(
+                    None,
+                    c,
+                    g.iter().map(|p| p.0).collect(),
+                    g.iter().map(|p| p.1).collect(),
+                ));
+                let legend = format!("α = {}°", short(alpha));
+                panel.series.push(
+                    Series::points(
+                        Some(legend),
+                        c,
+                        dn.iter().map(|p| p.0).collect(),
+                        dn.iter().map(|p| p.1).collect(),
+                    )
+                    .with_errors(dn.iter().map(|p| p.2).collect())
+                    .with_point_labels(dn.iter().map(|p| replica_label(p.3)).collect()),
+                );
+            }
+            if max_replicas > 1 {
+                panel.notes.push(REPLICA_NOTE.into());
             }
         }
     }
@@ -160,8 +239,9 @@ fn profiles(
             conn,
             campaign,
             format!(
-                "Fig. {number}: D/D_max and γ̇/γ̇_max vs height, campaign {}",
-                campaign.name
+                "Fig. {number}: D/D_max and γ̇/γ̇_max vs height, campaign {}{}",
+                campaign.name,
+                replicas_caption(max_replicas)
             ),
         )?),
         panels: vec![panel],

@@ -10,7 +10,8 @@ use rusqlite::Connection;
 
 use crate::observe::fits::{linear_fit, LinearFit};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::data::{blocks, done_chute_jobs, ChuteJob};
+use crate::report::chute::data::{done_chute_jobs, ChuteJob};
+use crate::report::chute::replicas::{combine_point, group_points, replicas_caption};
 use crate::report::chute::{caption, color, preface, GREY};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
@@ -21,18 +22,25 @@ use crate::report::table::{csv_num, fixed, sci, short, Table};
 /// 0.3 H < z < 0.7 H. For the paper's H = 20 L this is its 6 L < z < 14 L.
 pub(crate) const CENTRAL_BED: (f64, f64) = (0.3, 0.7);
 
-/// One block of the central bed, lengths in units of its job's L.
+/// One block of the central bed of one point (its replicas combined), lengths in units of L.
 struct ScalingPoint<'a> {
+    /// The point's first pooled replica (ξ, α).
     job: &'a ChuteJob,
+    /// The point's label (without `replica=K`).
+    label: String,
     block: i64,
     z_over_l: f64,
     z_over_h: f64,
-    /// (d_⊥/L)²
+    /// (d_⊥/L)², d_⊥ the replicas' mean.
     d_perp_sq: f64,
-    /// D/L², 1/s.
+    /// D/L², 1/s, pooled over the replicas.
     d: f64,
-    /// γ̇, 1/s.
+    /// Half-width of D/L²'s 95 % CI; None when unknown.
+    d_ci: Option<f64>,
+    /// γ̇, 1/s, mean over the replicas.
     shear: f64,
+    /// Replicas with a D in this block.
+    replicas: usize,
 }
 
 /// Mean and sample standard deviation (None for fewer than 2 values).
@@ -67,26 +75,34 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let (lo, hi) = CENTRAL_BED;
     let mut points = Vec::new();
     let mut left_out = 0usize;
-    for job in &jobs {
-        let (l, h) = (job.total_length_m, job.bed_height_m);
-        for r in blocks(conn, job.job_id)? {
-            if !(r.z_m > lo * h && r.z_m < hi * h) {
+    let groups = group_points(&jobs);
+    for group in &groups {
+        let point = combine_point(conn, group)?;
+        let (l, h) = (point.total_length_m, point.bed_height_m);
+        let label = point.label();
+        for b in &point.blocks {
+            if !(b.z_m > lo * h && b.z_m < hi * h) {
                 continue;
             }
-            match r.diffusion_m2_per_s {
-                Some(d) if r.shear_rate_per_s > 0.0 && d.is_finite() => points.push(ScalingPoint {
-                    job,
-                    block: r.block,
-                    z_over_l: r.z_m / l,
-                    z_over_h: r.z_m / h,
-                    d_perp_sq: (job.d_perp_m / l).powi(2),
-                    d: d / (l * l),
-                    shear: r.shear_rate_per_s,
+            let shear = b.shear_rate.mean;
+            match b.diffusion {
+                Some(d) if shear > 0.0 && d.mean.is_finite() => points.push(ScalingPoint {
+                    job: point.pooled[0],
+                    label: label.clone(),
+                    block: b.block,
+                    z_over_l: b.z_m / l,
+                    z_over_h: b.z_m / h,
+                    d_perp_sq: (point.d_perp_m / l).powi(2),
+                    d: d.mean / (l * l),
+                    d_ci: Some(d.ci95 / (l * l)).filter(|c| c.is_finite()),
+                    shear,
+                    replicas: d.replicas,
                 }),
                 _ => left_out += 1,
             }
         }
     }
+    let max_replicas = points.iter().map(|p| p.replicas).max().unwrap_or(0);
     let h_over_l = jobs.iter().map(|j| j.bed_height_m / j.total_length_m);
     let (h_min, h_max) = h_over_l.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
         (a.min(v), b.max(v))
@@ -95,8 +111,9 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         text,
         "central blocks only: {lo} H < z < {hi} H, H = chute_summary.bed_height_m of each job \
          (the paper's 6 L < z < 14 L when H = 20 L; here H/L = {} to {}); D and shear rate from \
-         chute_blocks; lengths in L = total_length_m\n{} block(s) used, {left_out} central \
-         block(s) left out (no D or shear rate <= 0)",
+         chute_blocks, replicas of a point combined (D pooled with its 95 % CI, shear rate and \
+         d_perp their mean: one value per point and block); lengths in L = total_length_m\n{} \
+         block(s) used, {left_out} central block(s) left out (no D or shear rate <= 0)",
         fixed(Some(h_min), 2),
         fixed(Some(h_max), 2),
         points.len()
@@ -106,6 +123,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let y_a: Vec<f64> = points.iter().map(|p| p.d / p.shear).collect();
     let x_b: Vec<f64> = points.iter().map(|p| p.shear * p.d_perp_sq).collect();
     let y_b: Vec<f64> = points.iter().map(|p| p.d).collect();
+    let e_b: Vec<Option<f64>> = points.iter().map(|p| p.d_ci).collect();
     let fit_a = linear_fit(&x_a, &y_a);
     let fit_b = linear_fit(&x_b, &y_b);
 
@@ -127,6 +145,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         "d_perp/L",
         "d_perp^2_L2",
         "jobs",
+        "points",
         "blocks",
         "mean_D/shear_L2",
         "std_L2",
@@ -153,6 +172,11 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             fixed(stats.map(|s| s.0.sqrt()), 4),
             fixed(stats.map(|s| s.0), 4),
             n_jobs.to_string(),
+            groups
+                .iter()
+                .filter(|g| same_value(g[0].aspect_ratio, xi))
+                .count()
+                .to_string(),
             idx.len().to_string(),
             sci(stats.map(|s| s.1), 4),
             sci(stats.and_then(|s| s.2), 2),
@@ -163,8 +187,10 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             me.push(s);
         }
         let (xb, yb) = idx.iter().map(|&k| (x_b[k], y_b[k])).unzip();
+        let eb = idx.iter().map(|&k| e_b[k]).collect();
         let label = format!("ξ = {}", short(xi));
-        b.series.push(Series::points(Some(label), color(i), xb, yb));
+        b.series
+            .push(Series::points(Some(label), color(i), xb, yb).with_errors(eb));
     }
     let mean_label = "mean ± std per ξ".to_string();
     a.series
@@ -211,10 +237,12 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         "shear_rate_per_s",
         "D_over_shear_L2",
         "shear_d_perp_sq_L2_per_s",
+        "D_ci95_L2_per_s",
+        "replicas",
     ]);
     for (k, p) in points.iter().enumerate() {
         csv.push(vec![
-            p.job.label.clone(),
+            p.label.clone(),
             csv_num(Some(p.job.aspect_ratio)),
             csv_num(Some(p.job.inclination_deg)),
             p.block.to_string(),
@@ -225,6 +253,8 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             csv_num(Some(p.shear)),
             csv_num(Some(y_a[k])),
             csv_num(Some(x_b[k])),
+            csv_num(p.d_ci),
+            p.replicas.to_string(),
         ]);
     }
     let fig = Figure {
@@ -232,8 +262,9 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             conn,
             campaign,
             format!(
-                "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}",
-                campaign.name
+                "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}{}",
+                campaign.name,
+                replicas_caption(max_replicas)
             ),
         )?),
         panels: vec![a, b],

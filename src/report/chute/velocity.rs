@@ -11,12 +11,14 @@ use rusqlite::Connection;
 
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
+use crate::report::chute::replicas::{combine_point, replicas_caption, replicas_of};
 use crate::report::chute::{
     caption, case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices,
     GREY,
 };
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::silo::data::{replica_label, REPLICA_NOTE};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// "z = 2.5 L", or the block index when the block has no chute_blocks row.
@@ -41,11 +43,12 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
-    text.push_str(&showcase_note(&shown));
+    text.push_str(&showcase_note(&shown, &jobs));
     text.push_str(
         "PDF of (v_z - <v_z>)/std per block from chute_vz_pdf (up to 8 blocks per panel), grey: \
-         the standard Gaussian; skewness and std from chute_blocks; pdf_area = trapezoid \
-         integral over the bins\n",
+         the standard Gaussian; std from chute_blocks of the showcase job; skewness vs height: \
+         the mean over the steady replicas of its point (95 % Student-t bars from 2 replicas \
+         on, n=K beside a point); pdf_area = trapezoid integral over the bins\n",
     );
     let mut table = Table::new(&[
         "xi",
@@ -72,6 +75,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let mut skew = Panel::new(Axis::linear("z / L"), Axis::linear("skewness of v_z"));
     skew.title = Some("skewness vs height".into());
     skew.legend = Legend::Outside;
+    let mut max_replicas = 0;
     for (k, job) in shown.iter().enumerate() {
         let l = job.total_length_m;
         let rows = blocks(conn, job.job_id)?;
@@ -122,11 +126,18 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             panel.series.push(gaussian(x_extent.max(1.0)));
         }
         panels.push(panel);
-        let pts: Vec<(f64, f64)> = rows
+        // The skewness over the replicas of the job's point (its steady ones).
+        let point = combine_point(conn, &replicas_of(&jobs, job))?;
+        let pts: Vec<(f64, f64, Option<f64>, usize)> = point
+            .blocks
             .iter()
-            .filter_map(|r| r.vz_skewness.map(|s| (r.z_m / l, s)))
+            .filter_map(|b| {
+                let s = b.vz_skewness?;
+                Some((b.z_m / point.total_length_m, s.mean, s.ci95, s.replicas))
+            })
             .collect();
-        for &(z, s) in &pts {
+        max_replicas = max_replicas.max(point.pooled.len());
+        for &(z, s, _, _) in &pts {
             csv.push(vec![
                 job.label.clone(),
                 csv_num(Some(job.aspect_ratio)),
@@ -138,11 +149,15 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 csv_num(Some(s)),
             ]);
         }
-        let (z, s): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+        let z: Vec<f64> = pts.iter().map(|p| p.0).collect();
+        let s: Vec<f64> = pts.iter().map(|p| p.1).collect();
         skew.series
             .push(Series::line(None, color(k), z.clone(), s.clone()));
-        skew.series
-            .push(Series::points(Some(case_name(job)), color(k), z, s));
+        skew.series.push(
+            Series::points(Some(case_name(job)), color(k), z, s)
+                .with_errors(pts.iter().map(|p| p.2).collect())
+                .with_point_labels(pts.iter().map(|p| replica_label(p.3)).collect()),
+        );
     }
     if let Some(z) = skew
         .series
@@ -165,14 +180,18 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             "no done job with a chute summary",
         ));
     }
+    if max_replicas > 1 {
+        skew.notes.push(REPLICA_NOTE.into());
+    }
     panels.push(skew);
     let fig = Figure {
         title: Some(caption(
             conn,
             campaign,
             format!(
-                "Fig. 5: standardised v_z PDFs and their skewness, campaign {}",
-                campaign.name
+                "Fig. 5: standardised v_z PDFs and their skewness, campaign {}{}",
+                campaign.name,
+                replicas_caption(max_replicas)
             ),
         )?),
         columns: panels.len(),
@@ -206,7 +225,7 @@ pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
-    text.push_str(&showcase_note(&shown));
+    text.push_str(&showcase_note(&shown, &jobs));
     text.push_str(
         "C(r) of v_z fluctuations per block from chute_correlation (up to 8 blocks), divided by \
          C(0) = the smallest-r bin (at r0); right: log y (non-positive values not drawn) with \

@@ -212,6 +212,9 @@ macro_rules! draw_markers {
     }};
 }
 
+/// Font size of the texts beside points (see `Series::point_labels`).
+const POINT_LABEL_PX: u32 = 18;
+
 fn draw_in<DB, X, Y>(area: &DrawingArea<DB, Shift>, panel: &Panel, x: X, y: Y) -> Result<()>
 where
     DB: DrawingBackend,
@@ -298,6 +301,31 @@ where
                 let at: Vec<((f64, f64), i32)> =
                     pts.iter().map(|&(x, y, _, _)| ((x, y), 0)).collect();
                 draw_markers!(chart, at, series.marker, color);
+                // Texts beside the markers (up and right, clear of the error bar).
+                let font = (FONT, POINT_LABEL_PX).into_font().color(&color);
+                let texts =
+                    series
+                        .point_labels
+                        .iter()
+                        .flatten()
+                        .enumerate()
+                        .filter_map(|(i, label)| {
+                            let (x, y) = (*series.x.get(i)?, *series.y.get(i)?);
+                            let ok = x.is_finite()
+                                && y.is_finite()
+                                && (xs == Scale::Linear || x > 0.0)
+                                && (ys == Scale::Linear || y > 0.0);
+                            let label = label.as_deref().filter(|_| ok)?;
+                            Some(
+                                EmptyElement::at((x, y))
+                                    + Text::new(
+                                        label.to_string(),
+                                        (MARKER_R + 3, -22),
+                                        font.clone(),
+                                    ),
+                            )
+                        });
+                chart.draw_series(texts).map_err(plot_err)?;
             }
         }
     }

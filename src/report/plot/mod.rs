@@ -207,6 +207,9 @@ pub struct Series {
     /// Lengths of vertical error bars below and above each point, same length as `x`; None for
     /// no bars.
     pub y_err: Option<Vec<Option<(f64, f64)>>>,
+    /// A short text beside each point of `Points` (e.g. "n=3", how many replicas it pools), same
+    /// length as `x`; None (or a None entry) for no text.
+    pub point_labels: Option<Vec<Option<String>>>,
 }
 
 impl Series {
@@ -220,6 +223,7 @@ impl Series {
             x,
             y,
             y_err: None,
+            point_labels: None,
         }
     }
 
@@ -233,6 +237,7 @@ impl Series {
             x,
             y,
             y_err: None,
+            point_labels: None,
         }
     }
 
@@ -249,12 +254,19 @@ impl Series {
             x,
             y,
             y_err: None,
+            point_labels: None,
         }
     }
 
     /// The same series with another marker shape.
     pub fn with_marker(mut self, marker: Marker) -> Self {
         self.marker = marker;
+        self
+    }
+
+    /// Adds a short text beside each point (None: no text for that point).
+    pub fn with_point_labels(mut self, labels: Vec<Option<String>>) -> Self {
+        self.point_labels = Some(labels);
         self
     }
 

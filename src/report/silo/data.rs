@@ -113,43 +113,96 @@ fn points_of(rows: &[DischargeRow]) -> Vec<Vec<&DischargeRow>> {
     out
 }
 
-/// Combines the replicas of each point: the mean of their Q and, with ≥ 2 replicas with Q, a CI
-/// from their spread (Student t); with one replica its own CI. Replicas without Q are counted in
-/// `clogged_replicas`; a point where no replica has Q is not here but in [`clogged_points`].
+/// Combines the replicas of each point. When every replica with Q says its block count
+/// (`DischargeRow::q_blocks`), their blocks are pooled (`fits::pool`: weighted by blocks, and
+/// from 3 replicas on the wider of that and their spread); otherwise the mean of their Q with,
+/// from 2 replicas on, a Student-t CI over them; one replica keeps its own CI. Replicas without Q
+/// are counted in `clogged_replicas`; a point where no replica has Q is not here but in
+/// [`clogged_points`].
 pub fn combine_replicas(rows: &[DischargeRow]) -> Vec<FlowPoint> {
-    let mut out = Vec::new();
-    for group in points_of(rows) {
-        let with_q: Vec<&DischargeRow> = group
-            .iter()
-            .copied()
-            .filter(|r| r.q_kg_per_s.is_some())
-            .collect();
-        let Some(first) = with_q.first() else {
-            continue;
-        };
-        let qs: Vec<f64> = with_q.iter().filter_map(|r| r.q_kg_per_s).collect();
-        let estimates: Option<Vec<_>> = with_q.iter().map(|r| r.q_estimate()).collect();
-        let pooled = estimates.as_deref().and_then(pool);
-        let (q, ci, ci_source) = match (pooled, mean_ci95(&qs)) {
-            (Some(p), _) => (p.mean, Some(p.ci95), CiSource::Pooled(p.from)),
-            (None, Some((mean, hw))) => (mean, Some(hw), CiSource::ReplicaSpread),
-            (None, None) => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
-        };
-        out.push(FlowPoint {
-            d_m: first.orifice_diameter_m,
-            f_hz: first.rotation_frequency_hz,
-            particle_d_m: first.particle_diameter_m,
-            bulk_density_kg_per_m3: first.bulk_density_kg_per_m3,
-            q,
-            ci,
-            replicas: qs.len(),
-            ci_source,
-            clogged_replicas: group.len() - qs.len(),
-            replica_q: qs,
-        });
-    }
-    out
+    points_of(rows)
+        .iter()
+        .filter_map(|g| combine_group(g))
+        .collect()
 }
+
+/// One point's replicas combined (see [`combine_replicas`]); None when none has Q.
+fn combine_group(group: &[&DischargeRow]) -> Option<FlowPoint> {
+    let with_q: Vec<&DischargeRow> = group
+        .iter()
+        .copied()
+        .filter(|r| r.q_kg_per_s.is_some())
+        .collect();
+    let first = with_q.first()?;
+    let qs: Vec<f64> = with_q.iter().filter_map(|r| r.q_kg_per_s).collect();
+    let estimates: Option<Vec<_>> = with_q.iter().map(|r| r.q_estimate()).collect();
+    let pooled = estimates.as_deref().and_then(pool);
+    let (q, ci, ci_source) = match (pooled, mean_ci95(&qs)) {
+        (Some(p), _) => (p.mean, Some(p.ci95), CiSource::Pooled(p.from)),
+        (None, Some((mean, hw))) => (mean, Some(hw), CiSource::ReplicaSpread),
+        (None, None) => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
+    };
+    Some(FlowPoint {
+        d_m: first.orifice_diameter_m,
+        f_hz: first.rotation_frequency_hz,
+        particle_d_m: first.particle_diameter_m,
+        bulk_density_kg_per_m3: first.bulk_density_kg_per_m3,
+        q,
+        ci,
+        replicas: qs.len(),
+        ci_source,
+        clogged_replicas: group.len() - qs.len(),
+        replica_q: qs,
+    })
+}
+
+/// One silo point as [`pooled_q_points`] gives it: (point key, label without `replica=K`, the
+/// point's done jobs, its combined Q).
+pub type QPoint = (String, String, Vec<i64>, Option<FlowPoint>);
+
+/// Every point of the campaign's done silo jobs with the flow rate Fig. 3–5 draw for it, as
+/// (point key (`campaign::point_key`), its label without `replica=K`, the point's done jobs
+/// (with or without Q), its combined Q (None when no replica has Q)): the
+/// same rows (`done_discharge_rows`), the same grouping and the same [`combine_replicas`]
+/// statistics, so a campaign loop that stops on a point's CI stops on the figure's CI. Sorted
+/// by D, f, point key.
+///
+/// # Errors
+/// On a database error.
+pub fn pooled_q_points(
+    conn: &rusqlite::Connection,
+    campaign_id: i64,
+) -> anyhow::Result<Vec<QPoint>> {
+    let rows = done_discharge_rows(conn, campaign_id)?;
+    Ok(points_of(&rows)
+        .iter()
+        .map(|g| {
+            (
+                crate::campaign::point_key(&g[0].params_json),
+                label_without_replica(&g[0].label),
+                g.iter().map(|r| r.job_id).collect(),
+                combine_group(g),
+            )
+        })
+        .collect())
+}
+
+/// A job label without its `replica=K` part: "a=1,b=2,replica=3" → "a=1,b=2".
+pub fn label_without_replica(label: &str) -> String {
+    label
+        .split(',')
+        .filter(|part| !part.trim_start().starts_with("replica="))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// The text a figure writes beside a point that combines `replicas` runs: "n=3"; None for one.
+pub fn replica_label(replicas: usize) -> Option<String> {
+    (replicas > 1).then(|| format!("n={replicas}"))
+}
+
+/// The figure note that explains [`replica_label`]'s texts.
+pub const REPLICA_NOTE: &str = "n=K beside a point: K replicas combined; bars: their 95 % CI";
 
 /// The points at which every run clogged before Q could be measured (no replica has Q).
 pub fn clogged_points(rows: &[DischargeRow]) -> Vec<CloggedPoint> {

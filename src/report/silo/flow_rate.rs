@@ -12,8 +12,8 @@ use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Marker, Panel, Series};
 use crate::report::silo::data::{
-    clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2, same_value,
-    CiSource, CloggedPoint, DischargeRow, FlowPoint,
+    clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2,
+    replica_label, same_value, CiSource, CloggedPoint, DischargeRow, FlowPoint, REPLICA_NOTE,
 };
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
@@ -177,9 +177,16 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         let q: Vec<f64> = row.points.iter().map(|p| p.q).collect();
         let err: Vec<Option<f64>> = row.points.iter().map(|p| p.ci).collect();
         let label = format!("f = {} Hz", short(row.f_hz));
-        q_panel
-            .series
-            .push(Series::points(Some(label), color, d_mm.clone(), q).with_errors(err));
+        let counts = row
+            .points
+            .iter()
+            .map(|p| replica_label(p.replicas))
+            .collect();
+        q_panel.series.push(
+            Series::points(Some(label), color, d_mm.clone(), q)
+                .with_errors(err)
+                .with_point_labels(counts),
+        );
         if let Some(fit) = fit {
             let (lo, hi) = (row.points[0].d_m, row.points[row.points.len() - 1].d_m);
             let curve: Vec<(f64, f64)> = (0..=120)
@@ -275,6 +282,9 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         }
     }
     mark_clogged(&mut q_panel, &clogged, &fits, &mut q_table, &mut csv);
+    if points.iter().any(|p| p.replicas > 1) {
+        q_panel.notes.push(REPLICA_NOTE.into());
+    }
     let dmin_label = (!dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
     dmin_panel
         .series
@@ -299,7 +309,10 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     );
     text.push_str(&fit_table.to_text());
     text.push_str(
-        "\nflow rates (mean over replicas; ci95 from their spread when >= 2, else the job's own)\n",
+        "\nflow rates over replicas: ci95_from 'pooled blocks' (every replica's blocks pooled, \
+         weighted by their count), 'replica spread' (>= 3 replicas that scatter more than their \
+         blocks say), 'replicas' (Student t over >= 2 replicas without block counts), 'job' \
+         (one run's own); replicas = runs with Q, clogged = runs without\n",
     );
     text.push_str(&q_table.to_text());
     text.push('\n');

@@ -122,6 +122,8 @@ impl Normalised {
             "ci95_kg/s",
             "Q/Q_ref",
             "err95",
+            "replicas",
+            "ci95_from",
         ]);
         let mut csv = Table::new(&[
             "orifice_diameter_m",
@@ -132,6 +134,8 @@ impl Normalised {
             "reference_frequency_hz",
             "q_over_q_ref",
             "q_over_q_ref_ci95",
+            "replicas",
+            "q_ci95_source",
         ]);
         for c in curves {
             for (p, ratio, err) in &c.points {
@@ -143,6 +147,8 @@ impl Normalised {
                     sci(p.ci, 2),
                     fixed(Some(*ratio), 4),
                     fixed(*err, 4),
+                    p.replicas.to_string(),
+                    p.ci_source.name().into(),
                 ]);
                 csv.push(vec![
                     csv_num(Some(c.d_m)),
@@ -153,6 +159,8 @@ impl Normalised {
                     csv_num(Some(self.f_ref)),
                     csv_num(Some(*ratio)),
                     csv_num(*err),
+                    p.replicas.to_string(),
+                    p.ci_source.name().into(),
                 ]);
             }
         }

@@ -10,8 +10,8 @@ use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{
-    clogged_points, combine_replicas, distinct, done_discharge_rows, same_value, spread,
-    CloggedPoint,
+    clogged_points, combine_replicas, distinct, done_discharge_rows, replica_label, same_value,
+    spread, CloggedPoint, REPLICA_NOTE,
 };
 use crate::report::silo::normalise::{normalise, Normalised, NormalisedCurve};
 use crate::report::table::mm;
@@ -24,7 +24,20 @@ const MAX_FIG5_PANELS: usize = 4;
 fn curve_series(c: &NormalisedCurve, label: Option<String>, color: usize) -> Series {
     let f = c.points.iter().map(|p| p.0.f_hz).collect();
     let r = c.points.iter().map(|p| p.1).collect();
-    Series::points(label, color, f, r).with_errors(c.points.iter().map(|p| p.2).collect())
+    let counts = c
+        .points
+        .iter()
+        .map(|p| replica_label(p.0.replicas))
+        .collect();
+    Series::points(label, color, f, r)
+        .with_errors(c.points.iter().map(|p| p.2).collect())
+        .with_point_labels(counts)
+}
+
+/// Whether any point of `curves` combines more than one replica (the figure then explains its
+/// "n=K" texts).
+fn any_replicas<'a>(mut curves: impl Iterator<Item = &'a NormalisedCurve>) -> bool {
+    curves.any(|c| c.points.iter().any(|p| p.0.replicas > 1))
 }
 
 /// The colour of orifice `d`: its curve's index, or after the curves for an orifice without one.
@@ -115,6 +128,9 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         panel.series.push(s);
     }
     panel.series.extend(clogged_marks(&norm, &clogged, None));
+    if any_replicas(norm.curves.iter()) {
+        panel.notes.push(REPLICA_NOTE.into());
+    }
     for &d in &norm.skipped_d_m {
         panel.notes.push(format!(
             "D = {} mm: no Q at the reference f, not normalised",
@@ -166,6 +182,12 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 c.d_m / c.particle_d_m
             ));
             p.legend = Legend::Hidden;
+            if any_replicas(std::iter::once(*c)) {
+                // No side column here (it would narrow the plot): the title says it.
+                if let Some(t) = &mut p.title {
+                    t.push_str("; n=K: K replicas");
+                }
+            }
             let s = curve_series(c, None, i);
             p.series
                 .push(Series::line(None, i, s.x.clone(), s.y.clone()));

@@ -9,7 +9,7 @@ use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, same_value};
+use crate::report::silo::data::{distinct, replica_label, same_value};
 use crate::report::table::{csv_num, mm, short, Table};
 use crate::store::fields::load_flagged_series;
 use crate::store::silo_reads::clog_intervals;
@@ -161,7 +161,8 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
                 pts.iter().map(|p| p.0).collect(),
                 pts.iter().map(|p| p.1).collect(),
             )
-            .with_errors(pts.iter().map(|p| p.2).collect()),
+            .with_errors(pts.iter().map(|p| p.2).collect())
+            .with_point_labels(pts.iter().map(|p| replica_label(p.3)).collect()),
         );
         let mut rx = Vec::new();
         let mut ry = Vec::new();
