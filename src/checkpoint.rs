@@ -373,6 +373,16 @@ pub type Loaded = (PathBuf, Header, State<f64>, String);
 
 /// The newest valid checkpoint in `dir`, and a message for each refused one.
 pub fn load_latest(dir: &Path, job_hash: &str) -> (Option<Loaded>, Vec<String>) {
+    load_latest_where(dir, job_hash, |_| Ok(()))
+}
+
+/// As [`load_latest`], skipping valid checkpoints that `accept` turns down (Err says why, and
+/// is reported like a refusal).
+pub fn load_latest_where(
+    dir: &Path,
+    job_hash: &str,
+    accept: impl Fn(&Loaded) -> Result<(), String>,
+) -> (Option<Loaded>, Vec<String>) {
     let mut refused = Vec::new();
     for path in list(dir).into_iter().rev() {
         let p = path.display().to_string();
@@ -383,7 +393,13 @@ pub fn load_latest(dir: &Path, job_hash: &str) -> (Option<Loaded>, Vec<String>) 
             })
             .and_then(|b| decode(&b, &p, Some(job_hash)))
         {
-            Ok((h, s, extra)) => return (Some((path, h, s, extra)), refused),
+            Ok((h, s, extra)) => {
+                let loaded = (path, h, s, extra);
+                match accept(&loaded) {
+                    Ok(()) => return (Some(loaded), refused),
+                    Err(why) => refused.push(format!("skipped checkpoint {p}: {why}")),
+                }
+            }
             Err(e) => refused.push(format!("refused checkpoint {e}")),
         }
     }

@@ -41,6 +41,8 @@ pub struct PointState {
     /// and the weight it brings.
     pub replica_cost: f64,
     pub replica_weight: f64,
+    /// A new replica's own end (s): the campaign file's time.
+    pub replica_end_s: f64,
     /// Extensions are rounded up to this (s): a block, so blocks stay whole.
     pub quantum_s: f64,
 }
@@ -187,6 +189,93 @@ pub fn decide(p: &PointState, t: &Target) -> Decision {
     }
 }
 
+/// What a point is expected to need before its target holds (or a cap stops it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Forecast {
+    /// Simulated seconds of running on, and replicas to add.
+    pub extend_s: f64,
+    pub replicas: u32,
+    /// Particle-steps of all that work.
+    pub particle_steps: f64,
+    /// Rounds it takes.
+    pub rounds: u32,
+    /// The relative interval expected at the end, and whether it meets the target.
+    pub ci_rel: Option<f64>,
+    pub met: bool,
+    /// Why it stops short (None when met).
+    pub capped: Option<String>,
+}
+
+/// Plays the target's rounds forward on `p`, each piece of work taken at its expected effect,
+/// for `rounds_left` rounds at most: the work the point is expected to need.
+pub fn forecast(p: &PointState, t: &Target, rounds_left: u32) -> Forecast {
+    let mut p = p.clone();
+    let mut f = Forecast {
+        extend_s: 0.0,
+        replicas: 0,
+        particle_steps: 0.0,
+        rounds: 0,
+        ci_rel: p.estimate.map(|e| e.ci95_rel()),
+        met: false,
+        capped: None,
+    };
+    loop {
+        if f.rounds >= rounds_left {
+            f.capped = Some(format!("max_rounds = {} reached", t.max_rounds));
+            return f;
+        }
+        match decide(&p, t) {
+            Decision::Met => {
+                f.met = true;
+                return f;
+            }
+            Decision::Capped(why) => {
+                f.capped = Some(why);
+                return f;
+            }
+            Decision::Work {
+                work,
+                ci_rel_expected,
+                cost,
+                ..
+            } => {
+                f.rounds += 1;
+                f.particle_steps += cost;
+                match work {
+                    Work::Extend {
+                        job_id,
+                        from_s,
+                        to_s,
+                    } => {
+                        f.extend_s += to_s - from_s;
+                        p.weight += (to_s - from_s) * p.weight_per_s;
+                        if let Some(r) = p.runs.iter_mut().find(|r| r.job_id == job_id) {
+                            r.end_s = to_s;
+                        }
+                    }
+                    Work::Replica => {
+                        f.replicas += 1;
+                        p.weight += p.replica_weight;
+                        p.runs.push(RunState {
+                            job_id: -(p.runs.len() as i64) - 1,
+                            end_s: p.replica_end_s,
+                            not_extendable: None,
+                        });
+                    }
+                }
+                // Without an estimate the first replica's effect is unknown: stop there.
+                let (Some(rel), Some(mut e)) = (ci_rel_expected, p.estimate) else {
+                    f.capped = Some("no estimate yet: known after the next round".into());
+                    return f;
+                };
+                e.ci95 = rel * e.mean.abs();
+                p.estimate = Some(e);
+                f.ci_rel = Some(rel);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -218,6 +307,7 @@ mod tests {
             steps_per_s: 1e6,
             replica_cost: 3e6,
             replica_weight: 8.0,
+            replica_end_s: 2.5,
             quantum_s: 0.25,
         }
     }
@@ -228,6 +318,16 @@ mod tests {
             end_s,
             not_extendable: None,
         }
+    }
+
+    #[test]
+    fn a_forecast_plays_the_rounds_to_the_target() {
+        let f = forecast(&point(0.06, vec![run(1, 2.5)]), &target(), 8);
+        assert!(f.met, "{f:?}");
+        assert!((f.extend_s - 8.0).abs() < 1e-9 && f.replicas == 0, "{f:?}");
+        assert!((f.particle_steps - 8e6).abs() < 1e-3, "{f:?}");
+        let f = forecast(&point(0.2, vec![run(1, 2.5)]), &target(), 8);
+        assert!(!f.met && f.capped.is_some() && f.replicas == 2, "{f:?}");
     }
 
     #[test]

@@ -177,6 +177,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             w
         ))
     );
+    if let Some(t) = &file.target {
+        // The first round is the jobs above; what follows depends on the measured scatter.
+        let bench_rate = rates.values().flatten().next().copied();
+        target_forecast(conn.as_ref(), &file.name, t, bench_rate)?;
+    }
     for ((backend, precision), r) in &rates {
         if r.is_none() {
             println!(
@@ -187,4 +192,83 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// What each point of a campaign with a target is expected to need still, from the jobs of it
+/// already in the database: their measured scatter and throughput (a `sweep bench` rate where
+/// a point has not run yet).
+fn target_forecast(
+    conn: Option<&rusqlite::Connection>,
+    name: &str,
+    t: &sweep::campaign::Target,
+    bench_rate: Option<f64>,
+) -> anyhow::Result<()> {
+    use sweep::campaign::adaptive::forecast;
+    println!(
+        "target: {} <= ±{:.1} % at every point (max_replicas {}, max_time_s {}, max_rounds {})",
+        if t.q_ci95_rel.is_some() {
+            "Q's 95 % CI"
+        } else {
+            "D's 95 % CI"
+        },
+        100.0 * t.ci95_rel(),
+        t.max_replicas,
+        t.max_time_s
+            .map_or_else(|| "none".into(), |m| format!("{m} s")),
+        t.max_rounds
+    );
+    let campaign = match conn {
+        Some(c) => sweep::store::campaign_reads::campaign_named(c, name, None)?,
+        None => None,
+    };
+    let (Some(conn), Some(campaign)) = (conn, campaign) else {
+        println!(
+            "  the work after the jobs above depends on the scatter they measure: launch it, then `sweep plan` again for the rest"
+        );
+        return Ok(());
+    };
+    let ev = sweep::runner::adaptive::evaluate(conn, campaign.id)?;
+    if ev.open > 0 {
+        println!(
+            "  ({} job(s) of the campaign not ended: the estimate uses the ended ones)",
+            ev.open
+        );
+    }
+    let rounds_left = ev.target.max_rounds.saturating_sub(ev.rounds_done);
+    let (mut total_ps, mut total_wall) = (0.0, Some(0.0));
+    println!(
+        "  {:<48} {:>9} {:>9} {:>9} {:>8} {:>11} {:>9}  outcome",
+        "point", "CI now", "expected", "+time_s", "+replic", "+part-steps", "wall_s"
+    );
+    for p in &ev.points {
+        let f = forecast(&p.state, &ev.target, rounds_left);
+        let rate = p.rate.or(bench_rate);
+        total_ps += f.particle_steps;
+        total_wall = total_wall.zip(rate).map(|(w, r)| w + f.particle_steps / r);
+        let pct =
+            |v: Option<f64>| v.map_or_else(|| "n/a".into(), |x| format!("±{:.1} %", 100.0 * x));
+        println!(
+            "  {:<48} {:>9} {:>9} {:>9.2} {:>8} {:>11.3e} {:>9}  {}",
+            p.state.label,
+            pct(p.state.estimate.map(|e| e.ci95_rel())),
+            pct(f.ci_rel),
+            f.extend_s,
+            f.replicas,
+            f.particle_steps,
+            rate.map_or_else(|| "?".into(), |r| format!("{:.0}", f.particle_steps / r)),
+            if f.met {
+                "met".to_string()
+            } else {
+                f.capped.unwrap_or_default()
+            }
+        );
+    }
+    println!(
+        "  still to run: {total_ps:.3e} particle-steps{}",
+        total_wall.map_or_else(String::new, |w| format!(
+            ", about {:.0} s of one job's throughput here (the jobs' own rate, measured; divide by the jobs run side by side)",
+            w
+        ))
+    );
+    Ok(())
 }

@@ -131,8 +131,45 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 }
             }
         }
+        print_target(&conn, c.id)?;
     }
     Ok(0)
+}
+
+/// A campaign target's points after its latest round, and the work it added.
+fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result<()> {
+    use sweep::store::targets;
+    let Some(t) = targets::campaign_file(conn, campaign_id)?.and_then(|f| f.target) else {
+        return Ok(());
+    };
+    let points = targets::points(conn, campaign_id)?;
+    let work = targets::work(conn, campaign_id)?;
+    let met = points.iter().filter(|p| p.met).count();
+    println!(
+        "target: 95 % CI <= ±{:.1} % — {met} of {} point(s) met after {} round(s) of added work ({} extension(s), {} replica(s))",
+        100.0 * t.ci95_rel(),
+        points.len(),
+        work.iter().map(|w| w.round).max().unwrap_or(0),
+        work.iter().filter(|w| w.action == "extend").count(),
+        work.iter().filter(|w| w.action == "replica").count(),
+    );
+    if points.is_empty() {
+        println!("         not evaluated yet: it is, once the campaign's jobs have ended");
+    }
+    for p in &points {
+        println!(
+            "         {:<50} ±{:>5} ({}) {} replica(s), {:.1} s, {:.2e} particle-steps: {}",
+            p.point,
+            p.ci95_rel
+                .map_or_else(|| "n/a".into(), |c| format!("{:.1} %", 100.0 * c)),
+            p.ci_from.as_deref().unwrap_or("-"),
+            p.replicas,
+            p.measured_s,
+            p.particle_steps as f64,
+            p.status
+        );
+    }
+    Ok(())
 }
 
 /// A chute job's verdict when it was not steady: which window decided, and its numbers.

@@ -175,6 +175,7 @@ fn silo_point(
         replica_weight: ((sp.discharge_time_s - d.skip_initial_s) / d.block_s)
             .floor()
             .max(0.0),
+        replica_end_s: sp.discharge_time_s,
         quantum_s: d.block_s,
     };
     let row = PointRow {
@@ -184,6 +185,64 @@ fn silo_point(
         ci95_rel: estimate.map(|e| e.ci95_rel()),
         ci_from: combined.first().map(|fp| fp.ci_source.name().to_string()),
         replicas: combined.first().map_or(0, |fp| fp.replicas),
+        runs: p.jobs.len(),
+        measured_s: p.jobs.iter().map(|j| j.sim_time_s).sum(),
+        particle_steps: p.jobs.iter().map(|j| j.particle_steps).sum(),
+        met: false,
+        status: String::new(),
+        rounds: 0,
+    };
+    Ok((state, row, spec))
+}
+
+/// A chute point: D pooled over its steady replicas, block by block in the bulk, as the chute
+/// figures pool it; its interval is the widest bulk block's. Chute jobs are only replicated
+/// (running a finished measurement on is not built), so the weight counts steady replicas.
+fn chute_point(
+    p: &Point,
+    pooled: &[crate::report::ChutePoint],
+    observable: &str,
+) -> Result<(PointState, PointRow, JobSpec)> {
+    let spec = spec_of(p.jobs[0])?;
+    let cp = spec.chute();
+    let scene = crate::scene::chute::ChuteScene::new(cp.clone()).map_err(|e| anyhow::anyhow!(e))?;
+    let steps_per_s = cp.count() as f64 / scene.dt;
+    let found = pooled.iter().find(|c| c.point == p.key);
+    let widest = found.and_then(|c| {
+        c.bulk_d
+            .iter()
+            .map(|(_, d)| *d)
+            .max_by(|a, b| a.ci95_rel().total_cmp(&b.ci95_rel()))
+    });
+    let steady = found.map_or(0, |c| c.steady_jobs.len());
+    let runs = p
+        .jobs
+        .iter()
+        .map(|j| RunState {
+            job_id: j.job_id,
+            end_s: j.target_time_s,
+            not_extendable: Some("a chute measurement is not run on: replicas only".into()),
+        })
+        .collect();
+    let state = PointState {
+        label: p.label.clone(),
+        estimate: widest.filter(|_| steady > 0),
+        weight: steady as f64,
+        weight_per_s: 0.0,
+        runs,
+        steps_per_s,
+        replica_cost: steps_per_s * cp.max_time_s(),
+        replica_weight: 1.0,
+        replica_end_s: cp.measure_time_s,
+        quantum_s: 1.0,
+    };
+    let row = PointRow {
+        point: p.label.clone(),
+        observable: observable.into(),
+        mean: state.estimate.map(|e| e.mean),
+        ci95_rel: state.estimate.map(|e| e.ci95_rel()),
+        ci_from: state.estimate.map(|e| e.from.name().to_string()),
+        replicas: steady,
         runs: p.jobs.len(),
         measured_s: p.jobs.iter().map(|j| j.sim_time_s).sum(),
         particle_steps: p.jobs.iter().map(|j| j.particle_steps).sum(),
@@ -210,12 +269,31 @@ fn next_replica(p: &Point) -> Result<u32> {
     Ok(top + 1)
 }
 
-/// Evaluates campaign `campaign_id`'s target and, where points fall short, registers the next
-/// round of work. Stores every point's state (`target_points`) and the work (`target_work`).
+/// A campaign's points as its target sees them, without changing anything.
+pub struct Evaluation {
+    pub file: CampaignFile,
+    pub target: Target,
+    /// Jobs of the campaign not ended (pending, running, paused).
+    pub open: usize,
+    /// Rounds of work added so far.
+    pub rounds_done: u32,
+    pub points: Vec<EvaluatedPoint>,
+}
+
+/// One point: the decision's input, its stored row, the replica it would add, and the
+/// throughput its jobs ran at (particle-steps per wall second; None before any ran).
+pub struct EvaluatedPoint {
+    pub state: PointState,
+    pub row: PointRow,
+    pub next: JobSpec,
+    pub rate: Option<f64>,
+}
+
+/// Reads campaign `campaign_id` and combines each point's replicas.
 ///
 /// # Errors
 /// Database errors, unreadable stored parameters, or a campaign without a target.
-pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcome> {
+pub fn evaluate(conn: &Connection, campaign_id: i64) -> Result<Evaluation> {
     let file: CampaignFile = targets::campaign_file(conn, campaign_id)?
         .with_context(|| format!("no campaign with id {campaign_id}"))?;
     let target: Target = file
@@ -227,15 +305,6 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
         .iter()
         .filter(|j| !matches!(j.status.as_str(), "done" | "failed"))
         .count();
-    if open > 0 {
-        return Ok(RoundOutcome::Unsettled(open));
-    }
-    if file.scene != SceneKind::Silo {
-        anyhow::bail!(
-            "campaign '{}': targets run on silo campaigns (q_ci95_rel); chute targets are not built yet",
-            file.name
-        );
-    }
     let rows = done_discharge_rows(conn, campaign_id)?;
     let by_job: BTreeMap<i64, &DischargeRow> = rows.iter().map(|r| (r.job_id, r)).collect();
     let mut filled = BTreeSet::new();
@@ -243,13 +312,63 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
         filled.insert(spec_of(j)?.fill_key().0);
     }
     let rounds_done = targets::rounds(conn, campaign_id)?;
+    let mut points = Vec::new();
+    let chute = if file.scene == SceneKind::Chute {
+        crate::report::pooled_points(conn, campaign_id)?
+    } else {
+        Vec::new()
+    };
+    for p in &points_of(&jobs) {
+        let (state, mut row, spec) = match file.scene {
+            SceneKind::Silo => silo_point(p, &by_job, &filled, target.observable())?,
+            SceneKind::Chute => chute_point(p, &chute, target.observable())?,
+        };
+        row.rounds = rounds_done;
+        let (steps, wall) = p
+            .jobs
+            .iter()
+            .filter(|j| j.wall_time_s > 0.0)
+            .fold((0.0, 0.0), |(s, w), j| {
+                (s + j.particle_steps as f64, w + j.wall_time_s)
+            });
+        points.push(EvaluatedPoint {
+            state,
+            row,
+            next: spec.replica(next_replica(p)?),
+            rate: (wall > 0.0).then_some(steps / wall),
+        });
+    }
+    Ok(Evaluation {
+        file,
+        target,
+        open,
+        rounds_done,
+        points,
+    })
+}
+
+/// Evaluates campaign `campaign_id`'s target and, where points fall short, registers the next
+/// round of work. Stores every point's state (`target_points`) and the work (`target_work`).
+///
+/// # Errors
+/// Database errors, unreadable stored parameters, or a campaign without a target.
+pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcome> {
+    let ev = evaluate(conn, campaign_id)?;
+    if ev.open > 0 {
+        return Ok(RoundOutcome::Unsettled(ev.open));
+    }
+    let (file, target, rounds_done) = (ev.file, ev.target, ev.rounds_done);
     let out_of_rounds = rounds_done >= target.max_rounds;
     let mut rows_out = Vec::new();
     let mut planned: Vec<(f64, usize, Decision, JobSpec, String)> = Vec::new();
-    for (k, p) in points_of(&jobs).iter().enumerate() {
-        let (state, mut row, spec) = silo_point(p, &by_job, &filled, target.observable())?;
+    for (k, p) in ev.points.into_iter().enumerate() {
+        let EvaluatedPoint {
+            state,
+            mut row,
+            next,
+            ..
+        } = p;
         let decision = decide(&state, &target);
-        row.rounds = rounds_done;
         match &decision {
             Decision::Met => {
                 row.met = true;
@@ -261,14 +380,13 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
             }
             Decision::Work { ci_rel_before, .. } => {
                 row.status = "working".into();
-                let next = spec.replica(next_replica(p)?);
                 // Widest interval first (no estimate yet counts as the widest).
                 planned.push((
                     ci_rel_before.unwrap_or(f64::INFINITY),
                     k,
                     decision.clone(),
                     next,
-                    p.label.clone(),
+                    state.label.clone(),
                 ));
             }
         }

@@ -186,7 +186,21 @@ pub fn run<S: Study>(
 ) -> anyhow::Result<Outcome> {
     let dir = job_dir(&ctx.work_dir, &job.hash);
     let started = Instant::now();
-    let (found, refused) = checkpoint::load_latest(&dir, &job.hash);
+    // A checkpoint past the job's end (left by a longer run of the same job, its database
+    // since deleted) would end the job at once with a longer run's results: skip it.
+    let (found, refused) = checkpoint::load_latest_where(&dir, &job.hash, |(_, _, _, extra)| {
+        let Ok(p) = serde_json::from_str::<S::Progress>(extra) else {
+            return Ok(());
+        };
+        let (t, end) = (S::ledger(&p).job_time_s, study.end_time(&p));
+        if t > end + 1e-9 {
+            Err(format!(
+                "it is at t = {t:.3} s, past this job's end ({end:.3} s)"
+            ))
+        } else {
+            Ok(())
+        }
+    });
     for r in refused {
         (ctx.log)(format!("job {}: {r}", job.id));
     }

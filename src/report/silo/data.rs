@@ -202,6 +202,41 @@ pub fn replica_label(replicas: usize) -> Option<String> {
 }
 
 /// The figure note that explains [`replica_label`]'s texts.
+/// A campaign target's outcome in one line ("target ±3.0 % (95 % CI of Q): 6 of 6 points
+/// met, …"), for the figures that show Q; None for a campaign without target points.
+pub fn target_note(
+    conn: &rusqlite::Connection,
+    campaign_id: i64,
+) -> anyhow::Result<Option<String>> {
+    let points = crate::store::targets::points(conn, campaign_id)?;
+    let Some(t) = crate::store::targets::campaign_file(conn, campaign_id)?.and_then(|f| f.target)
+    else {
+        return Ok(None);
+    };
+    if points.is_empty() {
+        return Ok(None);
+    }
+    let work = crate::store::targets::work(conn, campaign_id)?;
+    let met = points.iter().filter(|p| p.met).count();
+    let short: Vec<String> = points
+        .iter()
+        .filter(|p| !p.met)
+        .map(|p| format!("{} ({})", p.point, p.status))
+        .collect();
+    Ok(Some(format!(
+        "target ±{:.1} % (95 % CI of Q): {met} of {} points met after {} extension(s), {} added replica(s){}",
+        100.0 * t.ci95_rel(),
+        points.len(),
+        work.iter().filter(|w| w.action == "extend").count(),
+        work.iter().filter(|w| w.action == "replica").count(),
+        if short.is_empty() {
+            String::new()
+        } else {
+            format!("; not met: {}", short.join("; "))
+        }
+    )))
+}
+
 pub const REPLICA_NOTE: &str = "n=K beside a point: K replicas combined; bars: their 95 % CI";
 
 /// The points at which every run clogged before Q could be measured (no replica has Q).

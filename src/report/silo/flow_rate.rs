@@ -285,6 +285,9 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     if points.iter().any(|p| p.replicas > 1) {
         q_panel.notes.push(REPLICA_NOTE.into());
     }
+    q_panel
+        .notes
+        .extend(super::data::target_note(conn, campaign.id)?);
     let dmin_label = (!dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
     dmin_panel
         .series

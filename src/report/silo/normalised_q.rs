@@ -11,7 +11,7 @@ use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, replica_label, same_value,
-    spread, CloggedPoint, REPLICA_NOTE,
+    spread, target_note, CloggedPoint, REPLICA_NOTE,
 };
 use crate::report::silo::normalise::{normalise, Normalised, NormalisedCurve};
 use crate::report::table::mm;
@@ -131,6 +131,8 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     if any_replicas(norm.curves.iter()) {
         panel.notes.push(REPLICA_NOTE.into());
     }
+    let target = target_note(conn, campaign.id)?;
+    panel.notes.extend(target.clone());
     for &d in &norm.skipped_d_m {
         panel.notes.push(format!(
             "D = {} mm: no Q at the reference f, not normalised",
@@ -148,9 +150,10 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     };
     let (table, csv) = norm.tables(norm.curves.iter());
     let text = format!(
-        "{}{}{}",
+        "{}{}{}{}",
         norm.note(),
         clogged_note(&clogged),
+        target.map_or_else(String::new, |t| format!("{t}\n")),
         table.to_text()
     );
     Ok(Drawn {
