@@ -226,3 +226,38 @@ fn a_target_that_does_not_fit_the_campaign_is_refused_by_field() {
     }
     assert!(!dir.path().join("x.db").exists(), "nothing registered");
 }
+
+#[test]
+fn a_chute_target_adds_replicas_and_stops_at_its_cap() {
+    let dir = TempDir::new().unwrap();
+    // Too short to be steady: no replica has a D to pool, so the target can only replicate
+    // until max_replicas, and says why it stopped.
+    let mut c = tiny_chute("tiny_chute_target", "f32", 0.5);
+    c["target"] = json!({"d_ci95_rel": 0.5, "max_replicas": 2});
+    let file = write_campaign(dir.path(), "c.json", &c);
+    let db = dir.path().join("sweep.db");
+    let out = stdout(&launch_ok(dir.path(), &file, &db));
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        2,
+        "{out}"
+    );
+    let conn = read_db(&db);
+    let (runs, met, status): (i64, bool, String) = conn
+        .query_row("SELECT runs, met, status FROM target_points", [], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?))
+        })
+        .unwrap();
+    assert_eq!((runs, met), (2, false), "{status}");
+    assert!(
+        status.contains("no estimate after 2 replica(s)"),
+        "{status}"
+    );
+    assert_eq!(
+        count(
+            &db,
+            "SELECT COUNT(*) FROM target_work WHERE action = 'replica'"
+        ),
+        1
+    );
+}

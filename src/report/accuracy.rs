@@ -652,9 +652,9 @@ pub(crate) fn accuracy(
             r0 + 1,
             pooled_count(r0)
         )),
-        columns: panels.len(),
+        columns: 1,
         panels,
-        panel_size: (720, 560),
+        panel_size: (1300, 560),
     };
     let stem = format!("{}_accuracy", campaign.scene);
     let files = write_all(&fig, &table, out_dir, &stem)?;

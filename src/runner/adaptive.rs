@@ -308,8 +308,12 @@ pub fn evaluate(conn: &Connection, campaign_id: i64) -> Result<Evaluation> {
     let rows = done_discharge_rows(conn, campaign_id)?;
     let by_job: BTreeMap<i64, &DischargeRow> = rows.iter().map(|r| (r.job_id, r)).collect();
     let mut filled = BTreeSet::new();
+    // Silo fills are shared between jobs of one seed (a chute has no fill stage).
     for j in jobs.iter().filter(|j| j.status == "done") {
-        filled.insert(spec_of(j)?.fill_key().0);
+        let spec = spec_of(j)?;
+        if spec.scene == SceneKind::Silo {
+            filled.insert(spec.fill_key().0);
+        }
     }
     let rounds_done = targets::rounds(conn, campaign_id)?;
     let mut points = Vec::new();
