@@ -175,7 +175,7 @@ fn a_job_run_on_gives_the_bits_of_the_job_run_longer_from_the_start() {
     {
         let mut conn = sweep::store::open(&db_a).unwrap();
         let tx = conn.transaction().unwrap();
-        assert!(sweep::store::targets::extend(&tx, 1, 0.7).unwrap());
+        assert!(sweep::store::targets::extend(&tx, 1, 0.7, 0.7).unwrap());
         tx.commit().unwrap();
     }
     let o = resume(a.path(), &db_a);
@@ -260,4 +260,67 @@ fn a_chute_target_adds_replicas_and_stops_at_its_cap() {
         ),
         1
     );
+}
+
+/// A chute job's results, keyed by job hash, each cell with its exact bits.
+fn chute_results(db: &Path) -> Vec<Vec<Vec<String>>> {
+    ["chute_summary", "chute_blocks", "chute_msd", "chute_series", "chute_flow_state"]
+        .iter()
+        .map(|t| {
+            rows(
+                db,
+                &format!(
+                    "SELECT j.hash, j.sim_time_s, t.* FROM {t} t JOIN jobs j ON j.id = t.job_id ORDER BY 1, 3, 4, 5"
+                ),
+            )
+            .into_iter()
+            .map(|mut r| {
+                r.remove(2); // the row's own job id
+                r
+            })
+            .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn a_chute_measurement_run_on_gives_the_bits_of_a_longer_one() {
+    // The tiny chute measures 1 s after at most 1 s of waiting; run on to 1.5 s of measurement.
+    let c = tiny_chute("tiny_chute_on", "f32", 0.5);
+    let a = TempDir::new().unwrap();
+    let file = write_campaign(a.path(), "c.json", &c);
+    let db_a = a.path().join("sweep.db");
+    launch_ok(a.path(), &file, &db_a);
+    {
+        let mut conn = sweep::store::open(&db_a).unwrap();
+        let tx = conn.transaction().unwrap();
+        assert!(sweep::store::targets::extend(&tx, 1, 1.5, 2.5).unwrap());
+        tx.commit().unwrap();
+    }
+    let o = resume(a.path(), &db_a);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let b = TempDir::new().unwrap();
+    let file = write_campaign(b.path(), "c.json", &c);
+    let db_b = b.path().join("sweep.db");
+    {
+        let (f, jobs) = sweep::campaign::load(&file).unwrap();
+        let mut conn = sweep::store::open(&db_b).unwrap();
+        sweep::store::jobs::register(&mut conn, "c.json", &f, &jobs, false).unwrap();
+        conn.execute("UPDATE jobs SET target_time_s = 2.5", [])
+            .unwrap();
+    }
+    let o = resume(b.path(), &db_b);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let measured: f64 = read_db(&db_a)
+        .query_row(
+            "SELECT measure_end_s - measure_start_s FROM chute_summary",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert!(
+        (measured - 1.5).abs() < 0.06,
+        "measured {measured} s, not 1.5 s"
+    );
+    assert_eq!(chute_results(&db_a), chute_results(&db_b));
 }

@@ -27,8 +27,8 @@ pub struct Target {
     /// Replicas a point may have in all (the file's `replicas` included).
     #[serde(default = "default_max_replicas")]
     pub max_replicas: u32,
-    /// Longest simulated time (s) a silo job's discharge may be run to. Absent: jobs are not
-    /// run longer, only replicated (chute jobs always are: leave it out there).
+    /// Longest simulated time (s) a job may be run to: the silo's discharge, the chute's
+    /// measurement. Absent: jobs are not run longer, only replicated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_time_s: Option<f64>,
     /// Rounds of added work at most (each round gives every point short of its target one
@@ -96,12 +96,6 @@ impl Target {
                     bad(
                         "q_ci95_rel",
                         "is a silo target; a chute campaign sets d_ci95_rel".into(),
-                    );
-                }
-                if self.max_time_s.is_some() {
-                    bad(
-                        "max_time_s",
-                        "a chute target adds replicas only (running a finished measurement on is not built): leave max_time_s out and set measure_time_s".into(),
                     );
                 }
             }

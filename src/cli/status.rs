@@ -139,7 +139,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
 /// A campaign target's points after its latest round, and the work it added.
 fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result<()> {
     use sweep::store::targets;
-    let Some(t) = targets::campaign_file(conn, campaign_id)?.and_then(|f| f.target) else {
+    // A stored file this sweep cannot read (another version's) has no target to show.
+    let Some(t) = targets::campaign_file(conn, campaign_id)
+        .ok()
+        .flatten()
+        .and_then(|f| f.target)
+    else {
         return Ok(());
     };
     let points = targets::points(conn, campaign_id)?;

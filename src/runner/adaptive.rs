@@ -178,26 +178,19 @@ fn silo_point(
         replica_end_s: sp.discharge_time_s,
         quantum_s: d.block_s,
     };
-    let row = PointRow {
-        point: p.label.clone(),
-        observable: observable.into(),
-        mean: estimate.map(|e| e.mean),
-        ci95_rel: estimate.map(|e| e.ci95_rel()),
-        ci_from: combined.first().map(|fp| fp.ci_source.name().to_string()),
-        replicas: combined.first().map_or(0, |fp| fp.replicas),
-        runs: p.jobs.len(),
-        measured_s: p.jobs.iter().map(|j| j.sim_time_s).sum(),
-        particle_steps: p.jobs.iter().map(|j| j.particle_steps).sum(),
-        met: false,
-        status: String::new(),
-        rounds: 0,
-    };
+    let row = point_row(
+        p,
+        observable,
+        estimate,
+        combined.first().map(|fp| fp.ci_source.name().to_string()),
+        combined.first().map_or(0, |fp| fp.replicas),
+    );
     Ok((state, row, spec))
 }
 
 /// A chute point: D pooled over its steady replicas, block by block in the bulk, as the chute
-/// figures pool it; its interval is the widest bulk block's. Chute jobs are only replicated
-/// (running a finished measurement on is not built), so the weight counts steady replicas.
+/// figures pool it (weighted by measured time); its interval is the widest bulk block's. A
+/// steady run can measure on; an unsteady one cannot.
 fn chute_point(
     p: &Point,
     pooled: &[crate::report::ChutePoint],
@@ -214,43 +207,81 @@ fn chute_point(
             .map(|(_, d)| *d)
             .max_by(|a, b| a.ci95_rel().total_cmp(&b.ci95_rel()))
     });
-    let steady = found.map_or(0, |c| c.steady_jobs.len());
+    let steady_jobs: &[i64] = found.map_or(&[], |c| c.steady_jobs.as_slice());
+    let steady = steady_jobs.len();
+    // A run's own time is its measurement: its end minus the longest wait for steady flow.
+    let measured = |j: &TargetJob| (j.target_time_s - cp.steady_max_time_s).max(cp.measure_time_s);
     let runs = p
         .jobs
         .iter()
         .map(|j| RunState {
             job_id: j.job_id,
-            end_s: j.target_time_s,
-            not_extendable: Some("a chute measurement is not run on: replicas only".into()),
+            end_s: measured(j),
+            not_extendable: (!steady_jobs.contains(&j.job_id))
+                .then(|| format!("job {} was not steady: nothing to run on", j.job_id)),
         })
         .collect();
+    // A replica waits for its steady state as the point's steady runs did, then measures.
+    let waits: Vec<f64> = p
+        .jobs
+        .iter()
+        .filter(|j| steady_jobs.contains(&j.job_id))
+        .map(|j| (j.sim_time_s - measured(j)).max(0.0))
+        .collect();
+    let wait = if waits.is_empty() {
+        cp.steady_max_time_s
+    } else {
+        waits.iter().sum::<f64>() / waits.len() as f64
+    };
     let state = PointState {
         label: p.label.clone(),
         estimate: widest.filter(|_| steady > 0),
-        weight: steady as f64,
-        weight_per_s: 0.0,
+        weight: p
+            .jobs
+            .iter()
+            .filter(|j| steady_jobs.contains(&j.job_id))
+            .map(|j| measured(j))
+            .sum(),
+        weight_per_s: 1.0,
         runs,
         steps_per_s,
-        replica_cost: steps_per_s * cp.max_time_s(),
-        replica_weight: 1.0,
+        replica_cost: steps_per_s * (wait + cp.measure_time_s),
+        replica_weight: cp.measure_time_s,
         replica_end_s: cp.measure_time_s,
         quantum_s: 1.0,
     };
-    let row = PointRow {
+    let row = point_row(
+        p,
+        observable,
+        state.estimate,
+        state.estimate.map(|e| e.from.name().to_string()),
+        steady,
+    );
+    Ok((state, row, spec))
+}
+
+/// A point's stored row before its decision (status and rounds are filled in after).
+fn point_row(
+    p: &Point,
+    observable: &str,
+    estimate: Option<Pooled>,
+    ci_from: Option<String>,
+    replicas: usize,
+) -> PointRow {
+    PointRow {
         point: p.label.clone(),
         observable: observable.into(),
-        mean: state.estimate.map(|e| e.mean),
-        ci95_rel: state.estimate.map(|e| e.ci95_rel()),
-        ci_from: state.estimate.map(|e| e.from.name().to_string()),
-        replicas: steady,
+        mean: estimate.map(|e| e.mean),
+        ci95_rel: estimate.map(|e| e.ci95_rel()),
+        ci_from,
+        replicas,
         runs: p.jobs.len(),
         measured_s: p.jobs.iter().map(|j| j.sim_time_s).sum(),
         particle_steps: p.jobs.iter().map(|j| j.particle_steps).sum(),
         met: false,
         status: String::new(),
         rounds: 0,
-    };
-    Ok((state, row, spec))
+    }
 }
 
 /// The next replica index of a point: one past the largest it has.
@@ -417,8 +448,13 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
                 from_s,
                 to_s,
             } => {
+                // A chute job's end adds its longest wait for the steady state.
+                let end_s = match next.chute.as_ref() {
+                    Some(c) => c.steady_max_time_s + to_s,
+                    None => to_s,
+                };
                 anyhow::ensure!(
-                    targets::extend(&tx, job_id, to_s)?,
+                    targets::extend(&tx, job_id, to_s, end_s)?,
                     "job {job_id} is not done: it cannot be run on"
                 );
                 (job_id, "extend", from_s, to_s)

@@ -182,7 +182,13 @@ pub fn run_chute_job(
     let chunk_dt = chunk_steps as f64 * scene.dt;
     let study = ChuteStudy {
         sample_every: ((settings.sample_interval_s / chunk_dt).round() as u64).max(1),
-        measure_chunks: (scene.p.measure_time_s / chunk_dt).round().max(1.0) as u64,
+        // A campaign's target may have run the measurement on: the job's end then stands
+        // past the file's `steady_max_time_s + measure_time_s`.
+        measure_chunks: ((job.target_time_s - scene.p.steady_max_time_s)
+            .max(scene.p.measure_time_s)
+            / chunk_dt)
+            .round()
+            .max(1.0) as u64,
         bed: expected_bed_height(&scene),
         chunk_steps,
         probe,

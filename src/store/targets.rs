@@ -64,17 +64,19 @@ pub fn rounds(conn: &Connection, campaign_id: i64) -> Result<u32> {
     Ok(r.unwrap_or(0) as u32)
 }
 
-/// Sets done job `job_id` to run on to `to_s` (from its checkpoint): pending again, with fresh
-/// attempts. False when the job is not done (nothing changed).
+/// Sets done job `job_id` to run on (from its checkpoint) until its own time (the silo's
+/// discharge, the chute's measurement) is `to_s`, i.e. its simulated end is `end_s` (the
+/// chute's adds its longest wait for the steady state): pending again, with fresh attempts.
+/// False when the job is not done (nothing changed).
 ///
 /// # Errors
 /// Database errors.
-pub fn extend(tx: &Transaction, job_id: i64, to_s: f64) -> Result<bool> {
+pub fn extend(tx: &Transaction, job_id: i64, to_s: f64, end_s: f64) -> Result<bool> {
     let n = tx.execute(
-        "UPDATE jobs SET status = 'pending', target_time_s = ?2, extended_to_s = ?2, attempts = 0,
-                progress = MIN(1.0, sim_time_s / ?2), lease_owner = NULL, last_error = NULL
+        "UPDATE jobs SET status = 'pending', target_time_s = ?3, extended_to_s = ?2, attempts = 0,
+                progress = MIN(1.0, sim_time_s / ?3), lease_owner = NULL, last_error = NULL
          WHERE id = ?1 AND status = 'done'",
-        params![job_id, to_s],
+        params![job_id, to_s, end_s],
     )?;
     Ok(n == 1)
 }

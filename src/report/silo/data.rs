@@ -209,13 +209,13 @@ pub fn target_note(
     campaign_id: i64,
 ) -> anyhow::Result<Option<String>> {
     let points = crate::store::targets::points(conn, campaign_id)?;
+    if points.is_empty() {
+        return Ok(None);
+    }
     let Some(t) = crate::store::targets::campaign_file(conn, campaign_id)?.and_then(|f| f.target)
     else {
         return Ok(None);
     };
-    if points.is_empty() {
-        return Ok(None);
-    }
     let work = crate::store::targets::work(conn, campaign_id)?;
     let met = points.iter().filter(|p| p.met).count();
     let short: Vec<String> = points
