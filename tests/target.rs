@@ -111,6 +111,17 @@ fn each_point_gets_work_until_its_interval_holds_and_no_longer() {
         );
         assert!(ci <= GOAL, "{point}: ±{ci} is not within ±{GOAL}");
     }
+    // `sweep plan` forecasts nothing more for points already met.
+    let plan = sweep_cmd(dir.path())
+        .args(["plan", "t.json", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let plan = stdout(&plan);
+    assert_eq!(plan.matches("  met").count(), 2, "{plan}");
+    assert!(
+        plan.contains("still to run: 0.000e0 particle-steps"),
+        "{plan}"
+    );
     // The replicas the target added are the campaign's own: the same file launches again.
     let again = launch_ok(dir.path(), &dir.path().join("t.json"), &db);
     assert!(stdout(&again).contains("0 new"), "{}", stdout(&again));

@@ -227,7 +227,7 @@ fn target_forecast(
         );
         return Ok(());
     };
-    let ev = sweep::runner::adaptive::evaluate(conn, campaign.id)?;
+    let ev = sweep::runner::adaptive::evaluate_for(conn, campaign.id, Some(t))?;
     if ev.open > 0 {
         println!(
             "  ({} job(s) of the campaign not ended: the estimate uses the ended ones)",

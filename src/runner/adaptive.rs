@@ -325,11 +325,24 @@ pub struct EvaluatedPoint {
 /// # Errors
 /// Database errors, unreadable stored parameters, or a campaign without a target.
 pub fn evaluate(conn: &Connection, campaign_id: i64) -> Result<Evaluation> {
+    evaluate_for(conn, campaign_id, None)
+}
+
+/// As [`evaluate`], under `target` instead of the stored file's (`sweep plan` of an edited
+/// target).
+///
+/// # Errors
+/// As [`evaluate`].
+pub fn evaluate_for(
+    conn: &Connection,
+    campaign_id: i64,
+    target: Option<&Target>,
+) -> Result<Evaluation> {
     let file: CampaignFile = targets::campaign_file(conn, campaign_id)?
         .with_context(|| format!("no campaign with id {campaign_id}"))?;
-    let target: Target = file
-        .target
-        .clone()
+    let target: Target = target
+        .or(file.target.as_ref())
+        .cloned()
         .with_context(|| format!("campaign '{}' has no target", file.name))?;
     let jobs = targets::campaign_jobs(conn, campaign_id)?;
     let open = jobs
