@@ -37,10 +37,23 @@ pub(crate) fn silo_job(
     status: &str,
     params_json: &str,
 ) -> i64 {
+    job_of(conn, campaign, "silo", 3.0, label, status, params_json)
+}
+
+/// A job of `scene` in `campaign` (hash and label `label`, its end at `target_time_s`); its id.
+fn job_of(
+    conn: &Connection,
+    campaign: i64,
+    scene: &str,
+    target_time_s: f64,
+    label: &str,
+    status: &str,
+    params_json: &str,
+) -> i64 {
     conn.execute(
         "INSERT INTO jobs (hash, scene, params_json, seed, status, target_time_s) \
-         VALUES (?1, 'silo', ?2, 1, ?3, 3.0)",
-        params![label, params_json, status],
+         VALUES (?1, ?4, ?2, 1, ?3, ?5)",
+        params![label, params_json, status, scene, target_time_s],
     )
     .expect("insert job");
     let job = conn.last_insert_rowid();
@@ -107,7 +120,7 @@ pub(crate) fn discharge_sample(conn: &Connection, job: i64, t_s: f64, mass_kg: f
     .expect("insert series");
 }
 
-/// A chute job of `campaign` (hash and label `label`); its id.
+/// A chute job of `campaign` (hash and label `label`, target 400 s); its id.
 pub(crate) fn chute_job(
     conn: &Connection,
     campaign: i64,
@@ -115,19 +128,7 @@ pub(crate) fn chute_job(
     status: &str,
     params_json: &str,
 ) -> i64 {
-    conn.execute(
-        "INSERT INTO jobs (hash, scene, params_json, seed, status, target_time_s) \
-         VALUES (?1, 'chute', ?2, 1, ?3, 400.0)",
-        params![label, params_json, status],
-    )
-    .expect("insert job");
-    let job = conn.last_insert_rowid();
-    conn.execute(
-        "INSERT INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
-        params![campaign, job, label],
-    )
-    .expect("insert campaign_job");
-    job
+    job_of(conn, campaign, "chute", 400.0, label, status, params_json)
 }
 
 /// A chute summary of a synthetic job (measured from 160 s for `measure_s`).
