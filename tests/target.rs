@@ -174,36 +174,43 @@ fn the_rounds_take_the_same_work_in_the_same_order_twice_and_after_a_kill() {
     assert_same_results(&results(&db_a), &results(&db_b));
 }
 
-#[test]
-fn a_job_run_on_gives_the_bits_of_the_job_run_longer_from_the_start() {
-    let mut c = one_job(0.1);
-    c["base"]["reinsert"] = json!(true);
-    // Run to 0.4 s, then on to 0.7 s from its checkpoint.
+/// The single job of campaign `c` run twice: in A launched to its own end, then run on until
+/// its own time is `to_s` (its end `end_s`); in B told to end at `end_s` before it ever ran.
+/// Returns both directories (kept alive) and databases.
+fn run_on_and_run_longer(c: &Value, to_s: f64, end_s: f64) -> [(TempDir, std::path::PathBuf); 2] {
     let a = TempDir::new().unwrap();
-    let file = write_campaign(a.path(), "one.json", &c);
+    let file = write_campaign(a.path(), "c.json", c);
     let db_a = a.path().join("sweep.db");
     launch_ok(a.path(), &file, &db_a);
     {
         let mut conn = sweep::store::open(&db_a).unwrap();
         let tx = conn.transaction().unwrap();
-        assert!(sweep::store::targets::extend(&tx, 1, 0.7, 0.7).unwrap());
+        assert!(sweep::store::targets::extend(&tx, 1, to_s, end_s).unwrap());
         tx.commit().unwrap();
     }
     let o = resume(a.path(), &db_a);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    // The same job, told to run to 0.7 s before it ever ran.
     let b = TempDir::new().unwrap();
-    let file = write_campaign(b.path(), "one.json", &c);
+    let file = write_campaign(b.path(), "c.json", c);
     let db_b = b.path().join("sweep.db");
     {
         let (f, jobs) = sweep::campaign::load(&file).unwrap();
         let mut conn = sweep::store::open(&db_b).unwrap();
-        sweep::store::jobs::register(&mut conn, "one.json", &f, &jobs, false).unwrap();
-        conn.execute("UPDATE jobs SET target_time_s = 0.7", [])
+        sweep::store::jobs::register(&mut conn, "c.json", &f, &jobs, false).unwrap();
+        conn.execute("UPDATE jobs SET target_time_s = ?1", [end_s])
             .unwrap();
     }
     let o = resume(b.path(), &db_b);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    [(a, db_a), (b, db_b)]
+}
+
+#[test]
+fn a_job_run_on_gives_the_bits_of_the_job_run_longer_from_the_start() {
+    let mut c = one_job(0.1);
+    c["base"]["reinsert"] = json!(true);
+    // Run to 0.4 s, then on to 0.7 s from its checkpoint; against 0.7 s from the start.
+    let [(_a, db_a), (_b, db_b)] = run_on_and_run_longer(&c, 0.7, 0.7);
     let (ra, rb) = (results(&db_a), results(&db_b));
     assert!(
         count(&db_a, "SELECT COUNT(*) FROM jobs WHERE sim_time_s > 0.69") > 0,
@@ -298,30 +305,7 @@ fn chute_results(db: &Path) -> Vec<Vec<Vec<String>>> {
 fn a_chute_measurement_run_on_gives_the_bits_of_a_longer_one() {
     // The tiny chute measures 1 s after at most 1 s of waiting; run on to 1.5 s of measurement.
     let c = tiny_chute("tiny_chute_on", "f32", 0.5);
-    let a = TempDir::new().unwrap();
-    let file = write_campaign(a.path(), "c.json", &c);
-    let db_a = a.path().join("sweep.db");
-    launch_ok(a.path(), &file, &db_a);
-    {
-        let mut conn = sweep::store::open(&db_a).unwrap();
-        let tx = conn.transaction().unwrap();
-        assert!(sweep::store::targets::extend(&tx, 1, 1.5, 2.5).unwrap());
-        tx.commit().unwrap();
-    }
-    let o = resume(a.path(), &db_a);
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    let b = TempDir::new().unwrap();
-    let file = write_campaign(b.path(), "c.json", &c);
-    let db_b = b.path().join("sweep.db");
-    {
-        let (f, jobs) = sweep::campaign::load(&file).unwrap();
-        let mut conn = sweep::store::open(&db_b).unwrap();
-        sweep::store::jobs::register(&mut conn, "c.json", &f, &jobs, false).unwrap();
-        conn.execute("UPDATE jobs SET target_time_s = 2.5", [])
-            .unwrap();
-    }
-    let o = resume(b.path(), &db_b);
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let [(_a, db_a), (_b, db_b)] = run_on_and_run_longer(&c, 1.5, 2.5);
     let measured: f64 = read_db(&db_a)
         .query_row(
             "SELECT measure_end_s - measure_start_s FROM chute_summary",
