@@ -677,6 +677,9 @@ fn sweep_bench_runs_on_the_gpu() {
     assert_eq!(v["backend"], "gpu");
     assert_eq!(v["precision"], "f32");
     assert!(v["particle_steps_per_s"].as_f64().unwrap() > 0.0);
+    // The engine's own count: a step without a list build is two dispatches.
+    let per_steady = v["dispatches"]["per_steady_step"].as_u64().unwrap();
+    assert!((1..=2).contains(&per_steady), "{}", v["dispatches"]);
     // f64 on the GPU is refused with a clear message.
     let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
         .current_dir(dir.path())

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use sweep::bench::Settling;
 use sweep::campaign::Precision;
+use sweep::engine::DispatchCount;
 use sweep::runner::backend::{self, BackendChoice};
 use sweep::store::bench_runs;
 
@@ -90,17 +91,20 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     let mut rates = Vec::new();
     let mut last = None;
+    let mut dispatches = None;
     for _ in 0..a.repeat {
         let config = sc.config.clone();
         let mut engine = backend::build(a.backend, precision, config, &sc.state, a.threads)?;
         engine
             .advance(100)
             .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
+        let d0 = engine.dispatches();
         let t0 = Instant::now();
         let r = engine
             .advance(a.steps)
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         let secs = t0.elapsed().as_secs_f64();
+        dispatches = engine.dispatches().zip(d0).map(|(d1, d0)| since(&d1, &d0));
         rates.push((r.particle_steps as f64 / secs, secs));
         let sum = sweep::bench::checksum(&engine.download());
         if let Some((_, _, _, first)) = &last {
@@ -144,7 +148,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "precision": info.precision, "threads": info.threads, "particle_steps_per_s": rate,
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
                 "translational_ke_j": ke, "vcm_x_m_per_s": vcm_x,
-                "runs_particle_steps_per_s": runs, "best_particle_steps_per_s": best
+                "runs_particle_steps_per_s": runs, "best_particle_steps_per_s": best,
+                "dispatches": dispatches.map(|d| dispatch_json(&d))
             })
         );
     } else {
@@ -155,6 +160,16 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!(
             "  end state: translational kinetic energy {ke:.6e} J, mean x velocity {vcm_x:.6e} m/s"
         );
+        if let Some(d) = &dispatches {
+            println!(
+                "  dispatches: {:.2} per step, {} per steady step, {} list builds, {} steps voided and redone, {} submissions",
+                d.dispatches as f64 / d.steps.max(1) as f64,
+                d.max_steady_step,
+                d.builds,
+                d.voided_steps,
+                d.submissions
+            );
+        }
         if runs.len() > 1 {
             let all: Vec<String> = runs.iter().map(|x| format!("{x:.3e}")).collect();
             println!(
@@ -269,4 +284,31 @@ fn settled_bed(
     std::fs::create_dir_all(&dir)?;
     checkpoint::write_atomic(&path, &checkpoint::encode(&header, &state, "{}"))?;
     Ok((state, steps))
+}
+
+/// The counts of the timed run alone (the engine counts from its start).
+fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
+    DispatchCount {
+        steps: d1.steps - d0.steps,
+        dispatches: d1.dispatches - d0.dispatches,
+        steady_steps: d1.steady_steps - d0.steady_steps,
+        steady_dispatches: d1.steady_dispatches - d0.steady_dispatches,
+        max_steady_step: d1.max_steady_step,
+        builds: d1.builds - d0.builds,
+        voided_steps: d1.voided_steps - d0.voided_steps,
+        submissions: d1.submissions - d0.submissions,
+    }
+}
+
+fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
+    serde_json::json!({
+        "per_step": d.dispatches as f64 / d.steps.max(1) as f64,
+        "per_steady_step": d.max_steady_step,
+        "steady_steps": d.steady_steps,
+        "steps": d.steps,
+        "total": d.dispatches,
+        "list_builds": d.builds,
+        "voided_steps": d.voided_steps,
+        "submissions": d.submissions,
+    })
 }

@@ -43,6 +43,40 @@ pub struct BackendInfo {
     pub threads: usize,
 }
 
+/// The work a GPU engine recorded, counted as the device pays for it: each dispatch costs a
+/// launch whatever it computes. A steady step is one without a list build.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DispatchCount {
+    /// Steps taken (a redone step counts once).
+    pub steps: u64,
+    /// Every dispatch recorded, voided ones included.
+    pub dispatches: u64,
+    pub steady_steps: u64,
+    pub steady_dispatches: u64,
+    /// The most dispatches any steady step recorded.
+    pub max_steady_step: u64,
+    /// List builds recorded: at chunk starts, where the engine predicted one, and after a stale step.
+    pub builds: u64,
+    /// Steps recorded past a step whose lists were found stale: void on the device, redone.
+    pub voided_steps: u64,
+    /// Command buffers submitted.
+    pub submissions: u64,
+}
+
+impl DispatchCount {
+    /// Adds `other`'s counts (the work of several chunks or engines).
+    pub fn add(&mut self, other: &DispatchCount) {
+        self.steps += other.steps;
+        self.dispatches += other.dispatches;
+        self.steady_steps += other.steady_steps;
+        self.steady_dispatches += other.steady_dispatches;
+        self.max_steady_step = self.max_steady_step.max(other.max_steady_step);
+        self.builds += other.builds;
+        self.voided_steps += other.voided_steps;
+        self.submissions += other.submissions;
+    }
+}
+
 /// Errors a running simulation can end with.
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
@@ -105,4 +139,8 @@ pub trait Backend: Send {
     /// A backend that cannot provide it, or a device failure.
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError>;
     fn describe(&self) -> BackendInfo;
+    /// The dispatches recorded since the engine was built (GPU engines; None on the CPU).
+    fn dispatches(&self) -> Option<DispatchCount> {
+        None
+    }
 }

@@ -34,7 +34,7 @@ mod verlet;
 pub mod walls;
 pub mod watchdog;
 
-pub use backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
+pub use backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError, SinkEvent};
 pub use config::EngineConfig;
 pub use cpu::CpuEngine;
 pub use effects::Effects;

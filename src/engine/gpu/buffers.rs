@@ -210,7 +210,8 @@ pub struct GpuBuffers {
     pub cell_start: wgpu::Buffer,
     pub chunk_sums: wgpu::Buffer,
     pub sorted: wgpu::Buffer,
-    pub indirect: wgpu::Buffer,
+    /// Kinetic energy per workgroup of particles (`finish`).
+    pub energy: wgpu::Buffer,
     /// `RodGpu` per particle; one zeroed record when the run is not oriented.
     pub rod: wgpu::Buffer,
     pub oriented: bool,
@@ -309,10 +310,10 @@ impl GpuBuffers {
             cell_start: zeroed("cell starts", (g.ncell as u64 + 1) * 4, STORAGE),
             chunk_sums: zeroed("scan run totals", g.n_chunks as u64 * 4, STORAGE),
             sorted: zeroed("cell-sorted indices", n as u64 * 4, STORAGE),
-            indirect: zeroed(
-                "rebuild dispatch sizes",
-                super::layout::REBUILD_PASSES.len() as u64 * 12,
-                STORAGE | wgpu::BufferUsages::INDIRECT,
+            energy: zeroed(
+                "kinetic energy per workgroup",
+                (n as u64).div_ceil(super::layout::WORKGROUP_SIZE as u64) * 4,
+                STORAGE,
             ),
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
             oriented,
@@ -339,7 +340,7 @@ impl GpuBuffers {
             binding::CELL_START => &self.cell_start,
             binding::CHUNK_SUMS => &self.chunk_sums,
             binding::SORTED => &self.sorted,
-            binding::INDIRECT => &self.indirect,
+            binding::ENERGY => &self.energy,
             binding::ROD => &self.rod,
             _ => unreachable!("no buffer at binding {b}"),
         }

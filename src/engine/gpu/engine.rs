@@ -1,27 +1,37 @@
 //! The GPU backend: the CPU engine's velocity Verlet as compute passes, in f32, with the state
-//! resident on the device. One chunk is: a list rebuild, then per step `kick_drift` → `plan_step`
-//! → the rebuild passes (dispatched indirectly, with zero workgroups unless some particle moved
-//! more than skin/2) → `compute_forces`; then the closing half kick and `finish`. Many steps go
-//! into one command buffer; only the status block and the sink events are read back per chunk.
-//! Particles removed by the sink stay in place (flagged dead, skipped by every kernel) until the
-//! host compacts them with a download and upload once they exceed 1/8 of the slots; a download
-//! never shows them, as on the CPU.
+//! resident on the device. A step is two dispatches, `kick_drift` (kick, drift, sink, skin check;
+//! oriented runs also turn) and `compute_forces`, plus the six list-build passes at the steps
+//! where the host records a build: at each chunk's start, as on the CPU, and where
+//! `BuildSchedule` predicts the lists will go stale. The device finds staleness itself: the
+//! first stale step is written to the status block and every later kernel returns at once, so
+//! the host, which keeps two command buffers in flight and reads each one's stale word
+//! asynchronously, redoes that step with a build and goes on. Builds never change the results
+//! (lists sorted by index), so neither the schedule nor `steps_per_submit` does.
 //!
-//! Oriented runs (spherocylinders, `Specialization::oriented`) add `kick_rotate` after
-//! `kick_drift`: the rotational kick and the exact free rotor of `shape::rigid`, ω refreshed, the
-//! axis re-derived, and the skin criterion |Δc| + (l/2)|Δu| > skin/2 of the CPU engine; the
-//! contact kernel then evaluates every rod pair in the CPU's canonical order (lower id first).
+//! At the chunk's end `finish` checks finiteness, counts contacts and sums the kinetic energy per
+//! workgroup; only the status block, those sums and the sink events are read back. Particles
+//! removed by the sink stay in place (flagged dead, skipped by every kernel) until the host
+//! compacts them with a download and upload once they exceed 1/8 of the slots; a download never
+//! shows them, as on the CPU.
+//!
+//! Oriented runs (spherocylinders, `Specialization::oriented`) turn in `kick_drift`: the
+//! rotational kick and the exact free rotor of `shape::rigid`, ω refreshed, the axis re-derived,
+//! and the skin criterion |Δc| + (l/2)|Δu| > skin/2 of the CPU engine; the contact kernel then
+//! evaluates every rod pair in the CPU's canonical order (lower id first).
+
+use std::collections::VecDeque;
 
 use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
 use super::grid::{plan_grid, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, WallGpu, MAX_WALLS, REBUILD_PASSES, STATUS_WORDS,
-    WORKGROUP_SIZE,
+    status_initial, LawGpu, Params, WallGpu, MAX_WALLS, STATUS_WORDS, ST_DEATHS, ST_STALE, ST_STEP,
+    ST_STEP_NEXT, WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
+use super::schedule::BuildSchedule;
 use super::status::{read_chunk, ChunkContext};
-use crate::engine::backend::{Backend, BackendInfo, ChunkReport, EngineError};
+use crate::engine::backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError};
 use crate::engine::config::EngineConfig;
 use crate::engine::contact::ContactRecord;
 use crate::engine::cpu::Watchdog;
@@ -31,9 +41,13 @@ use crate::engine::state::State;
 /// Tunables of the GPU engine that do not change the physics.
 #[derive(Clone, Copy, Debug)]
 pub struct GpuOptions {
-    /// Steps recorded into one command buffer before it is submitted. Larger amortises the
-    /// submission; smaller bounds the memory of recorded commands.
+    /// Steps recorded into one command buffer before it is submitted (two are in flight).
+    /// Larger amortises the submission; smaller wastes fewer void steps when the lists go stale
+    /// before a predicted build.
     pub steps_per_submit: u64,
+    /// Record a list build every this many steps instead of predicting (tests: builds must not
+    /// change the results).
+    pub build_every: Option<u64>,
     /// Run length of the chunked prefix scan (default ⌈√cells⌉).
     pub scan_chunk: Option<u32>,
     /// Only `max_overlap_ratio` applies: the energy check needs the kinetic energy, which the
@@ -46,6 +60,7 @@ impl Default for GpuOptions {
     fn default() -> Self {
         Self {
             steps_per_submit: 64,
+            build_every: None,
             scan_chunk: None,
             watchdog: Watchdog::default(),
         }
@@ -64,6 +79,8 @@ struct Run {
     alive: usize,
     /// Live mobile particles (what particle-steps count, as on the CPU).
     mobile: usize,
+    /// Kinetic energy at the last chunk's end (None before the first chunk of this upload).
+    energy: Option<f64>,
 }
 
 /// The GPU engine (f32).
@@ -82,6 +99,8 @@ pub struct GpuEngine {
     /// An upload that failed, reported by the next `advance`.
     pending: Option<EngineError>,
     options: GpuOptions,
+    schedule: BuildSchedule,
+    dispatches: DispatchCount,
 }
 
 impl GpuEngine {
@@ -126,6 +145,8 @@ impl GpuEngine {
             step: 0,
             pending: None,
             options,
+            schedule: BuildSchedule::default(),
+            dispatches: DispatchCount::default(),
         };
         e.load(state)?;
         Ok(e)
@@ -248,6 +269,7 @@ impl GpuEngine {
             masses: state.mass.iter().map(|&m| m as f32).collect(),
             alive: n,
             mobile: state.inv_mass.iter().filter(|&&m| m != 0.0).count(),
+            energy: None,
         });
         Ok(())
     }
@@ -285,67 +307,217 @@ impl GpuEngine {
         Ok(())
     }
 
-    /// Records and submits `steps` steps (plus the chunk's opening rebuild and closing passes).
-    fn encode_chunk(&self, run: &Run, steps: u64) {
-        let n = run.bufs.n;
-        let gp = (n as u32).div_ceil(WORKGROUP_SIZE);
+    /// Runs `steps` steps on the device: records them two command buffers ahead, reads each
+    /// one's stale word as it completes, and redoes the step where the lists went stale.
+    fn run_steps(&self, run: &Run, steps: u64) -> Result<Chunk, EngineError> {
+        let mut c = Chunk {
+            schedule: self.schedule,
+            steps,
+            next: 0,
+            redo: None,
+            start_build: true,
+            closed: false,
+            builds: vec![-1],
+            per_step: Vec::with_capacity(steps as usize),
+            count: DispatchCount::default(),
+        };
+        let mut flight: VecDeque<InFlight> = VecDeque::new();
+        loop {
+            let work_left = c.next < steps || c.redo.is_some() || !c.closed;
+            if work_left && flight.len() < 2 {
+                flight.push_back(self.submit(run, &mut c));
+                continue;
+            }
+            let Some(f) = flight.pop_front() else {
+                break;
+            };
+            let stale = f.wait(&self.dev)?;
+            if stale == u32::MAX {
+                continue;
+            }
+            // Everything recorded past step `stale` (this buffer's rest and the next one's) was
+            // void on the device: redo the step with a build and go on from there.
+            flight.clear();
+            let s = stale as u64;
+            let voided = c.next - (s + 1);
+            c.count.voided_steps += voided;
+            c.per_step.truncate(s as usize + 1);
+            c.builds.retain(|&b| b < s as i64);
+            let last = c.builds.last().copied().unwrap_or(-1);
+            if self.options.build_every.is_none() {
+                c.schedule.stale((s as i64 - last) as u64);
+            }
+            for (word, value) in [(ST_STEP, s as u32), (ST_STEP_NEXT, s as u32 + 1)] {
+                self.dev.queue.write_buffer(
+                    &run.bufs.status,
+                    word as u64 * 4,
+                    bytemuck::bytes_of(&value),
+                );
+            }
+            c.next = s + 1;
+            c.redo = Some(s);
+            c.closed = false;
+        }
+        c.count.steps = steps;
+        for &d in &c.per_step {
+            if d == STEP_DISPATCHES {
+                c.count.steady_steps += 1;
+                c.count.steady_dispatches += d as u64;
+                c.count.max_steady_step = c.count.max_steady_step.max(d as u64);
+            }
+        }
+        Ok(c)
+    }
+
+    /// Records and submits the chunk's next command buffer: a pending build (chunk start or a
+    /// redone step), up to `steps_per_submit` steps, and the closing passes after the last.
+    fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
+        let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
+        let gc = run.grid.n_chunks.div_ceil(WORKGROUP_SIZE);
         let pipes = &self.pipes;
         let binds = &run.binds;
-        let dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
+        let mut dispatches = 0u64;
+        let mut dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
             pass.set_pipeline(&pipes.pipelines[k]);
             pass.set_bind_group(0, &binds.0[k], &[]);
             pass.dispatch_workgroups(groups, 1, 1);
+            dispatches += 1;
         };
-        let rebuild = |pass: &mut wgpu::ComputePass<'_>| {
-            for (slot, &k) in kernel::REBUILD.iter().enumerate() {
-                pass.set_pipeline(&pipes.pipelines[k]);
-                pass.set_bind_group(0, &binds.0[k], &[]);
-                pass.dispatch_workgroups_indirect(&run.bufs.indirect, slot as u64 * 12);
+        let build =
+            |pass: &mut wgpu::ComputePass<'_>,
+             dispatch: &mut dyn FnMut(&mut wgpu::ComputePass<'_>, usize, u32)| {
+                for (p, &k) in kernel::BUILD.iter().enumerate() {
+                    // histogram, scan_chunks, scan_totals, scan_apply, scatter, build_list.
+                    let groups = match p {
+                        1 | 3 => gc,
+                        2 => 1,
+                        _ => gp,
+                    };
+                    dispatch(pass, k, groups);
+                }
+            };
+        let mut enc = self
+            .dev
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("steps"),
+            });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("steps"),
+                timestamp_writes: None,
+            });
+            if std::mem::take(&mut c.start_build) {
+                // NOTE: every chunk starts from fresh lists, as on the CPU.
+                build(&mut pass, &mut dispatch);
+                c.count.builds += 1;
             }
-        };
-        debug_assert_eq!(kernel::REBUILD.len(), REBUILD_PASSES.len());
-        let mut done = 0;
-        while done < steps {
-            let batch = (steps - done).min(self.options.steps_per_submit.max(1));
-            let mut enc = self
-                .dev
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("steps"),
-                });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("steps"),
-                    timestamp_writes: None,
-                });
-                if done == 0 {
-                    // NOTE: every chunk starts from fresh lists, as on the CPU.
-                    dispatch(&mut pass, kernel::PLAN_START, 1);
-                    rebuild(&mut pass);
-                }
-                for _ in 0..batch {
-                    // Kick (dt/2 at the chunk's first step, dt after), drift, sink, staleness.
-                    dispatch(&mut pass, kernel::KICK_DRIFT, gp);
-                    if self.oriented {
-                        // Rotational kick, free rotation, axes, and the rods' skin criterion.
-                        dispatch(&mut pass, kernel::KICK_ROTATE, gp);
-                    }
-                    // Count the step; size the rebuild passes (0 when the lists still hold).
-                    dispatch(&mut pass, kernel::PLAN_STEP, 1);
-                    // Histogram, scan, scatter, lists.
-                    rebuild(&mut pass);
-                    // Forces, torques and history from the new positions.
-                    dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
-                }
-                if done + batch == steps {
-                    // The closing half kick, then finiteness and contact counts.
-                    dispatch(&mut pass, kernel::CLOSE_KICK, gp);
-                    dispatch(&mut pass, kernel::FINISH, gp);
-                }
+            if let Some(s) = c.redo.take() {
+                build(&mut pass, &mut dispatch);
+                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                c.count.builds += 1;
+                c.builds.push(s as i64);
+                c.per_step[s as usize] = 1 + BUILD_DISPATCHES + 1;
             }
-            self.dev.queue.submit([enc.finish()]);
-            done += batch;
+            let end = c.steps.min(c.next + self.options.steps_per_submit.max(1));
+            for k in c.next..end {
+                let last = c.builds.last().copied().unwrap_or(-1);
+                let due = match self.options.build_every {
+                    Some(n) => (k as i64 - last) >= n.max(1) as i64,
+                    None => c.schedule.due(k as i64, last),
+                };
+                dispatch(&mut pass, kernel::KICK_DRIFT, gp);
+                if due {
+                    build(&mut pass, &mut dispatch);
+                    c.count.builds += 1;
+                    c.builds.push(k as i64);
+                    c.schedule.scheduled();
+                }
+                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                c.per_step.push(if due {
+                    STEP_DISPATCHES + BUILD_DISPATCHES
+                } else {
+                    STEP_DISPATCHES
+                });
+            }
+            c.next = end;
+            if end == c.steps && !c.closed {
+                // The closing half kick, then finiteness, contact counts and kinetic energy.
+                dispatch(&mut pass, kernel::CLOSE_KICK, gp);
+                dispatch(&mut pass, kernel::FINISH, gp);
+                c.closed = true;
+            }
         }
+        let stale = self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stale step"),
+            size: 4,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        enc.copy_buffer_to_buffer(&run.bufs.status, ST_STALE as u64 * 4, &stale, 0, 4);
+        let index = self.dev.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        stale.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        c.count.dispatches += dispatches;
+        c.count.submissions += 1;
+        InFlight { index, stale, rx }
+    }
+}
+
+/// Dispatches of a step without a build, and of one build.
+const STEP_DISPATCHES: u8 = 2;
+const BUILD_DISPATCHES: u8 = 6;
+
+/// The host's record of the chunk being run.
+struct Chunk {
+    /// The engine's build schedule, learning during the chunk.
+    schedule: BuildSchedule,
+    steps: u64,
+    /// The next step to record.
+    next: u64,
+    /// A step whose lists were found stale: to redo with a build before the next step.
+    redo: Option<u64>,
+    start_build: bool,
+    /// Whether the closing passes are recorded (after the last step).
+    closed: bool,
+    /// Steps after whose drift a build was recorded (−1: the chunk's start), ascending.
+    builds: Vec<i64>,
+    /// Dispatches recorded per step taken.
+    per_step: Vec<u8>,
+    count: DispatchCount,
+}
+
+/// A submitted command buffer and the pending read of its stale word.
+struct InFlight {
+    index: wgpu::SubmissionIndex,
+    stale: wgpu::Buffer,
+    rx: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+}
+
+impl InFlight {
+    /// Waits for the buffer and returns the first stale step it saw (u32::MAX: none).
+    fn wait(self, dev: &GpuDevice) -> Result<u32, EngineError> {
+        dev.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(self.index),
+                timeout: None,
+            })
+            .map_err(|e| EngineError::Device(format!("waiting for the device: {e}")))?;
+        self.rx
+            .recv()
+            .map_err(|e| EngineError::Device(format!("readback never completed: {e}")))?
+            .map_err(|e| EngineError::Device(format!("reading the status back: {e}")))?;
+        if let Some(e) = dev.take_error() {
+            return Err(EngineError::Device(e));
+        }
+        let view = self
+            .stale
+            .get_mapped_range(..)
+            .map_err(|e| EngineError::Device(format!("reading the status back: {e}")))?;
+        let word = u32::from_le_bytes([view[0], view[1], view[2], view[3]]);
+        Ok(word)
     }
 }
 
@@ -385,20 +557,30 @@ impl Backend for GpuEngine {
             report.steps = steps;
             return Ok(report);
         };
-        let n = run.bufs.n;
         self.dev
             .queue
             .write_buffer(&run.bufs.status, 0, bytemuck::bytes_of(&status_initial()));
-        self.encode_chunk(run, steps);
+        let chunk = self.run_steps(run, steps)?;
+        let groups = (run.bufs.n as u64).div_ceil(WORKGROUP_SIZE as u64);
         let parts = buffers::read(
             &self.dev,
             &[
                 (&run.bufs.status, STATUS_WORDS as u64 * 4),
-                (&run.bufs.events, n as u64 * 8),
+                (&run.bufs.energy, groups * 4),
             ],
         )?;
         let st: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
-        let events: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&parts[1]);
+        let energy: f64 = bytemuck::pod_collect_to_vec::<u8, f32>(&parts[1])
+            .iter()
+            .map(|&e| e as f64)
+            .sum();
+        let deaths = (st[ST_DEATHS] as u64).min(run.bufs.n as u64);
+        let events: Vec<[u32; 2]> = if deaths > 0 {
+            let p = buffers::read(&self.dev, &[(&run.bufs.events, deaths * 8)])?;
+            bytemuck::pod_collect_to_vec(&p[0])
+        } else {
+            Vec::new()
+        };
         let out = read_chunk(
             &ChunkContext {
                 ids: &run.ids,
@@ -419,7 +601,10 @@ impl Backend for GpuEngine {
         if let Some(r) = self.run.as_mut() {
             r.alive = out.alive;
             r.mobile = out.mobile;
+            r.energy = Some(energy);
         }
+        self.schedule = chunk.schedule;
+        self.dispatches.add(&chunk.count);
         self.time = out.time;
         self.step = step0 + steps;
         match out.error {
@@ -455,6 +640,20 @@ impl Backend for GpuEngine {
         let mut cpu =
             crate::engine::cpu::CpuEngine::<f32>::new(self.config.clone(), state.convert(), 1);
         Ok(cpu.contact_records())
+    }
+
+    /// Summed on the device at the last chunk's end (per workgroup, then in f64 here), so a
+    /// chunk reads back a few hundred numbers instead of the state.
+    fn kinetic_energy(&mut self) -> Result<f64, EngineError> {
+        match self.run.as_ref().map(|r| r.energy) {
+            None => Ok(0.0),
+            Some(Some(e)) => Ok(e),
+            Some(None) => Ok(self.read_state()?.kinetic_energy()),
+        }
+    }
+
+    fn dispatches(&self) -> Option<DispatchCount> {
+        Some(self.dispatches)
     }
 
     fn describe(&self) -> BackendInfo {

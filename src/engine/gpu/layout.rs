@@ -18,8 +18,11 @@ pub const MAX_WALLS: usize = 16;
 
 /// Words of the status block (flags, counters and errors written by the kernels).
 pub const STATUS_WORDS: usize = 16;
-/// Set by `kick_drift` when some particle moved more than skin/2 since the last list build.
-pub const ST_REBUILD: usize = 0;
+/// The first step (0-based in the chunk) after whose drift some particle had moved more than
+/// skin/2 since the last list build, u32::MAX when none is pending. Every kernel of a later step
+/// returns at once: the host finds the step in the submission's status, rebuilds, and goes on
+/// from it (engine.rs). A list build clears it.
+pub const ST_STALE: usize = 0;
 /// Neighbour-list builds in this chunk.
 pub const ST_BUILDS: usize = 1;
 /// Particles that fell through the sink in this chunk (entries of the event buffer).
@@ -34,19 +37,22 @@ pub const ST_FULL_STEP: usize = 5;
 pub const ST_FULL_INDEX: usize = 6;
 /// Largest neighbour count that did not fit in a list row (0: none).
 pub const ST_LIST_OVERFLOW: usize = 7;
-/// Steps completed in this chunk (advanced by `plan_step`).
+/// The step being taken (0-based in the chunk): read by `kick_drift` and the rebuild passes,
+/// set to `ST_STEP_NEXT` by `compute_forces` (whose other invocations do not read it).
 pub const ST_STEP: usize = 8;
 /// Sum of the contact counts at the chunk's end.
 pub const ST_CONTACTS: usize = 9;
 /// Smallest 4 i + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity,
 /// 3 orientation).
 pub const ST_NONFINITE: usize = 10;
+/// The step after the one being taken: written by `kick_drift`, read by `compute_forces` (so the
+/// step index advances without a dispatch of its own).
+pub const ST_STEP_NEXT: usize = 11;
 
-/// Status words at the start of a chunk: a list build is due (the CPU rebuilds at every chunk
-/// start too), minima start at u32::MAX.
+/// Status words at the start of a chunk: no step taken, nothing stale, minima at u32::MAX.
 pub fn status_initial() -> [u32; STATUS_WORDS] {
     let mut s = [0u32; STATUS_WORDS];
-    s[ST_REBUILD] = 1;
+    s[ST_STALE] = u32::MAX;
     s[ST_OVERLAP_STEP] = u32::MAX;
     s[ST_FULL_STEP] = u32::MAX;
     s[ST_FULL_INDEX] = u32::MAX;
@@ -73,20 +79,11 @@ pub mod binding {
     pub const CELL_START: u32 = 14;
     pub const CHUNK_SUMS: u32 = 15;
     pub const SORTED: u32 = 16;
-    pub const INDIRECT: u32 = 17;
+    /// Kinetic energy per workgroup of particles, left by `finish`.
+    pub const ENERGY: u32 = 17;
     /// Orientation, angular momentum and body inertia of oriented particles (`RodGpu`).
     pub const ROD: u32 = 18;
 }
-
-/// Indirect dispatch slots (3 words each) of the list-rebuild passes, in execution order.
-pub const REBUILD_PASSES: [&str; 6] = [
-    "histogram",
-    "scan_chunks",
-    "scan_totals",
-    "scan_apply",
-    "scatter",
-    "build_list",
-];
 
 /// WGSL constants generated from this file, prepended to `common.wgsl`.
 pub fn prelude() -> String {
@@ -109,7 +106,7 @@ pub fn prelude() -> String {
         s += &format!("const {name}: f32 = {};\n", hex_f32(v));
     }
     for (name, v) in [
-        ("ST_REBUILD", ST_REBUILD),
+        ("ST_STALE", ST_STALE),
         ("ST_BUILDS", ST_BUILDS),
         ("ST_DEATHS", ST_DEATHS),
         ("ST_MAX_OVERLAP", ST_MAX_OVERLAP),
@@ -120,6 +117,7 @@ pub fn prelude() -> String {
         ("ST_STEP", ST_STEP),
         ("ST_CONTACTS", ST_CONTACTS),
         ("ST_NONFINITE", ST_NONFINITE),
+        ("ST_STEP_NEXT", ST_STEP_NEXT),
     ] {
         s += &format!("const {name}: u32 = {v}u;\n");
     }

@@ -7,6 +7,7 @@ mod engine;
 mod grid;
 mod layout;
 mod pipelines;
+mod schedule;
 mod status;
 
 pub use buffers::{pack, unpack, Packed};

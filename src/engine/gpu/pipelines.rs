@@ -74,20 +74,17 @@ pub struct KernelSpec {
 
 /// Kernel indices into `KERNELS`.
 pub mod kernel {
+    /// The step's kick and drift (and, oriented, rotation), sink and skin check.
     pub const KICK_DRIFT: usize = 0;
     pub const CLOSE_KICK: usize = 1;
     pub const FINISH: usize = 2;
-    pub const PLAN_START: usize = 3;
-    pub const PLAN_STEP: usize = 4;
-    /// The six rebuild passes, in `layout::REBUILD_PASSES` order.
-    pub const REBUILD: [usize; 6] = [5, 6, 7, 8, 9, 10];
-    pub const COMPUTE_FORCES: usize = 11;
-    /// Oriented runs only: the rotational kick and free rotation, after `KICK_DRIFT`.
-    pub const KICK_ROTATE: usize = 12;
+    /// The six list-build passes, in execution order.
+    pub const BUILD: [usize; 6] = [3, 4, 5, 6, 7, 8];
+    pub const COMPUTE_FORCES: usize = 9;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 13] = [
+pub const KERNELS: [KernelSpec; 10] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -101,12 +98,21 @@ pub const KERNELS: [KernelSpec; 13] = [
             b::REF_POS,
             b::STATUS,
             b::EVENTS,
+            b::ROD,
         ],
     },
     KernelSpec {
         module: Module::Integrate,
         entry: "close_kick",
-        bindings: &[b::PARAMS, b::VEL_IM, b::OMEGA, b::INFO, b::LOAD, b::ROD],
+        bindings: &[
+            b::PARAMS,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::STATUS,
+            b::ROD,
+        ],
     },
     KernelSpec {
         module: Module::Integrate,
@@ -120,42 +126,53 @@ pub const KERNELS: [KernelSpec; 13] = [
             b::LOAD,
             b::STATUS,
             b::ROD,
+            b::ENERGY,
         ],
     },
     KernelSpec {
         module: Module::Grid,
-        entry: "plan_start",
-        bindings: &[b::PARAMS, b::STATUS, b::INDIRECT],
-    },
-    KernelSpec {
-        module: Module::Grid,
-        entry: "plan_step",
-        bindings: &[b::PARAMS, b::STATUS, b::INDIRECT],
-    },
-    KernelSpec {
-        module: Module::Grid,
         entry: "histogram",
-        bindings: &[b::PARAMS, b::POS_R, b::INFO, b::CELL_RANK, b::CELL_COUNT],
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::INFO,
+            b::STATUS,
+            b::CELL_RANK,
+            b::CELL_COUNT,
+        ],
     },
     KernelSpec {
         module: Module::Grid,
         entry: "scan_chunks",
-        bindings: &[b::PARAMS, b::CELL_COUNT, b::CHUNK_SUMS],
+        bindings: &[b::PARAMS, b::STATUS, b::CELL_COUNT, b::CHUNK_SUMS],
     },
     KernelSpec {
         module: Module::Grid,
         entry: "scan_totals",
-        bindings: &[b::PARAMS, b::CHUNK_SUMS],
+        bindings: &[b::PARAMS, b::STATUS, b::CHUNK_SUMS],
     },
     KernelSpec {
         module: Module::Grid,
         entry: "scan_apply",
-        bindings: &[b::PARAMS, b::CELL_COUNT, b::CELL_START, b::CHUNK_SUMS],
+        bindings: &[
+            b::PARAMS,
+            b::STATUS,
+            b::CELL_COUNT,
+            b::CELL_START,
+            b::CHUNK_SUMS,
+        ],
     },
     KernelSpec {
         module: Module::Grid,
         entry: "scatter",
-        bindings: &[b::PARAMS, b::INFO, b::CELL_RANK, b::CELL_START, b::SORTED],
+        bindings: &[
+            b::PARAMS,
+            b::INFO,
+            b::STATUS,
+            b::CELL_RANK,
+            b::CELL_START,
+            b::SORTED,
+        ],
     },
     KernelSpec {
         module: Module::Grid,
@@ -188,21 +205,6 @@ pub const KERNELS: [KernelSpec; 13] = [
             b::STATUS,
         ],
     },
-    KernelSpec {
-        module: Module::Integrate,
-        entry: "kick_rotate",
-        bindings: &[
-            b::PARAMS,
-            b::POS_R,
-            b::VEL_IM,
-            b::OMEGA,
-            b::INFO,
-            b::LOAD,
-            b::REF_POS,
-            b::STATUS,
-            b::ROD,
-        ],
-    },
 ];
 
 /// Smallest valid binding size of each buffer: one record.
@@ -213,8 +215,7 @@ fn min_size(binding: u32) -> u64 {
         b::LOAD => 32,
         b::STATUS => STATUS_WORDS as u64 * 4,
         b::EVENTS | b::CELL_RANK => 8,
-        b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED => 4,
-        b::INDIRECT => 12,
+        b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED | b::ENERGY => 4,
         b::ROD => std::mem::size_of::<RodGpu>() as u64,
         _ => 16,
     }

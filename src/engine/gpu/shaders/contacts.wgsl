@@ -206,6 +206,13 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
 fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if (i >= params.n) { return; }
+    // Steps done after this one (1-based step index); the next kick_drift reads it.
+    let k = atomicLoad(&status[ST_STEP_NEXT]);
+    if (i == 0u) {
+        atomicStore(&status[ST_STEP], k);
+    }
+    // Void when the lists went stale at this step or before (the host redoes it).
+    if (atomicLoad(&status[ST_STALE]) < k) { return; }
     let use_rows = HISTORY;
     if (use_rows) {
         rows_open(i);
@@ -235,7 +242,6 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
         rows_close(i);
     }
     load[i] = Load(vec4<f32>(f, f32(g.nc)), vec4<f32>(t, max_ov));
-    let k = atomicLoad(&status[ST_STEP]);
     if (full) {
         atomicMin(&status[ST_FULL_STEP], k);
         atomicMin(&status[ST_FULL_INDEX], i);

@@ -1,9 +1,10 @@
 // Neighbour search: a uniform cell grid filled by a counting sort (atomic histogram, chunked
 // prefix sum, scatter of particle indices), then a full Verlet list per particle with cutoff
 // r_i + r_j + skin (r the reach: the radius, plus l/2 for a spherocylinder), sorted by particle
-// index so that force sums do not depend on the order the atomics happened to run in. `plan_*`
-// decide on the device whether the rebuild passes run: they write the indirect dispatch sizes
-// (zero workgroups when the lists are still valid).
+// index so that force sums do not depend on the order the atomics happened to run in, nor on
+// when the lists were built. The host records these passes only at steps it chose (engine.rs);
+// each returns at once when an earlier step left the lists stale (the submission is void past
+// that step and the host redoes it).
 
 @group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> info: array<Info>;
@@ -15,41 +16,10 @@
 @group(0) @binding(14) var<storage, read_write> cell_start: array<u32>;
 @group(0) @binding(15) var<storage, read_write> chunk_sums: array<u32>;
 @group(0) @binding(16) var<storage, read_write> sorted: array<u32>;
-@group(0) @binding(17) var<storage, read_write> indirect: array<u32>;
 
-fn set_groups(pass_index: u32, groups: u32) {
-    indirect[pass_index * 3u] = groups;
-    indirect[pass_index * 3u + 1u] = 1u;
-    indirect[pass_index * 3u + 2u] = 1u;
-}
-
-fn plan(inc: u32) {
-    atomicStore(&status[ST_STEP], atomicLoad(&status[ST_STEP]) + inc);
-    let go = atomicLoad(&status[ST_REBUILD]) != 0u;
-    atomicStore(&status[ST_REBUILD], 0u);
-    if (go) {
-        atomicAdd(&status[ST_BUILDS], 1u);
-    }
-    let gp = select(0u, params.groups_particles, go);
-    let gc = select(0u, params.groups_chunks, go);
-    set_groups(0u, gp); // histogram
-    set_groups(1u, gc); // scan_chunks
-    set_groups(2u, select(0u, 1u, go)); // scan_totals
-    set_groups(3u, gc); // scan_apply
-    set_groups(4u, gp); // scatter
-    set_groups(5u, gp); // build_list
-}
-
-// Chunk start: the lists are always rebuilt (as on the CPU), the step counter stays.
-@compute @workgroup_size(1)
-fn plan_start() {
-    plan(0u);
-}
-
-// After each step's drift: one more step done; rebuild if some particle moved > skin/2.
-@compute @workgroup_size(1)
-fn plan_step() {
-    plan(1u);
+// Whether a step before this one found the lists stale (this build is then void).
+fn void_build() -> bool {
+    return atomicLoad(&status[ST_STALE]) < atomicLoad(&status[ST_STEP]);
 }
 
 fn axis_cell(x: f32, lo: f32, w: f32, n: u32, periodic: bool) -> u32 {
@@ -72,7 +42,7 @@ fn cell_of(p: vec3<f32>) -> vec3<u32> {
 @compute @workgroup_size(WG)
 fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= params.n || void_build()) { return; }
     if (info[i].alive == 0u) { return; }
     let c3 = cell_of(pos_r[i].xyz);
     let c = (c3.z * params.ny + c3.y) * params.nx + c3.x;
@@ -83,7 +53,7 @@ fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(WG)
 fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = gid.x;
-    if (c >= params.n_chunks) { return; }
+    if (c >= params.n_chunks || void_build()) { return; }
     let a = c * params.scan_chunk;
     let b = min(a + params.scan_chunk, params.ncell);
     var s = 0u;
@@ -93,9 +63,13 @@ fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
     chunk_sums[c] = s;
 }
 
-// ...one invocation scans the run totals...
+// ...one invocation scans the run totals (and, alone on the device, counts the build and
+// clears the staleness it answers)...
 @compute @workgroup_size(1)
 fn scan_totals() {
+    if (void_build()) { return; }
+    atomicStore(&status[ST_STALE], 0xffffffffu);
+    atomicAdd(&status[ST_BUILDS], 1u);
     var run = 0u;
     for (var c = 0u; c < params.n_chunks; c++) {
         let s = chunk_sums[c];
@@ -108,7 +82,7 @@ fn scan_totals() {
 @compute @workgroup_size(WG)
 fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = gid.x;
-    if (c >= params.n_chunks) { return; }
+    if (c >= params.n_chunks || void_build()) { return; }
     let a = c * params.scan_chunk;
     let b = min(a + params.scan_chunk, params.ncell);
     var run = chunk_sums[c];
@@ -125,7 +99,7 @@ fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(WG)
 fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= params.n || void_build()) { return; }
     if (info[i].alive == 0u) { return; }
     let cr = cell_rank[i];
     sorted[cell_start[cr.x] + cr.y] = i;
@@ -175,7 +149,7 @@ fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
 @compute @workgroup_size(WG)
 fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= params.n || void_build()) { return; }
     let p4 = pos_r[i];
     ref_pos[i] = p4;
     if (ORIENTED) {

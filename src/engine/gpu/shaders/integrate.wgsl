@@ -1,9 +1,8 @@
 // Velocity Verlet with the fused kick of cpu/rods.rs: `kick_drift` kicks by dt/2 at a chunk's first
 // step and by dt after (the previous step's closing half kick and this step's opening one),
-// drifts, wraps, flags sink deaths and list staleness; `close_kick` is the chunk's closing half
-// kick; `finish` checks finiteness and counts contacts. Oriented runs rotate in `kick_rotate`
-// (rotate.wgsl) and kick L, not ω, in `close_kick`.
-
+// drifts, wraps, flags sink deaths and list staleness, and for oriented runs turns the particle
+// (rotate.wgsl) in the same invocation; `close_kick` is the chunk's closing half kick; `finish`
+// checks finiteness, counts contacts and sums the kinetic energy per workgroup.
 @group(0) @binding(2) var<storage, read_write> pos_r: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> vel_im: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> omega: array<vec4<f32>>;
@@ -14,11 +13,32 @@
 @group(0) @binding(11) var<storage, read_write> events: array<vec2<u32>>;
 @group(0) @binding(18) var<storage, read_write> rod: array<Rod>;
 
+// Marks the lists stale from step k on (the first such step wins).
+fn flag_stale(k: u32) {
+    if (atomicLoad(&status[ST_STALE]) > k) {
+        atomicMin(&status[ST_STALE], k);
+    }
+}
+
+// Step k's kick and drift of every particle, then (oriented runs) its rotation; the step index
+// advances here for `compute_forces`. Void when an earlier step left the lists stale.
 @compute @workgroup_size(WG)
 fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if (i >= params.n) { return; }
     let k = atomicLoad(&status[ST_STEP]);
+    if (atomicLoad(&status[ST_STALE]) < k) { return; }
+    if (i == 0u) {
+        atomicStore(&status[ST_STEP_NEXT], k + 1u);
+    }
+    translate(i, k);
+    if (ORIENTED) {
+        kick_rotate(i, k);
+    }
+}
+
+// The translational kick and drift of particle i at step k, the sink and (spheres) the skin.
+fn translate(i: u32, k: u32) {
     let kick = select(params.dt, params.half_dt, k == 0u);
     if (ROTATION && !ORIENTED) {
         // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
@@ -51,15 +71,15 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Oriented particles test their ends after turning, in kick_rotate.
     if (ORIENTED) { return; }
     let d = min_image(ref_pos[i].xyz, x);
-    if (dot3(d, d) > params.half_skin2 && atomicLoad(&status[ST_REBUILD]) == 0u) {
-        atomicStore(&status[ST_REBUILD], 1u);
+    if (dot3(d, d) > params.half_skin2) {
+        flag_stale(k);
     }
 }
 
 @compute @workgroup_size(WG)
 fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= params.n || atomicLoad(&status[ST_STALE]) != 0xffffffffu) { return; }
     let half = params.half_dt;
     let vi = vel_im[i];
     let im = vi.w;
@@ -89,11 +109,14 @@ fn is_finite3(v: vec3<f32>) -> bool {
     return all(e != vec3<u32>(0x7f800000u));
 }
 
-@compute @workgroup_size(WG)
-fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= params.n) { return; }
-    if (info[i].alive == 0u) { return; }
+@group(0) @binding(17) var<storage, read_write> energy: array<f32>;
+
+var<workgroup> ke_part: array<f32, WG>;
+
+// Finiteness and the contact count of live particle i; returns its kinetic energy (translational
+// and rotational, as State::kinetic_energy; zero when fixed).
+fn check_particle(i: u32) -> f32 {
+    if (info[i].alive == 0u) { return 0.0; }
     atomicAdd(&status[ST_CONTACTS], u32(load[i].force.w));
     var kind = 4u;
     if (!is_finite3(pos_r[i].xyz)) {
@@ -107,5 +130,41 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (kind < 4u) {
         atomicMin(&status[ST_NONFINITE], i * 4u + kind);
+    }
+    if (vel_im[i].w == 0.0) { return 0.0; }
+    let v = vel_im[i].xyz;
+    var e = 0.5 * info[i].mass * dot3(v, v);
+    if (ORIENTED) {
+        e += 0.5 * dot3(omega[i].xyz, rod[i].ang_mom.xyz);
+    } else if (ROTATION && info[i].inv_inertia > 0.0) {
+        let w = omega[i].xyz;
+        e += 0.5 / info[i].inv_inertia * dot3(w, w);
+    }
+    return e;
+}
+
+// The chunk's closing checks; each workgroup leaves its particles' kinetic energy, summed by a
+// fixed tree (so the same state gives the same bits), in energy[workgroup].
+@compute @workgroup_size(WG)
+fn finish(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let i = gid.x;
+    var e = 0.0;
+    if (i < params.n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
+        e = check_particle(i);
+    }
+    ke_part[lid.x] = e;
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if (lid.x < s) {
+            ke_part[lid.x] = ke_part[lid.x] + ke_part[lid.x + s];
+        }
+        workgroupBarrier();
+    }
+    if (lid.x == 0u) {
+        energy[wid.x] = ke_part[0];
     }
 }

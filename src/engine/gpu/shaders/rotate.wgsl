@@ -90,16 +90,12 @@ fn rotate_free_symmetric(q: vec4<f32>, l: vec3<f32>, inv: vec3<f32>, dt: f32) ->
     return quat_normalize(quat_mul(turned, spin));
 }
 
-// After kick_drift, for oriented runs: kick L by the torque (dt/2 at a chunk's first step, dt
-// after), turn freely for dt, refresh ω and the axis; then flag a list rebuild when the ends may
-// have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu| (as cpu/rods.rs).
-@compute @workgroup_size(WG)
-fn kick_rotate(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= params.n) { return; }
-    if (!ORIENTED) { return; }
+// After the translation of oriented particle i at step k: kick L by the torque (dt/2 at a
+// chunk's first step, dt after), turn freely for dt, refresh ω and the axis; then flag the lists
+// stale when the ends may have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu|
+// (as cpu/rods.rs).
+fn kick_rotate(i: u32, k: u32) {
     if (vel_im[i].w == 0.0 || info[i].alive == 0u) { return; }
-    let k = atomicLoad(&status[ST_STEP]);
     let kick = select(params.dt, params.half_dt, k == 0u);
     let r = rod[i];
     let inv = r.inv_inertia_h.xyz;
@@ -119,7 +115,7 @@ fn kick_rotate(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let d = min_image(ref_pos[i].xyz, pos_r[i].xyz);
-    if (sqrt(dot3(d, d)) + turned > params.half_skin && atomicLoad(&status[ST_REBUILD]) == 0u) {
-        atomicStore(&status[ST_REBUILD], 1u);
+    if (sqrt(dot3(d, d)) + turned > params.half_skin) {
+        flag_stale(k);
     }
 }
