@@ -302,6 +302,7 @@ fn auto_records_why_a_job_runs_on_the_cpu() {
         f64_note.contains("the CPU, because the job runs in f64"),
         "{notes:?}"
     );
+    sweep::engine::gpu::quiet_headless_device_select();
     let adapters = sweep::engine::gpu::list_adapters();
     let usable: Vec<_> = adapters.iter().filter(|a| a.unusable.is_none()).collect();
     let (p, b, n) = &notes[0];

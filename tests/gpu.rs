@@ -748,6 +748,7 @@ fn sweep_bench_refuses_a_software_adapter_unless_allowed() {
 
 #[test]
 fn sweep_bench_refuses_a_gpu_number_out_of_range() {
+    sweep::engine::gpu::quiet_headless_device_select();
     let n = sweep::engine::gpu::list_adapters().len();
     let out = bench(&["--backend", "gpu", "--gpu", "99", "--allow-software-gpu"]);
     let err = String::from_utf8_lossy(&out.stderr);

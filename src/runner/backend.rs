@@ -247,6 +247,34 @@ pub fn auto_summary(index: Option<usize>) -> String {
     }
 }
 
+/// The note of a job `--backend auto` runs on the CPU.
+fn auto_note(why: &Fallback) -> String {
+    format!("--backend auto: the CPU, because {why}")
+}
+
+/// Says on stderr what `--backend auto` does with f32 jobs here (a launch's first line): the
+/// GPU it takes, or why every job runs on the CPU (then said once only, not again per job).
+pub fn announce_auto(index: Option<usize>) {
+    let adapters: Vec<AdapterSummary> = list_adapters().iter().map(AdapterSummary::of).collect();
+    if index.is_some_and(|n| n >= adapters.len()) {
+        return; // Each job fails with the reason.
+    }
+    let files = if adapters.is_empty() {
+        vulkan_driver_files().len()
+    } else {
+        0
+    };
+    match auto_decision(&adapters, Precision::F32, index, files) {
+        Ok(k) => eprintln!(
+            "sweep: --backend auto: GPU [{k}] {} for f32 jobs, the CPU for f64 jobs",
+            adapters[k].name
+        ),
+        Err(why) => {
+            say_once(&auto_note(&why), &|s| eprintln!("{s}"));
+        }
+    }
+}
+
 /// Prints `note` on stderr (through `print`) unless this process printed it already; returns
 /// whether it printed.
 pub fn say_once(note: &str, print: &dyn Fn(String)) -> bool {
@@ -444,7 +472,7 @@ pub fn build_on(
             }),
             Err(why) => Ok(Built {
                 engine: cpu(precision, config, state, threads),
-                note: Some(format!("--backend auto: the CPU, because {why}")),
+                note: Some(auto_note(&why)),
             }),
         },
     }
