@@ -40,6 +40,7 @@ CREATE TABLE IF NOT EXISTS jobs (
     backend         TEXT,
     adapter         TEXT,
     precision       TEXT,
+    backend_note    TEXT,                  -- why this backend: auto's reason for the CPU, a software adapter allowed
     program_version TEXT,
     created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     finished_at     TEXT

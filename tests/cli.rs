@@ -261,6 +261,81 @@ fn status_after_a_launch_lists_the_campaign_as_done() {
     assert_eq!(job.split_whitespace().nth(1), Some("done"), "{job}");
 }
 
+/// `--backend auto` says why it runs a job on the CPU, once on stderr, in the job's record
+/// (`jobs.backend_note`) and in `sweep status`: an f64 job everywhere; an f32 job where there is
+/// no hardware GPU (CI: lavapipe only, "only a software adapter (llvmpipe …)").
+#[test]
+fn auto_records_why_a_job_runs_on_the_cpu() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let mut c = campaign("auto_reason", &[0.02], &[0.5], 0.05);
+    c["zip"] = json!({ "precision": ["f32", "f64"] });
+    let file = write_campaign(d, "auto.json", &c);
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--backend", "auto", "--threads", "1", "--parallel", "2"])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(o.status.success(), "{}\n{err}", stdout(&o));
+    let notes: Vec<(String, String, Option<String>)> = {
+        let conn = read_db(&db);
+        let mut q = conn
+            .prepare("SELECT precision, backend, backend_note FROM jobs ORDER BY precision")
+            .unwrap();
+        q.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+            .unwrap()
+            .map(Result::unwrap)
+            .collect()
+    };
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    let (p, b, n) = &notes[1];
+    assert_eq!((p.as_str(), b.as_str()), ("f64", "cpu"));
+    let f64_note = n.as_deref().unwrap_or_default();
+    assert!(
+        f64_note.contains("the CPU, because the job runs in f64"),
+        "{notes:?}"
+    );
+    sweep::engine::gpu::quiet_headless_device_select();
+    let adapters = sweep::engine::gpu::list_adapters();
+    let usable: Vec<_> = adapters.iter().filter(|a| a.unusable.is_none()).collect();
+    let (p, b, n) = &notes[0];
+    assert_eq!(p, "f32");
+    if usable.iter().any(|a| a.hardware) {
+        eprintln!("skipping the f32 job's reason: a hardware GPU is there ({b})");
+    } else {
+        assert_eq!(b, "cpu");
+        let note = n.as_deref().unwrap_or_default();
+        assert!(
+            note.starts_with("--backend auto: the CPU, because "),
+            "{note}"
+        );
+        if let Some(first) = usable.first() {
+            let want = format!("only a software adapter ({}", first.info.name);
+            assert!(note.contains(&want), "{note}");
+        }
+        if std::env::var("CI").as_deref() == Ok("true") {
+            assert!(note.contains("only a software adapter (llvmpipe"), "{note}");
+        }
+        assert_eq!(err.matches(note).count(), 1, "said once:\n{err}");
+    }
+    let o = sweep_cmd(d)
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        stdout(&o).contains(&format!("backend: {f64_note}")),
+        "{}",
+        stdout(&o)
+    );
+}
+
 // 4. kill -9, then resume, equals an uninterrupted run, bit for bit.
 
 #[test]

@@ -25,7 +25,9 @@
 //!   lazily).
 //! - A full history table, an overlap beyond the watchdog and a non-finite velocity fail with the
 //!   CPU engine's errors (the non-finite one word for word); 17 walls are refused.
-//! - `sweep bench --backend gpu` runs, and refuses f64 with a clear message.
+//! - `sweep bench --backend gpu --allow-software-gpu` runs, and refuses f64 with a clear message;
+//!   without the flag a software adapter (all CI has) is refused with a message naming the flag,
+//!   and `--gpu 99` is refused with the number of adapters there are.
 //!
 //! Without an adapter the tests print a message and pass, except under CI=true, where a missing
 //! adapter fails them. A failure of the parity tests means a kernel's formula or order departs
@@ -651,10 +653,12 @@ fn sweep_bench_runs_on_the_gpu() {
     let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
         .current_dir(dir.path())
         .env_remove("SWEEP_DB")
+        .env_remove("SWEEP_ALLOW_SOFTWARE_GPU")
         .args([
             "bench",
             "--backend",
             "gpu",
+            "--allow-software-gpu",
             "--scene",
             "silo-bed",
             "--particles",
@@ -697,6 +701,70 @@ fn sweep_bench_runs_on_the_gpu() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("the GPU backend runs f32"));
+}
+
+/// `sweep bench` with `extra` after `--no-store --particles 200 --steps 5`, without
+/// `SWEEP_ALLOW_SOFTWARE_GPU`: its output.
+fn bench(extra: &[&str]) -> std::process::Output {
+    let dir = tempfile::tempdir().unwrap();
+    assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .current_dir(dir.path())
+        .env_remove("SWEEP_DB")
+        .env_remove("SWEEP_ALLOW_SOFTWARE_GPU")
+        .args(["bench", "--no-store", "--particles", "200", "--steps", "5"])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn sweep_bench_refuses_a_software_adapter_unless_allowed() {
+    let Some(_dev) = device() else { return };
+    let adapters = sweep::engine::gpu::list_adapters();
+    if adapters.iter().any(|a| a.hardware && a.unusable.is_none()) {
+        eprintln!("skipping: a hardware adapter is there, which --backend gpu takes");
+        return;
+    }
+    let out = bench(&["--backend", "gpu"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "a software adapter was taken: {err}");
+    assert!(
+        err.contains("software adapter") && err.contains("--allow-software-gpu"),
+        "{err}"
+    );
+    let first = adapters.iter().find(|a| a.unusable.is_none()).unwrap();
+    assert!(err.contains(&first.info.name), "names the adapter: {err}");
+    // The environment variable allows it as the flag does.
+    let dir = tempfile::tempdir().unwrap();
+    let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .current_dir(dir.path())
+        .env_remove("SWEEP_DB")
+        .env("SWEEP_ALLOW_SOFTWARE_GPU", "1")
+        .args(["bench", "--no-store", "--particles", "200", "--steps", "5"])
+        .args(["--backend", "gpu", "--json"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("software adapter"), "says so: {err}");
+}
+
+#[test]
+fn sweep_bench_refuses_a_gpu_number_out_of_range() {
+    sweep::engine::gpu::quiet_headless_device_select();
+    let n = sweep::engine::gpu::list_adapters().len();
+    let out = bench(&["--backend", "gpu", "--gpu", "99", "--allow-software-gpu"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("--gpu 99"), "{err}");
+    assert!(
+        err.contains(&format!("{n} adapter(s)")) || (n == 0 && err.contains("no GPU adapter")),
+        "{err}"
+    );
+    // So is it with --backend auto: the user asked for that adapter.
+    let out = bench(&["--backend", "auto", "--gpu", "99"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--gpu 99"));
 }
 
 /// `n` spheres in free fall in a column grid (no contacts), the lowest 0.5 d above the sink.

@@ -58,7 +58,7 @@ impl Precision {
 pub enum JobBackend {
     /// The CPU engine (rayon).
     Cpu,
-    /// The GPU engine (wgpu; any adapter, a software one included; f32 only).
+    /// The GPU engine (wgpu; f32 only; a software adapter only with `--allow-software-gpu`).
     Gpu,
 }
 

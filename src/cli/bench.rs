@@ -23,6 +23,8 @@ pub struct Arguments {
     pub steps: u64,
     #[arg(long, default_value = "cpu")]
     pub backend: BackendChoice,
+    #[command(flatten)]
+    pub gpu: super::run_args::GpuArgs,
     #[arg(long, default_value = "f32")]
     pub precision: String,
     /// Engine threads (0: all cores).
@@ -94,7 +96,14 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let mut dispatches = None;
     for _ in 0..a.repeat {
         let config = sc.config.clone();
-        let mut engine = backend::build(a.backend, precision, config, &sc.state, a.threads)?;
+        let mut engine = backend::build_with(
+            a.backend,
+            &a.gpu.select(),
+            precision,
+            config,
+            &sc.state,
+            a.threads,
+        )?;
         engine
             .advance(100)
             .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;

@@ -1,16 +1,17 @@
 //! `sweep info`: the GPU adapters wgpu finds, their limits, and what `--backend auto` and
 //! `--backend gpu` would choose here.
 
-use sweep::engine::gpu::{list_adapters, required_limits, AdapterPolicy, GpuDevice};
-use sweep::runner::backend::auto_summary;
+use sweep::engine::gpu::{enumerate_adapters, required_limits, GpuDevice};
+use sweep::runner::backend::{auto_summary, describe, ALLOW_SOFTWARE_ENV};
 
 #[derive(clap::Args)]
 pub struct Arguments {}
 
 pub fn run(_a: Arguments) -> anyhow::Result<i32> {
-    let adapters = list_adapters();
+    let found = enumerate_adapters();
+    let adapters: Vec<_> = found.iter().map(|(_, r)| r.clone()).collect();
     println!(
-        "GPU adapters (instance from the environment: WGPU_BACKEND, WGPU_ADAPTER_NAME): {}",
+        "GPU adapters (instance from the environment: WGPU_BACKEND, WGPU_ADAPTER_NAME; --gpu N takes [N]): {}",
         adapters.len()
     );
     for (k, a) in adapters.iter().enumerate() {
@@ -30,7 +31,7 @@ pub fn run(_a: Arguments) -> anyhow::Result<i32> {
         let use_ = match &a.unusable {
             Some(why) => format!("unusable: {why}"),
             None if a.hardware => "usable: hardware (auto and gpu)".into(),
-            None => "usable: software or virtual (gpu only)".into(),
+            None => "usable: software or virtual (gpu with --allow-software-gpu only)".into(),
         };
         println!("      {use_}");
     }
@@ -43,20 +44,26 @@ pub fn run(_a: Arguments) -> anyhow::Result<i32> {
             r.max_buffer_size >> 20
         );
     }
-    println!("--backend auto: {}", auto_summary());
-    match GpuDevice::acquire(AdapterPolicy::Any) {
-        Ok(d) => println!(
-            "--backend gpu: {} ({:?}, {:?}){}",
-            d.info.name,
-            d.info.backend,
-            d.info.device_type,
-            if d.is_hardware() {
-                ""
+    println!("--backend auto: {}", auto_summary(None));
+    match found
+        .iter()
+        .enumerate()
+        .find(|(_, (_, r))| r.unusable.is_none())
+    {
+        Some((k, (adapter, r))) => {
+            let name = describe(&r.info);
+            if !r.hardware {
+                println!(
+                    "--backend gpu: [{k}] {name}, a software adapter: refused unless --allow-software-gpu (or {ALLOW_SOFTWARE_ENV}=1)"
+                );
             } else {
-                ", a software adapter"
+                match GpuDevice::from_adapter(adapter) {
+                    Ok(_) => println!("--backend gpu: [{k}] {name}"),
+                    Err(e) => println!("--backend gpu: unavailable: {e}"),
+                }
             }
-        ),
-        Err(e) => println!("--backend gpu: unavailable: {e}"),
+        }
+        None => println!("--backend gpu: unavailable: no usable adapter"),
     }
     Ok(0)
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use sweep::campaign::ExecutorKind;
-use sweep::runner::backend::{auto_summary, BackendChoice};
+use sweep::runner::backend::{announce_auto, BackendChoice};
 use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
 use sweep::store::job_counts;
@@ -41,7 +41,7 @@ fn run_jobs(
     done: usize,
 ) -> anyhow::Result<i32> {
     if r.backend == BackendChoice::Auto {
-        eprintln!("sweep: backend auto: {}", auto_summary());
+        announce_auto(r.gpu.index);
     }
     let opts = PoolOptions {
         db: r.db.db.clone(),
@@ -50,6 +50,7 @@ fn run_jobs(
         parallel: r.parallel,
         threads: r.threads,
         backend: r.backend,
+        gpu: r.gpu.select(),
         checkpoint_interval_s,
         max_attempts,
         interrupt: interrupt_flag(),

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use sweep::campaign::{ExecutorKind, SlurmSettings};
-use sweep::runner::backend::BackendChoice;
+use sweep::runner::backend::{BackendChoice, GpuSelect};
 
 use super::DbArg;
 
@@ -20,12 +20,35 @@ pub struct RunArgs {
     /// auto (a GPU when there is one, else the CPU), gpu or cpu.
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
     /// Jobs run at the same time (at least 1).
     #[arg(long, default_value_t = 1, value_parser = super::shared::bounded(1, MAX_THREADS))]
     pub parallel: usize,
     /// Engine threads per job (0: cores / parallel; at most 1024).
     #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, MAX_THREADS))]
     pub threads: usize,
+}
+
+/// Which GPU adapter `--backend gpu|auto` takes (launch, resume, run-job, bench).
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub struct GpuArgs {
+    /// The GPU adapter numbered N by `sweep info` (default: the best one).
+    #[arg(long = "gpu", value_name = "N")]
+    pub index: Option<usize>,
+    /// Let --backend gpu run on a software adapter (lavapipe, llvmpipe), which it refuses
+    /// otherwise; also SWEEP_ALLOW_SOFTWARE_GPU=1.
+    #[arg(long)]
+    pub allow_software_gpu: bool,
+}
+
+impl GpuArgs {
+    pub fn select(&self) -> GpuSelect {
+        GpuSelect {
+            index: self.index,
+            allow_software: self.allow_software_gpu,
+        }
+    }
 }
 
 #[derive(clap::Args)]

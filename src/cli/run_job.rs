@@ -17,6 +17,8 @@ pub struct Arguments {
     /// auto (a GPU when there is one, else the CPU), gpu or cpu.
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
+    #[command(flatten)]
+    pub gpu: super::run_args::GpuArgs,
     /// Engine threads (0: SLURM_CPUS_PER_TASK, else 1).
     #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, super::run_args::MAX_THREADS))]
     pub threads: usize,
@@ -31,6 +33,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         work_dir: a.db_dir,
         job_id: a.job,
         backend: a.backend,
+        gpu: a.gpu.select(),
         threads: a.threads,
     })?;
     Ok(match end {

@@ -119,6 +119,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "paused" => println!("         paused at its checkpoint: `sweep resume` continues it"),
                 _ => {}
             }
+            if let Some(n) = &r.backend_note {
+                println!("         backend: {n}");
+            }
             if let Some(v) = verdicts.get(&r.id).filter(|v| v.state != "steady") {
                 println!("         flow: {}", describe_flow(v));
             }

@@ -63,6 +63,7 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> any
     let sub = SubmitSettings {
         slurm: settings,
         backend: a.run.backend,
+        gpu: a.run.gpu.select(),
         threads: a.run.threads,
         checkpoint_interval_s: file.run.checkpoint_interval_s,
     };
@@ -168,6 +169,7 @@ pub fn resume_on_slurm(
     let fallback = SubmitSettings {
         slurm: SlurmSettings::default(),
         backend: a.run.backend,
+        gpu: a.run.gpu.select(),
         threads: a.run.threads,
         checkpoint_interval_s: sweep::campaign::RunSettings::default().checkpoint_interval_s,
     };

@@ -16,7 +16,7 @@ use rusqlite::Connection;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::backend::{self, BackendChoice};
+use super::backend::{self, BackendChoice, GpuSelect};
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
 use crate::engine::translated::{self, Translated};
@@ -43,6 +43,8 @@ pub struct JobContext {
     /// Checkpoints and shared stages live under here.
     pub work_dir: PathBuf,
     pub backend: BackendChoice,
+    /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
+    pub gpu: GpuSelect,
     pub threads: usize,
     /// Simulated seconds between checkpoints.
     pub checkpoint_interval_s: f64,
@@ -238,30 +240,45 @@ pub fn run<S: Study>(
     let spec = study.spec();
     let origin = spec.origin_m();
     let built = if origin == [0.0; 3] {
-        backend::build(
+        backend::build_on(
             backend::for_job(spec, ctx.backend),
+            &ctx.gpu,
             spec.precision,
             study.engine_config(),
             &state,
             ctx.threads,
         )
     } else {
-        backend::build(
+        backend::build_on(
             backend::for_job(spec, ctx.backend),
+            &ctx.gpu,
             spec.precision,
             translated::config(&study.engine_config(), origin),
             &translated::state(&state, origin),
             ctx.threads,
         )
-        .map(|e| Box::new(Translated::new(e, origin)) as Box<dyn Backend>)
+        .map(|b| backend::Built {
+            engine: Box::new(Translated::new(b.engine, origin)) as Box<dyn Backend>,
+            note: b.note,
+        })
     };
-    let mut engine = match built {
-        Ok(e) => e,
+    let (mut engine, note) = match built {
+        Ok(b) => (b.engine, b.note),
         Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
     };
     drop(state);
+    if let Some(n) = &note {
+        backend::say_once(n, ctx.log.as_ref());
+    }
     let info = engine.describe();
-    jobs::set_backend(conn, job.id, &info.kind, &info.adapter, &info.precision)?;
+    jobs::set_backend(
+        conn,
+        job.id,
+        &info.kind,
+        &info.adapter,
+        &info.precision,
+        note.as_deref(),
+    )?;
     jobs::set_stage(conn, job.id, lease, study.stage(&prog))?;
 
     let chunk_steps = study.chunk_steps();

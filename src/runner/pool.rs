@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use super::backend::BackendChoice;
+use super::backend::{BackendChoice, GpuSelect};
 use super::job::{job_dir, JobContext, Outcome};
 use super::job_lock::{DirLock, Heartbeat};
 use super::silo_job::run_silo_job;
@@ -24,6 +24,8 @@ pub struct PoolOptions {
     /// Engine threads per job; 0 = cores / parallel.
     pub threads: usize,
     pub backend: BackendChoice,
+    /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
+    pub gpu: GpuSelect,
     pub checkpoint_interval_s: f64,
     /// Overrides each job's own `run.max_attempts` (`sweep resume --max-attempts`).
     pub max_attempts: Option<i64>,
@@ -125,6 +127,7 @@ pub fn run_pending(
                 let ctx = JobContext {
                     work_dir: opts.work_dir.clone(),
                     backend: opts.backend,
+                    gpu: opts.gpu,
                     threads,
                     checkpoint_interval_s: checkpoint_interval(&conn, job.id)
                         .unwrap_or(opts.checkpoint_interval_s),

@@ -307,8 +307,9 @@ pub fn heartbeat(
     Ok(())
 }
 
-/// Records the backend a job runs on. (`particles` stays the job's own count, set at
-/// registration, whatever the checkpoint it resumes from holds.)
+/// Records the backend a job runs on, with what was said about the choice (`backend_note`: why
+/// `--backend auto` took the CPU, a software adapter allowed). (`particles` stays the job's own
+/// count, set at registration, whatever the checkpoint it resumes from holds.)
 ///
 /// # Errors
 /// Database errors.
@@ -318,8 +319,9 @@ pub fn set_backend(
     backend: &str,
     adapter: &str,
     precision: &str,
+    note: Option<&str>,
 ) -> anyhow::Result<()> {
-    conn.execute("UPDATE jobs SET backend = ?2, adapter = ?3, precision = ?4, program_version = ?5 WHERE id = ?1", params![id, backend, adapter, precision, env!("CARGO_PKG_VERSION")])?;
+    conn.execute("UPDATE jobs SET backend = ?2, adapter = ?3, precision = ?4, program_version = ?5, backend_note = ?6 WHERE id = ?1", params![id, backend, adapter, precision, env!("CARGO_PKG_VERSION"), note])?;
     Ok(())
 }
 

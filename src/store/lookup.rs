@@ -127,6 +127,8 @@ pub struct JobStatus {
     pub lease_owner: Option<String>,
     pub heartbeat_age_s: Option<f64>,
     pub stage: Option<String>,
+    /// What was said about its backend (why `--backend auto` took the CPU, …).
+    pub backend_note: Option<String>,
 }
 
 impl JobStatus {
@@ -155,7 +157,7 @@ pub fn campaign_jobs(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<
     let mut q = conn.prepare(
         "SELECT j.id, j.hash, j.status, j.progress, j.sim_time_s, j.target_time_s, j.particle_steps, j.wall_time_s,
                 j.attempts, j.max_attempts, j.last_error, cj.label, j.backend, j.precision, j.lease_owner,
-                ?2 - j.heartbeat_at, j.stage
+                ?2 - j.heartbeat_at, j.stage, j.backend_note
          FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 ORDER BY j.id",
     )?;
     let rows = q
@@ -178,6 +180,7 @@ pub fn campaign_jobs(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<
                 lease_owner: r.get(14)?,
                 heartbeat_age_s: r.get(15)?,
                 stage: r.get(16)?,
+                backend_note: r.get(17)?,
             })
         })?
         .collect::<Result<_, _>>()?;

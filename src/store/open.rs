@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 8;
+pub const SCHEMA_VERSION: i64 = 9;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -131,6 +131,8 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             ("discharge_summary", "q_blocks", "INTEGER"),
             ("jobs", "extended_to_s", "REAL"),
             ("campaign_jobs", "origin", "TEXT"),
+            // 8 → 9: what was said about a job's backend (why `--backend auto` took the CPU).
+            ("jobs", "backend_note", "TEXT"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

@@ -222,6 +222,15 @@ fn ingest_attached(
          WHERE id = ?1",
         params![job_id, now(), j.2, j.3, j.4, j.5, j.6, j.7, j.8, j.9, j.10, j.11],
     )?;
+    if columns(&tx, "job_result", "jobs")?
+        .iter()
+        .any(|c| c == "backend_note")
+    {
+        tx.execute(
+            "UPDATE jobs SET backend_note = (SELECT backend_note FROM job_result.jobs WHERE id = ?1) WHERE id = ?1",
+            [job_id],
+        )?;
+    }
     tx.execute(
         "UPDATE slurm_tasks SET state = 'done' WHERE job_id = ?1 AND state IN ('active', 'ended', 'cancelled')",
         [job_id],

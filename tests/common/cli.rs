@@ -21,7 +21,9 @@ pub const PATIENCE: Duration = Duration::from_secs(120);
 /// A synchronous run of the binary (assert_cmd), without a `SWEEP_DB` from the environment.
 pub fn sweep_cmd(dir: &Path) -> assert_cmd::Command {
     let mut c = assert_cmd::Command::new(BIN);
-    c.current_dir(dir).env_remove("SWEEP_DB");
+    c.current_dir(dir)
+        .env_remove("SWEEP_DB")
+        .env_remove("SWEEP_ALLOW_SOFTWARE_GPU");
     c
 }
 
@@ -99,8 +101,8 @@ pub fn tiny_chute(name: &str, precision: &str, checkpoint_interval_s: f64) -> Va
     })
 }
 
-/// `sweep launch FILE --db DB --backend BACKEND --threads T`, run to completion; fails the test
-/// if it fails.
+/// `sweep launch FILE --db DB --backend BACKEND --threads T` (and `--allow-software-gpu` with
+/// gpu), run to completion; fails the test if it fails.
 pub fn launch_on(dir: &Path, file: &Path, db: &Path, backend: &str, threads: usize) -> Output {
     let o = sweep_cmd(dir)
         .args([
@@ -110,6 +112,12 @@ pub fn launch_on(dir: &Path, file: &Path, db: &Path, backend: &str, threads: usi
             db.to_str().unwrap(),
         ])
         .args(["--backend", backend, "--threads", &threads.to_string()])
+        // CI's only adapter is lavapipe, which --backend gpu refuses unless allowed.
+        .args(if backend == "gpu" {
+            &["--allow-software-gpu"][..]
+        } else {
+            &[]
+        })
         .output()
         .unwrap();
     assert!(

@@ -122,24 +122,78 @@ fn rank(info: &wgpu::AdapterInfo) -> u32 {
     kind * 2 + backend
 }
 
-/// Every adapter the instance sees, best first.
-pub fn list_adapters() -> Vec<AdapterReport> {
+/// Every adapter the instance sees with its report, best first: usable before unusable, then
+/// discrete, integrated, virtual, software; native compute backends before GL. The position in
+/// this list is the adapter's number (`sweep info`, `--gpu N`).
+pub fn enumerate_adapters() -> Vec<(wgpu::Adapter, AdapterReport)> {
     let inst = instance();
-    let mut out: Vec<AdapterReport> =
+    let mut out: Vec<(wgpu::Adapter, AdapterReport)> =
         pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all()))
             .into_iter()
             .map(|a| {
                 let info = a.get_info();
-                AdapterReport {
+                let report = AdapterReport {
                     hardware: is_hardware(&info),
                     limits: a.limits(),
                     unusable: unusable(&a),
                     info,
-                }
+                };
+                (a, report)
             })
             .collect();
-    out.sort_by_key(|r| (r.unusable.is_some(), rank(&r.info)));
+    out.sort_by_key(|(_, r)| (r.unusable.is_some(), rank(&r.info)));
     out
+}
+
+/// Every adapter the instance sees, best first (numbered as `--gpu N` counts them).
+pub fn list_adapters() -> Vec<AdapterReport> {
+    enumerate_adapters().into_iter().map(|(_, r)| r).collect()
+}
+
+/// The directories the Vulkan loader looks in for driver (ICD) manifests when neither
+/// `VK_DRIVER_FILES` nor `VK_ICD_FILENAMES` is set.
+pub const VULKAN_ICD_DIRS: [&str; 3] = [
+    "/usr/share/vulkan/icd.d",
+    "/etc/vulkan/icd.d",
+    "/usr/local/share/vulkan/icd.d",
+];
+
+/// The Vulkan driver manifests the loader would find: the existing files (or `*.json` of the
+/// directories) named by `VK_DRIVER_FILES` or `VK_ICD_FILENAMES` when set, else the `*.json` of
+/// `VULKAN_ICD_DIRS`. Empty: no Vulkan driver is installed (or the variables point nowhere).
+pub fn vulkan_driver_files() -> Vec<std::path::PathBuf> {
+    fn json_in(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+        let mut v: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+            .map(|d| {
+                d.filter_map(Result::ok)
+                    .map(|e| e.path())
+                    .filter(|p| p.extension().is_some_and(|x| x == "json") && p.is_file())
+                    .collect()
+            })
+            .unwrap_or_default();
+        v.sort();
+        v
+    }
+    let named = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"]
+        .iter()
+        .find_map(|k| std::env::var_os(k).filter(|v| !v.is_empty()));
+    match named {
+        Some(list) => std::env::split_paths(&list)
+            .flat_map(|p| {
+                if p.is_dir() {
+                    json_in(&p)
+                } else if p.is_file() {
+                    vec![p]
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect(),
+        None => VULKAN_ICD_DIRS
+            .iter()
+            .flat_map(|d| json_in(std::path::Path::new(d)))
+            .collect(),
+    }
 }
 
 impl GpuDevice {

@@ -12,8 +12,8 @@ mod status;
 
 pub use buffers::{pack, unpack, Packed};
 pub use device::{
-    instance, is_hardware, list_adapters, quiet_headless_device_select, required_limits,
-    AdapterPolicy, AdapterReport, GpuDevice,
+    enumerate_adapters, instance, is_hardware, list_adapters, quiet_headless_device_select,
+    required_limits, vulkan_driver_files, AdapterPolicy, AdapterReport, GpuDevice, VULKAN_ICD_DIRS,
 };
 pub use engine::{GpuEngine, GpuOptions};
 pub use grid::{list_capacity, plan_grid, GridSpec};

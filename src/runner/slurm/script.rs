@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::campaign::SlurmSettings;
-use crate::runner::backend::BackendChoice;
+use crate::runner::backend::{BackendChoice, GpuSelect};
 
 /// What one array's script is made of.
 pub struct ScriptInput<'a> {
@@ -18,6 +18,8 @@ pub struct ScriptInput<'a> {
     pub jobs: &'a [i64],
     pub settings: &'a SlurmSettings,
     pub backend: BackendChoice,
+    /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
+    pub gpu: GpuSelect,
     /// Engine threads (0: the task's `--cpus-per-task`).
     pub threads: usize,
     /// This array is the `part.0`-th of `part.1` (a campaign larger than MaxArraySize is split).
@@ -116,8 +118,15 @@ pub fn script(i: &ScriptInput<'_>) -> String {
     }
     let ids: Vec<String> = i.jobs.iter().map(|j| j.to_string()).collect();
     o.push_str(&format!("JOBS=({})\n", ids.join(" ")));
+    let mut gpu = String::new();
+    if let Some(n) = i.gpu.index {
+        gpu.push_str(&format!(" --gpu {n}"));
+    }
+    if i.gpu.allow_software {
+        gpu.push_str(" --allow-software-gpu");
+    }
     o.push_str(&format!(
-        "exec {} run-job --db-dir {} --job \"${{JOBS[$SLURM_ARRAY_TASK_ID]}}\" --backend {} --threads {}\n",
+        "exec {} run-job --db-dir {} --job \"${{JOBS[$SLURM_ARRAY_TASK_ID]}}\" --backend {}{gpu} --threads {}\n",
         shell_quote(&i.sweep_bin.display().to_string()),
         shell_quote(&work),
         backend_name(i.backend),
@@ -148,6 +157,7 @@ mod tests {
             jobs: &[4, 9, 10],
             settings: &settings,
             backend: BackendChoice::Auto,
+            gpu: GpuSelect::default(),
             threads: 0,
             part: (1, 1),
         });
@@ -171,6 +181,29 @@ mod tests {
         // sbatch reads #SBATCH lines only before the first command.
         let first_cmd = t.find("JOBS=").unwrap();
         assert!(t.rfind("#SBATCH").unwrap() < first_cmd);
+    }
+
+    #[test]
+    fn the_script_passes_the_gpu_choice_on() {
+        let settings = SlurmSettings::default();
+        let t = script(&ScriptInput {
+            campaign: "c",
+            work_dir: Path::new("/w"),
+            sweep_bin: Path::new("/b/sweep"),
+            jobs: &[1],
+            settings: &settings,
+            backend: BackendChoice::Gpu,
+            gpu: GpuSelect {
+                index: Some(1),
+                allow_software: true,
+            },
+            threads: 2,
+            part: (1, 1),
+        });
+        assert!(
+            t.contains("--backend gpu --gpu 1 --allow-software-gpu --threads 2\n"),
+            "{t}"
+        );
     }
 
     #[test]

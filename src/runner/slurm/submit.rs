@@ -17,7 +17,7 @@ use super::query;
 use super::script::{script, ScriptInput};
 use crate::campaign::{CampaignFile, ExecutorKind, SlurmSettings};
 use crate::checkpoint::write_atomic;
-use crate::runner::backend::BackendChoice;
+use crate::runner::backend::{BackendChoice, GpuSelect};
 use crate::store::{pending, slurm_tasks};
 
 /// How one submission runs its jobs; stored with each task so that `sweep resume` resubmits a
@@ -26,6 +26,9 @@ use crate::store::{pending, slurm_tasks};
 pub struct SubmitSettings {
     pub slurm: SlurmSettings,
     pub backend: BackendChoice,
+    /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`; absent from older submissions).
+    #[serde(default)]
+    pub gpu: GpuSelect,
     /// Engine threads per job (0: the task's cores).
     pub threads: usize,
     pub checkpoint_interval_s: f64,
@@ -106,6 +109,7 @@ pub fn submit(
             jobs: part,
             settings: &o.settings.slurm,
             backend: o.settings.backend,
+            gpu: o.settings.gpu,
             threads: o.settings.threads,
             part: (k + 1, parts.len()),
         });
@@ -231,7 +235,8 @@ pub struct ResumeGroup {
 /// Pending jobs that `sweep resume` hands to Slurm, grouped by submission: those last submitted
 /// to Slurm (with the settings of that submission), those never submitted whose first campaign
 /// says `executor: "slurm"`, or with `all`, every pending job. Jobs never submitted take their
-/// campaign's `run.slurm` and `fallback`'s backend and threads.
+/// campaign's `run.slurm` and `fallback`'s backend and threads; `fallback`'s `--gpu N` and
+/// `--allow-software-gpu`, when given, hold for every job.
 ///
 /// # Errors
 /// Database errors.
@@ -276,10 +281,13 @@ pub fn resume_groups(
     }
     let mut out = Vec::new();
     for ((cid, settings), ids) in groups {
-        let s: SubmitSettings = match serde_json::from_str(&settings) {
+        let mut s: SubmitSettings = match serde_json::from_str(&settings) {
             Ok(s) => s,
             Err(_) => fallback.clone(),
         };
+        // What this command line says of the GPU adapter holds over the earlier submission's.
+        s.gpu.allow_software |= fallback.gpu.allow_software;
+        s.gpu.index = fallback.gpu.index.or(s.gpu.index);
         let name = cid
             .and_then(|c| names.get(&c).cloned())
             .unwrap_or_else(|| "resumed".into());

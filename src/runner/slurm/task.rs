@@ -20,7 +20,7 @@ use anyhow::Context;
 
 use super::files::{self, FailedMarker, ProgressFile, TaskSpec};
 use super::query;
-use crate::runner::backend::BackendChoice;
+use crate::runner::backend::{BackendChoice, GpuSelect};
 use crate::runner::chute_job::run_chute_job;
 use crate::runner::job::{JobContext, Outcome, ProgressFn};
 use crate::runner::silo_job::run_silo_job;
@@ -32,6 +32,8 @@ pub struct TaskOptions {
     pub work_dir: PathBuf,
     pub job_id: i64,
     pub backend: BackendChoice,
+    /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
+    pub gpu: GpuSelect,
     /// Engine threads; 0: SLURM_CPUS_PER_TASK, else 1.
     pub threads: usize,
 }
@@ -143,6 +145,7 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
     let ctx = JobContext {
         work_dir: o.work_dir.clone(),
         backend: o.backend,
+        gpu: o.gpu,
         threads,
         checkpoint_interval_s: spec.checkpoint_interval_s,
         interrupt: interrupt.clone(),
