@@ -13,7 +13,9 @@ use wgpu::util::DeviceExt;
 
 use super::device::GpuDevice;
 use super::grid::GridSpec;
-use super::layout::{binding, Info, Load, Params, RodGpu, Slot, WallGpu, MAX_WALLS, STATUS_WORDS};
+use super::layout::{
+    binding, Info, Load, Params, RodGpu, Slot, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS,
+};
 use crate::engine::backend::EngineError;
 use crate::engine::history::History;
 use crate::engine::position::split_v3;
@@ -222,19 +224,27 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_DST);
 
 impl GpuBuffers {
-    /// Allocates and fills the buffers of `p` with grid `g`.
+    /// Allocates and fills the buffers of the batch `p` (every job's block, one after the other)
+    /// with one record and `MAX_WALLS` walls per job in `params` and `walls`, and `g` the sizes
+    /// of the batch's grid (all jobs' cells, the widest list row).
     ///
     /// # Errors
     /// A buffer larger than the device binds (`EngineError::Device`, naming it and the limit).
     pub fn new(
         dev: &GpuDevice,
-        params: &Params,
-        walls: &[WallGpu; MAX_WALLS],
+        params: &[Params],
+        walls: &[WallGpu],
         p: &Packed,
         g: &GridSpec,
     ) -> Result<Self, EngineError> {
+        let jobs = params.len();
+        debug_assert!(jobs <= MAX_JOBS && walls.len() == jobs * MAX_WALLS);
+        let mut records = params.to_vec();
+        records.resize(MAX_JOBS, Params::default());
+        let mut all_walls = walls.to_vec();
+        all_walls.resize(MAX_WALLS * MAX_JOBS, WallGpu::default());
         let n = p.pos_r.len();
-        let slots = params.slots as usize;
+        let slots = params[0].slots as usize;
         let oriented = p.oriented();
         // Oriented runs: a second block of n records in pos_r and ref_pos (module doc); every
         // run: a last block of n position rests in pos_r.
@@ -283,8 +293,8 @@ impl GpuBuffers {
         Ok(Self {
             n,
             slots,
-            params: init("params", bytemuck::bytes_of(params), uniform),
-            walls: init("walls", bytemuck::cast_slice(walls.as_slice()), uniform),
+            params: init("params", bytemuck::cast_slice(&records), uniform),
+            walls: init("walls", bytemuck::cast_slice(&all_walls), uniform),
             pos_r: {
                 let mut data = p.pos_r.clone();
                 data.extend(p.shapes());
@@ -303,7 +313,7 @@ impl GpuBuffers {
                 blocks * n as u64 * 16,
                 STORAGE,
             ),
-            status: zeroed("status", STATUS_WORDS as u64 * 4, STORAGE),
+            status: zeroed("status", (jobs * STATUS_WORDS) as u64 * 4, STORAGE),
             events: zeroed("sink events", n as u64 * 8, STORAGE),
             cell_rank: zeroed("cell and rank", n as u64 * 8, STORAGE),
             cell_count: zeroed("cell counts", g.ncell as u64 * 4, STORAGE),
@@ -388,6 +398,32 @@ impl GpuBuffers {
     }
 }
 
+/// The `bytes` of `buffer` from `offset`.
+///
+/// # Errors
+/// As `read`.
+pub fn read_at(
+    dev: &GpuDevice,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    bytes: u64,
+) -> Result<Vec<u8>, EngineError> {
+    let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: bytes.max(4),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = dev
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
+    enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, bytes);
+    dev.queue.submit([enc.finish()]);
+    map_all(dev, &staging, &[bytes]).map(|mut v| v.swap_remove(0))
+}
+
 /// Copies `(buffer, bytes)` ranges into one MAP_READ buffer and returns their bytes.
 ///
 /// # Errors
@@ -413,6 +449,16 @@ pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u
         off += bytes;
     }
     dev.queue.submit([enc.finish()]);
+    let sizes: Vec<u64> = parts.iter().map(|p| p.1).collect();
+    map_all(dev, &staging, &sizes)
+}
+
+/// Maps `staging` once the device is done and splits it into pieces of `sizes` bytes.
+fn map_all(
+    dev: &GpuDevice,
+    staging: &wgpu::Buffer,
+    sizes: &[u64],
+) -> Result<Vec<Vec<u8>>, EngineError> {
     let (tx, rx) = std::sync::mpsc::channel();
     staging.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
@@ -430,13 +476,84 @@ pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u
     let view = staging
         .get_mapped_range(..)
         .map_err(|e| EngineError::Device(format!("reading results back: {e}")))?;
-    let mut out = Vec::with_capacity(parts.len());
+    let mut out = Vec::with_capacity(sizes.len());
     let mut off = 0usize;
-    for &(_, bytes) in parts {
+    for &bytes in sizes {
         out.push(view[off..off + bytes as usize].to_vec());
         off += bytes as usize;
     }
     drop(view);
     staging.unmap();
     Ok(out)
+}
+
+impl Packed {
+    /// A slot that holds no particle (a batch's padding): dead, massless, with empty history.
+    fn pad_to(&mut self, n: usize, slots: usize) {
+        let k = self.info.len();
+        let oriented = self.oriented();
+        self.pos_r.resize(n, [0.0; 4]);
+        self.pos_lo.resize(n, [0.0; 4]);
+        self.vel_im.resize(n, [0.0; 4]);
+        self.omega.resize(n, [0.0; 4]);
+        self.info.resize(n, Info::default());
+        self.load.resize(n, Load::default());
+        if oriented {
+            self.rod.resize(n, RodGpu::default());
+        }
+        // Slot-major rows: row q of the k particles becomes row q of n.
+        let mut hist = vec![Slot::default(); n * slots];
+        for q in 0..slots {
+            hist[q * n..q * n + k].copy_from_slice(&self.hist[q * k..(q + 1) * k]);
+        }
+        self.hist = hist;
+    }
+}
+
+/// The jobs of a batch as one upload: job j's particles in slots j·n_job.., each block padded
+/// with empty slots to `n_job`.
+pub fn concat(jobs: Vec<Packed>, n_job: usize, slots: usize) -> Packed {
+    let total = jobs.len() * n_job;
+    let mut out = Packed::default();
+    let mut hist = vec![Slot::default(); total * slots];
+    for (j, mut p) in jobs.into_iter().enumerate() {
+        p.pad_to(n_job, slots);
+        out.pos_r.extend(p.pos_r);
+        out.pos_lo.extend(p.pos_lo);
+        out.vel_im.extend(p.vel_im);
+        out.omega.extend(p.omega);
+        out.info.extend(p.info);
+        out.load.extend(p.load);
+        out.rod.extend(p.rod);
+        for q in 0..slots {
+            let at = q * total + j * n_job;
+            hist[at..at + n_job].copy_from_slice(&p.hist[q * n_job..(q + 1) * n_job]);
+        }
+    }
+    out.hist = hist;
+    out
+}
+
+/// Job j's block of a batch's download (padding included; `unpack` drops it with the dead).
+pub fn block(p: &Packed, j: usize, n_job: usize, slots: usize) -> Packed {
+    let total = p.info.len();
+    let r = j * n_job..(j + 1) * n_job;
+    let mut hist = Vec::with_capacity(n_job * slots);
+    for q in 0..slots {
+        hist.extend_from_slice(&p.hist[q * total + r.start..q * total + r.end]);
+    }
+    Packed {
+        pos_r: p.pos_r[r.clone()].to_vec(),
+        pos_lo: p.pos_lo[r.clone()].to_vec(),
+        vel_im: p.vel_im[r.clone()].to_vec(),
+        omega: p.omega[r.clone()].to_vec(),
+        info: p.info[r.clone()].to_vec(),
+        load: p.load[r.clone()].to_vec(),
+        hist,
+        rod: if p.rod.is_empty() {
+            Vec::new()
+        } else {
+            p.rod[r].to_vec()
+        },
+    }
 }

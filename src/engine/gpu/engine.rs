@@ -25,8 +25,8 @@ use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
 use super::grid::{plan_grid, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, WallGpu, MAX_WALLS, STATUS_WORDS, ST_DEATHS, ST_STALE, ST_STEP,
-    ST_STEP_NEXT, WORKGROUP_SIZE,
+    status_initial, LawGpu, Params, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS, ST_BUILDS,
+    ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_STALE, ST_STEP, ST_STEP_NEXT, WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -67,35 +67,50 @@ impl Default for GpuOptions {
     }
 }
 
-/// Device resources of the particles currently uploaded (none when there are no particles).
-struct Run {
-    bufs: GpuBuffers,
-    binds: BindGroups,
-    grid: GridSpec,
-    /// Host copies of the per-slot id and mass, for sink events.
+/// The host's record of one job of the uploaded batch.
+struct JobRun {
+    /// Id and mass per slot of the job's block (its particles at the upload; padding after).
     ids: Vec<u32>,
     masses: Vec<f32>,
-    /// Slots still alive.
+    /// Particles at the upload, slots still alive, and live mobile particles (what
+    /// particle-steps count, as on the CPU).
+    loaded: usize,
     alive: usize,
-    /// Live mobile particles (what particle-steps count, as on the CPU).
     mobile: usize,
     /// Kinetic energy at the last chunk's end (None before the first chunk of this upload).
     energy: Option<f64>,
+    grid: GridSpec,
 }
 
-/// The GPU engine (f32).
+/// Device resources of the particles currently uploaded (none when no job has particles).
+struct Run {
+    bufs: GpuBuffers,
+    binds: BindGroups,
+    /// The batch's grid sizes: all jobs' cells, the widest list row.
+    grid: GridSpec,
+    /// Slots per job block.
+    n_job: usize,
+    jobs: Vec<JobRun>,
+}
+
+/// The GPU engine (f32). It advances a batch of jobs in the same dispatches (`batch`): each job
+/// its own block of particle slots, walls, parameters, grid cells, status words and sink
+/// events, so that a job's bits do not depend on the batch it runs in. As a `Backend` it runs
+/// one job.
 pub struct GpuEngine {
     dev: GpuDevice,
-    config: EngineConfig,
+    configs: Vec<EngineConfig>,
     pipes: Pipelines,
-    walls: [WallGpu; MAX_WALLS],
+    /// MAX_WALLS per job.
+    walls: Vec<WallGpu>,
     run: Option<Run>,
     slots: usize,
     rotation: bool,
     /// Whether the uploaded particles are oriented (spherocylinders).
     oriented: bool,
-    time: f64,
-    step: u64,
+    time: Vec<f64>,
+    step: Vec<u64>,
+    active: Vec<bool>,
     /// An upload that failed, reported by the next `advance`.
     pending: Option<EngineError>,
     options: GpuOptions,
@@ -115,78 +130,117 @@ impl GpuEngine {
         state: &State<f64>,
         options: GpuOptions,
     ) -> Result<Self, EngineError> {
-        if config.walls.len() > MAX_WALLS {
+        Self::batch(dev, vec![config], &[state], options)
+    }
+
+    /// An engine advancing `states.len()` jobs together, job j with `configs[j]`. The jobs must
+    /// share dt and the effects the kernels are compiled for (rotation, orientation, history
+    /// slots, contact law kinds, walls, periodicity, sink); particle counts may differ.
+    ///
+    /// # Errors
+    /// As `new`, and jobs that cannot share the dispatches, or more than `MAX_JOBS`.
+    pub fn batch(
+        dev: &GpuDevice,
+        configs: Vec<EngineConfig>,
+        states: &[&State<f64>],
+        options: GpuOptions,
+    ) -> Result<Self, EngineError> {
+        let jobs = states.len();
+        if jobs == 0 || jobs > MAX_JOBS || configs.len() != jobs {
             return Err(EngineError::Device(format!(
-                "{} walls; the GPU backend holds at most {MAX_WALLS}",
-                config.walls.len()
+                "a batch holds 1 to {MAX_JOBS} jobs with one configuration each; got {jobs} states and {} configurations",
+                configs.len()
             )));
         }
-        let mut walls = [WallGpu::default(); MAX_WALLS];
-        for (w, wall) in walls.iter_mut().zip(&config.walls) {
-            *w = WallGpu::of(wall);
+        let mut walls = vec![WallGpu::default(); jobs * MAX_WALLS];
+        for (j, c) in configs.iter().enumerate() {
+            if c.walls.len() > MAX_WALLS {
+                return Err(EngineError::Device(format!(
+                    "{} walls; the GPU backend holds at most {MAX_WALLS}",
+                    c.walls.len()
+                )));
+            }
+            for (w, wall) in walls[j * MAX_WALLS..].iter_mut().zip(&c.walls) {
+                *w = WallGpu::of(wall);
+            }
         }
+        let s0 = states[0];
         let pipes = Pipelines::new(
             dev,
-            Specialization::of(&config, state.rotation, state.oriented, state.history.slots),
+            Specialization::of(&configs[0], s0.rotation, s0.oriented, s0.history.slots),
         );
         if let Some(e) = dev.take_error() {
             return Err(EngineError::Device(format!("building the kernels: {e}")));
         }
         let mut e = Self {
             dev: dev.clone(),
-            config,
+            configs,
             pipes,
             walls,
             run: None,
             slots: 0,
             rotation: false,
             oriented: false,
-            time: 0.0,
-            step: 0,
+            time: vec![0.0; jobs],
+            step: vec![0; jobs],
+            active: vec![true; jobs],
             pending: None,
             options,
             schedule: BuildSchedule::default(),
             dispatches: DispatchCount::default(),
         };
-        e.load(state)?;
+        e.load(states)?;
         Ok(e)
     }
 
     pub fn config(&self) -> &EngineConfig {
-        &self.config
+        &self.configs[0]
     }
 
-    /// The grid of the current upload (None without particles).
+    /// Jobs in the batch.
+    pub fn jobs(&self) -> usize {
+        self.configs.len()
+    }
+
+    /// The grid of the first job's upload (None without particles).
     pub fn grid(&self) -> Option<GridSpec> {
-        self.run.as_ref().map(|r| r.grid)
+        self.run.as_ref().map(|r| r.jobs[0].grid)
     }
 
-    fn params(&self, n: usize, g: &GridSpec) -> Params {
-        let c = &self.config;
+    /// Job j's record for the kernels: its own grid, walls, laws and sink, the batch's sizes.
+    fn params(
+        &self,
+        j: usize,
+        run_n: usize,
+        n_job: usize,
+        g: &GridSpec,
+        all: &GridSpec,
+        cell_offset: u32,
+    ) -> Params {
+        let c = &self.configs[j];
         let f = |x: f64| x as f32;
         // As CpuEngine: the box ends are rounded to f32, the length is their f32 difference.
         let lo = |p: Option<[f64; 2]>| p.map_or(0.0, |[a, _]| f(a));
         let len = |p: Option<[f64; 2]>| p.map_or(0.0, |[a, b]| f(b) - f(a));
         let dt = f(c.dt_s);
         let skin = f(c.skin_m);
-        let groups = |k: usize| (k as u32).div_ceil(WORKGROUP_SIZE);
         Params {
-            n: n as u32,
+            n: run_n as u32,
             slots: self.slots as u32,
-            stride: g.stride,
+            stride: all.stride,
             n_walls: c.walls.len() as u32,
             nx: g.dims[0],
             ny: g.dims[1],
             nz: g.dims[2],
-            ncell: g.ncell,
+            ncell: all.ncell,
             periodic_x: c.periodic_x.is_some() as u32,
             periodic_y: c.periodic_y.is_some() as u32,
             rotation: self.rotation as u32,
             has_sink: c.sink_z.is_some() as u32,
-            scan_chunk: g.scan_chunk,
-            n_chunks: g.n_chunks,
-            groups_particles: groups(n),
-            groups_chunks: groups(g.n_chunks as usize),
+            scan_chunk: all.scan_chunk,
+            n_chunks: all.n_chunks,
+            groups_particles: 0,
+            groups_chunks: 0,
             lo_x: g.lo[0],
             lo_y: g.lo[1],
             lo_z: g.lo[2],
@@ -209,102 +263,326 @@ impl GpuEngine {
             half_skin: skin * 0.5,
             law_pp: LawGpu::from(c.particle_law.kernel::<f32>()),
             law_pw: LawGpu::from(c.wall_law.kernel::<f32>()),
+            job: j as u32,
+            n_job: n_job as u32,
+            cell_offset,
+            running: self.active[j] as u32,
         }
     }
 
-    /// Replaces the device state by `state`.
-    fn load(&mut self, state: &State<f64>) -> Result<(), EngineError> {
+    /// Replaces the device state by `states`, one per job.
+    fn load(&mut self, states: &[&State<f64>]) -> Result<(), EngineError> {
         self.run = None;
-        self.time = state.time;
-        self.step = state.step;
-        self.slots = state.history.slots;
-        self.rotation = state.rotation;
-        self.oriented = state.oriented;
+        let s0 = states[0];
+        self.slots = s0.history.slots;
+        self.rotation = s0.rotation;
+        self.oriented = s0.oriented;
         if self.slots > MAX_SLOTS {
             return Err(EngineError::Device(format!(
                 "{} history slots per particle; the GPU backend holds at most {MAX_SLOTS}",
                 self.slots
             )));
         }
-        if let Some(k) = asymmetric_top(state) {
-            return Err(EngineError::Device(format!(
-                "particle {} is not a symmetric top about its axis (I1 ≠ I2); the GPU kernels rotate symmetric tops only (every spherocylinder is one): run it with --backend cpu",
-                state.id[k]
-            )));
-        }
         // The kernels are compiled for the effects of the state they run: recompile when an
         // upload changes them (never within one job).
-        let spec = Specialization::of(
-            &self.config,
-            state.rotation,
-            state.oriented,
-            state.history.slots,
-        );
+        let spec = Specialization::of(&self.configs[0], s0.rotation, s0.oriented, self.slots);
+        for (j, s) in states.iter().enumerate() {
+            self.time[j] = s.time;
+            self.step[j] = s.step;
+            if let Some(k) = asymmetric_top(s) {
+                return Err(EngineError::Device(format!(
+                    "particle {} is not a symmetric top about its axis (I1 ≠ I2); the GPU kernels rotate symmetric tops only (every spherocylinder is one): run it with --backend cpu",
+                    s.id[k]
+                )));
+            }
+            let c = &self.configs[j];
+            let theirs = Specialization::of(c, s.rotation, s.oriented, s.history.slots);
+            if theirs != spec || c.dt_s != self.configs[0].dt_s {
+                return Err(EngineError::Device(format!(
+                    "job {j} of the batch differs from job 0 in dt or in the effects the kernels are built for ({theirs:?} against {spec:?}): run it in another batch"
+                )));
+            }
+        }
         if spec != self.pipes.spec {
             self.pipes = Pipelines::new(&self.dev, spec);
             if let Some(e) = self.dev.take_error() {
                 return Err(EngineError::Device(format!("building the kernels: {e}")));
             }
         }
-        if state.is_empty() {
+        let longest = states.iter().map(|s| s.len()).max().unwrap_or(0);
+        if longest == 0 {
             return Ok(());
         }
-        let n = state.len();
-        let grid = plan_grid(state, &self.config, self.options.scan_chunk);
-        let params = self.params(n, &grid);
+        // Whole workgroups per job: a workgroup's kinetic-energy sum is one job's.
+        let n_job = longest.next_multiple_of(WORKGROUP_SIZE as usize);
+        let total = n_job * states.len();
+        let grids: Vec<GridSpec> = states
+            .iter()
+            .zip(&self.configs)
+            .map(|(s, c)| plan_grid(s, c, None))
+            .collect();
+        let ncell: u32 = grids.iter().map(|g| g.ncell).sum();
+        let scan_chunk = self
+            .options
+            .scan_chunk
+            .unwrap_or_else(|| (ncell as f64).sqrt().ceil() as u32)
+            .max(1);
+        let all = GridSpec {
+            ncell,
+            stride: grids.iter().map(|g| g.stride).max().unwrap_or(1),
+            scan_chunk,
+            n_chunks: ncell.div_ceil(scan_chunk),
+            ..grids[0]
+        };
         let max_groups = self.dev.limits.max_compute_workgroups_per_dimension;
-        if params.groups_particles.max(params.groups_chunks) > max_groups {
+        let groups = (total as u32).div_ceil(WORKGROUP_SIZE);
+        if groups.max(all.n_chunks.div_ceil(WORKGROUP_SIZE)) > max_groups {
             return Err(EngineError::Device(format!(
-                "{n} particles need {} workgroups of {WORKGROUP_SIZE}; {} dispatches at most {max_groups}",
-                params.groups_particles, self.dev.info.name
+                "{total} particle slots need {groups} workgroups of {WORKGROUP_SIZE}; {} dispatches at most {max_groups}",
+                self.dev.info.name
             )));
         }
-        let bufs = GpuBuffers::new(&self.dev, &params, &self.walls, &pack(state), &grid)?;
+        let mut params = Vec::with_capacity(states.len());
+        let mut offset = 0u32;
+        for (j, g) in grids.iter().enumerate() {
+            params.push(self.params(j, total, n_job, g, &all, offset));
+            offset += g.ncell;
+        }
+        let packed = buffers::concat(states.iter().map(|s| pack(s)).collect(), n_job, self.slots);
+        let bufs = GpuBuffers::new(&self.dev, &params, &self.walls, &packed, &all)?;
         let binds = self.pipes.bind(&self.dev, &bufs);
+        let jobs = states
+            .iter()
+            .zip(&grids)
+            .map(|(s, g)| JobRun {
+                ids: s.id.clone(),
+                masses: s.mass.iter().map(|&m| m as f32).collect(),
+                loaded: s.len(),
+                alive: s.len(),
+                mobile: s.inv_mass.iter().filter(|&&m| m != 0.0).count(),
+                energy: None,
+                grid: *g,
+            })
+            .collect();
         self.run = Some(Run {
             bufs,
             binds,
-            grid,
-            ids: state.id.clone(),
-            masses: state.mass.iter().map(|&m| m as f32).collect(),
-            alive: n,
-            mobile: state.inv_mass.iter().filter(|&&m| m != 0.0).count(),
-            energy: None,
+            grid: all,
+            n_job,
+            jobs,
         });
         Ok(())
     }
 
-    /// The live particles, read back.
-    fn read_state(&self) -> Result<State<f64>, EngineError> {
+    /// Every job's live particles, read back.
+    fn read_states(&self) -> Result<Vec<State<f64>>, EngineError> {
+        let empty = |j: usize| {
+            let mut s = if self.oriented {
+                State::new_oriented(self.slots)
+            } else {
+                State::new(self.rotation, self.slots)
+            };
+            s.time = self.time[j];
+            s.step = self.step[j];
+            s
+        };
         match &self.run {
-            None => {
-                let mut s = if self.oriented {
-                    State::new_oriented(self.slots)
-                } else {
-                    State::new(self.rotation, self.slots)
-                };
-                s.time = self.time;
-                s.step = self.step;
-                Ok(s)
-            }
+            None => Ok((0..self.jobs()).map(empty).collect()),
             Some(run) => {
                 let p = run.bufs.read_particles(&self.dev)?;
-                Ok(unpack(&p, self.slots, self.rotation, self.time, self.step))
+                Ok((0..self.jobs())
+                    .map(|j| {
+                        let b = buffers::block(&p, j, run.n_job, self.slots);
+                        unpack(&b, self.slots, self.rotation, self.time[j], self.step[j])
+                    })
+                    .collect())
             }
         }
     }
 
-    /// Drops removed particles once they fill more than 1/8 of the slots.
+    /// Job j's live particles, read back.
+    ///
+    /// # Errors
+    /// A failed read-back.
+    pub fn download_job(&self, j: usize) -> Result<State<f64>, EngineError> {
+        Ok(self.read_states()?.swap_remove(j))
+    }
+
+    /// Replaces job j's particles (the others are read back and uploaded unchanged).
+    ///
+    /// # Errors
+    /// As `new`.
+    pub fn upload_job(&mut self, j: usize, state: &State<f64>) -> Result<(), EngineError> {
+        let mut all = self.read_states()?;
+        all[j] = state.clone();
+        let refs: Vec<&State<f64>> = all.iter().collect();
+        self.load(&refs)
+    }
+
+    /// Stops (false) or restarts job j: a stopped job's particles stay as they are and its
+    /// reports are empty, while the others go on.
+    pub fn set_active(&mut self, j: usize, on: bool) {
+        self.active[j] = on;
+        if let Some(run) = &self.run {
+            let offset = (j * std::mem::size_of::<Params>()) as u64
+                + std::mem::offset_of!(Params, running) as u64;
+            self.dev
+                .queue
+                .write_buffer(&run.bufs.params, offset, bytemuck::bytes_of(&(on as u32)));
+        }
+    }
+
+    /// Job j's kinetic energy (summed on the device at the last chunk's end).
+    ///
+    /// # Errors
+    /// A failed read-back.
+    pub fn kinetic_energy_job(&self, j: usize) -> Result<f64, EngineError> {
+        match self.run.as_ref().map(|r| r.jobs[j].energy) {
+            None => Ok(0.0),
+            Some(Some(e)) => Ok(e),
+            Some(None) => Ok(self.download_job(j)?.kinetic_energy()),
+        }
+    }
+
+    /// Drops removed particles once they fill more than 1/8 of some job's particles.
     fn compact_if_sparse(&mut self) -> Result<(), EngineError> {
         let sparse = self
             .run
             .as_ref()
-            .is_some_and(|r| (r.bufs.n - r.alive) * 8 > r.bufs.n);
+            .is_some_and(|r| r.jobs.iter().any(|j| (j.loaded - j.alive) * 8 > j.loaded));
         if sparse {
-            let s = self.read_state()?;
-            self.load(&s)?;
+            let all = self.read_states()?;
+            let refs: Vec<&State<f64>> = all.iter().collect();
+            self.load(&refs)?;
         }
         Ok(())
+    }
+
+    /// Advances every running job by `steps` steps in the same dispatches; returns each job's
+    /// report (an empty one for a stopped job) or the failure its kernels flagged.
+    ///
+    /// # Errors
+    /// A device failure (every job's).
+    pub fn advance_batch(
+        &mut self,
+        steps: u64,
+    ) -> Result<Vec<Result<ChunkReport, EngineError>>, EngineError> {
+        if let Some(e) = self.pending.take() {
+            return Err(e);
+        }
+        if let Some(e) = self.dev.take_error() {
+            return Err(EngineError::Device(e));
+        }
+        let jobs = self.jobs();
+        if steps == 0 {
+            return Ok((0..jobs).map(|_| Ok(ChunkReport::default())).collect());
+        }
+        self.compact_if_sparse()?;
+        let dt = self.configs[0].dt_s;
+        let Some(run) = &self.run else {
+            let mut out = Vec::new();
+            for j in 0..jobs {
+                let mut report = ChunkReport::default();
+                if self.active[j] {
+                    for _ in 0..steps {
+                        self.time[j] += dt;
+                    }
+                    self.step[j] += steps;
+                    report.steps = steps;
+                }
+                out.push(Ok(report));
+            }
+            return Ok(out);
+        };
+        let initial: Vec<u32> = (0..jobs).flat_map(|_| status_initial()).collect();
+        self.dev
+            .queue
+            .write_buffer(&run.bufs.status, 0, bytemuck::cast_slice(&initial));
+        let chunk = self.run_steps(run, steps)?;
+        let groups = (run.bufs.n as u64).div_ceil(WORKGROUP_SIZE as u64);
+        let parts = buffers::read(
+            &self.dev,
+            &[
+                (&run.bufs.status, (jobs * STATUS_WORDS) as u64 * 4),
+                (&run.bufs.energy, groups * 4),
+            ],
+        )?;
+        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
+        let sums: Vec<f32> = bytemuck::pod_collect_to_vec(&parts[1]);
+        let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
+        let mut outs = Vec::with_capacity(jobs);
+        let mut updates = Vec::with_capacity(jobs);
+        for j in 0..jobs {
+            let jr = &run.jobs[j];
+            if !self.active[j] {
+                outs.push(Ok(ChunkReport::default()));
+                updates.push(None);
+                continue;
+            }
+            let base = j * run.n_job;
+            let mut st = st_all[j * STATUS_WORDS..(j + 1) * STATUS_WORDS].to_vec();
+            // The batch's words, and slots as the job's own.
+            st[ST_BUILDS] = st_all[ST_BUILDS];
+            for w in [ST_FULL_INDEX] {
+                if st[w] != u32::MAX {
+                    st[w] -= base as u32;
+                }
+            }
+            if st[ST_NONFINITE] != u32::MAX {
+                st[ST_NONFINITE] -= 4 * base as u32;
+            }
+            let deaths = (st[ST_DEATHS] as u64).min(run.n_job as u64);
+            let events: Vec<[u32; 2]> = if deaths > 0 {
+                let p = buffers::read_at(&self.dev, &run.bufs.events, base as u64 * 8, deaths * 8)?;
+                bytemuck::pod_collect_to_vec::<u8, [u32; 2]>(&p)
+                    .into_iter()
+                    .map(|[i, k]| [i - base as u32, k])
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let energy: f64 = sums[j * per_job_groups..(j + 1) * per_job_groups]
+                .iter()
+                .map(|&e| e as f64)
+                .sum();
+            let out = read_chunk(
+                &ChunkContext {
+                    ids: &jr.ids,
+                    masses: &jr.masses,
+                    alive: jr.alive,
+                    mobile: jr.mobile,
+                    slots: self.slots,
+                    stride: run.grid.stride,
+                    time0: self.time[j],
+                    step0: self.step[j],
+                    steps,
+                    dt,
+                    overlap_limit: self.options.watchdog.max_overlap_ratio,
+                },
+                &st,
+                &events,
+            );
+            updates.push(Some((out.alive, out.mobile, energy, out.time)));
+            outs.push(match out.error {
+                Some(e) => Err(e),
+                None => Ok(out.report),
+            });
+        }
+        for (j, u) in updates.into_iter().enumerate() {
+            if let Some((alive, mobile, energy, time)) = u {
+                if let Some(r) = self.run.as_mut() {
+                    let jr = &mut r.jobs[j];
+                    jr.alive = alive;
+                    jr.mobile = mobile;
+                    jr.energy = Some(energy);
+                }
+                self.time[j] = time;
+                self.step[j] += steps;
+            }
+        }
+        self.schedule = chunk.schedule;
+        self.dispatches.add(&chunk.count);
+        Ok(outs)
     }
 
     /// Runs `steps` steps on the device: records them two command buffers ahead, reads each
@@ -536,99 +814,30 @@ fn asymmetric_top(state: &State<f64>) -> Option<usize> {
 
 impl Backend for GpuEngine {
     fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError> {
-        if let Some(e) = self.pending.take() {
-            return Err(e);
-        }
-        if let Some(e) = self.dev.take_error() {
-            return Err(EngineError::Device(e));
-        }
-        let mut report = ChunkReport::default();
-        if steps == 0 {
-            return Ok(report);
-        }
-        self.compact_if_sparse()?;
-        let (time0, step0) = (self.time, self.step);
-        let dt = self.config.dt_s;
-        let Some(run) = &self.run else {
-            for _ in 0..steps {
-                self.time += dt;
-            }
-            self.step += steps;
-            report.steps = steps;
-            return Ok(report);
-        };
-        self.dev
-            .queue
-            .write_buffer(&run.bufs.status, 0, bytemuck::bytes_of(&status_initial()));
-        let chunk = self.run_steps(run, steps)?;
-        let groups = (run.bufs.n as u64).div_ceil(WORKGROUP_SIZE as u64);
-        let parts = buffers::read(
-            &self.dev,
-            &[
-                (&run.bufs.status, STATUS_WORDS as u64 * 4),
-                (&run.bufs.energy, groups * 4),
-            ],
-        )?;
-        let st: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
-        let energy: f64 = bytemuck::pod_collect_to_vec::<u8, f32>(&parts[1])
-            .iter()
-            .map(|&e| e as f64)
-            .sum();
-        let deaths = (st[ST_DEATHS] as u64).min(run.bufs.n as u64);
-        let events: Vec<[u32; 2]> = if deaths > 0 {
-            let p = buffers::read(&self.dev, &[(&run.bufs.events, deaths * 8)])?;
-            bytemuck::pod_collect_to_vec(&p[0])
-        } else {
-            Vec::new()
-        };
-        let out = read_chunk(
-            &ChunkContext {
-                ids: &run.ids,
-                masses: &run.masses,
-                alive: run.alive,
-                mobile: run.mobile,
-                slots: self.slots,
-                stride: run.grid.stride,
-                time0,
-                step0,
-                steps,
-                dt,
-                overlap_limit: self.options.watchdog.max_overlap_ratio,
-            },
-            &st,
-            &events,
-        );
-        if let Some(r) = self.run.as_mut() {
-            r.alive = out.alive;
-            r.mobile = out.mobile;
-            r.energy = Some(energy);
-        }
-        self.schedule = chunk.schedule;
-        self.dispatches.add(&chunk.count);
-        self.time = out.time;
-        self.step = step0 + steps;
-        match out.error {
-            Some(e) => Err(e),
-            None => Ok(out.report),
-        }
+        self.advance_batch(steps)?.swap_remove(0)
     }
 
     /// # Panics
     /// When the device fails while reading back (it is lost); `advance` reports device errors
     /// before that, so a checkpoint is never written from a failed device.
     fn download(&mut self) -> State<f64> {
-        match self.read_state() {
+        match self.download_job(0) {
             Ok(s) => s,
             Err(e) => panic!("GPU backend: {e}"),
         }
     }
 
     fn try_download(&mut self) -> Result<State<f64>, EngineError> {
-        self.read_state()
+        self.download_job(0)
     }
 
     fn upload(&mut self, state: &State<f64>) {
-        if let Err(e) = self.load(state) {
+        let r = if self.jobs() == 1 {
+            self.load(&[state])
+        } else {
+            self.upload_job(0, state)
+        };
+        if let Err(e) = r {
             self.pending = Some(e);
         }
     }
@@ -636,20 +845,16 @@ impl Backend for GpuEngine {
     /// Computed from a download by the CPU engine's f32 kernels (the same arithmetic as the
     /// device's): stress observers sample rarely, so one O(N) copy per sample is cheap.
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
-        let state = self.read_state()?;
+        let state = self.download_job(0)?;
         let mut cpu =
-            crate::engine::cpu::CpuEngine::<f32>::new(self.config.clone(), state.convert(), 1);
+            crate::engine::cpu::CpuEngine::<f32>::new(self.configs[0].clone(), state.convert(), 1);
         Ok(cpu.contact_records())
     }
 
     /// Summed on the device at the last chunk's end (per workgroup, then in f64 here), so a
     /// chunk reads back a few hundred numbers instead of the state.
     fn kinetic_energy(&mut self) -> Result<f64, EngineError> {
-        match self.run.as_ref().map(|r| r.energy) {
-            None => Ok(0.0),
-            Some(Some(e)) => Ok(e),
-            Some(None) => Ok(self.read_state()?.kinetic_energy()),
-        }
+        self.kinetic_energy_job(0)
     }
 
     fn dispatches(&self) -> Option<DispatchCount> {

@@ -16,6 +16,9 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Most walls a run may have (they live in one uniform array).
 pub const MAX_WALLS: usize = 16;
 
+/// Most jobs one batch advances together (their records and walls live in uniform arrays).
+pub const MAX_JOBS: usize = 32;
+
 /// Words of the status block (flags, counters and errors written by the kernels).
 pub const STATUS_WORDS: usize = 16;
 /// The first step (0-based in the chunk) after whose drift some particle had moved more than
@@ -90,8 +93,10 @@ pub fn prelude() -> String {
     let mut s = format!(
         "const WG: u32 = {WORKGROUP_SIZE}u;\nconst MAX_SLOTS: u32 = {MAX_SLOTS}u;\n\
          const MAX_WALLS: u32 = {MAX_WALLS}u;\nconst EMPTY: u32 = {EMPTY}u;\n\
-         const WALL_KEY: u32 = {}u;\n",
-        crate::engine::history::wall_key(0)
+         const WALL_KEY: u32 = {}u;\nconst MAX_JOBS: u32 = {MAX_JOBS}u;\n\
+         const MAX_WALLS_ALL: u32 = {}u;\nconst STATUS_WORDS: u32 = {STATUS_WORDS}u;\n",
+        crate::engine::history::wall_key(0),
+        MAX_WALLS * MAX_JOBS
     );
     // The segment geometry's thresholds (shape/segment.rs), as the exact f32 the CPU engine's
     // f32 kernels use (`R::from_f64`), written as hexadecimal literals so that no decimal
@@ -208,6 +213,14 @@ pub struct Params {
     pub half_skin: f32,
     pub law_pp: LawGpu,
     pub law_pw: LawGpu,
+    /// This job's index in the batch.
+    pub job: u32,
+    /// Slots per job block (every job's, a multiple of the workgroup size).
+    pub n_job: u32,
+    /// Where this job's cells start in the batch's grid.
+    pub cell_offset: u32,
+    /// 1 while the job runs; 0 once the host masked it (its particles are left as they are).
+    pub running: u32,
 }
 
 /// A wall as the shaders read it (the same numbers as `WallKernel<f32>`).
@@ -330,7 +343,7 @@ impl Default for Slot {
     }
 }
 
-const _: () = assert!(std::mem::size_of::<Params>() == 208);
+const _: () = assert!(std::mem::size_of::<Params>() == 224);
 const _: () = assert!(std::mem::size_of::<WallGpu>() == 64);
 const _: () = assert!(std::mem::size_of::<Slot>() == 16);
 const _: () = assert!(std::mem::size_of::<RodGpu>() == 48);

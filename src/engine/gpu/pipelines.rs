@@ -7,7 +7,9 @@ use std::num::NonZeroU64;
 
 use super::buffers::GpuBuffers;
 use super::device::GpuDevice;
-use super::layout::{binding as b, prelude, Params, RodGpu, WallGpu, MAX_WALLS, STATUS_WORDS};
+use super::layout::{
+    binding as b, prelude, Params, RodGpu, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS,
+};
 use crate::engine::config::EngineConfig;
 
 const INTEGRATE: &str = concat!(
@@ -210,8 +212,8 @@ pub const KERNELS: [KernelSpec; 10] = [
 /// Smallest valid binding size of each buffer: one record.
 fn min_size(binding: u32) -> u64 {
     match binding {
-        b::PARAMS => std::mem::size_of::<Params>() as u64,
-        b::WALLS => (std::mem::size_of::<WallGpu>() * MAX_WALLS) as u64,
+        b::PARAMS => (std::mem::size_of::<Params>() * MAX_JOBS) as u64,
+        b::WALLS => (std::mem::size_of::<WallGpu>() * MAX_WALLS * MAX_JOBS) as u64,
         b::LOAD => 32,
         b::STATUS => STATUS_WORDS as u64 * 4,
         b::EVENTS | b::CELL_RANK => 8,

@@ -66,6 +66,12 @@ struct Params {
     half_skin: f32,
     law_pp: Law,
     law_pw: Law,
+    // Batches (engine.rs): this job's index, the slots of every job's block, where its cells
+    // start in the batch's grid, and whether it still runs.
+    job: u32,
+    n_job: u32,
+    cell_offset: u32,
+    running: u32,
 }
 
 struct Wall {
@@ -78,8 +84,9 @@ struct Wall {
     z1: f32,
 }
 
+// MAX_WALLS per job, job after job.
 struct Walls {
-    w: array<Wall, MAX_WALLS>,
+    w: array<Wall, MAX_WALLS_ALL>,
 }
 
 struct Info {
@@ -109,7 +116,27 @@ struct Rod {
     inv_inertia_h: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+// One record per job of the batch; the global fields (n, stride, slots, the scan's) are the same
+// in every record.
+@group(0) @binding(0) var<uniform> jobs: array<Params, MAX_JOBS>;
+
+// The record of the job this invocation works for: every entry point sets it first, with
+// `enter` (a particle's job) or `enter_global` (kernels over cells).
+var<private> params: Params;
+
+fn enter(i: u32) {
+    params = jobs[min(i / jobs[0].n_job, MAX_JOBS - 1u)];
+}
+
+fn enter_global() {
+    params = jobs[0];
+}
+
+// A status word of this invocation's job (the global words, ST_STALE, ST_BUILDS, ST_STEP and
+// ST_STEP_NEXT, live in job 0's block).
+fn sw(w: u32) -> u32 {
+    return params.job * STATUS_WORDS + w;
+}
 
 // a · b summed left to right, as V3::dot.
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {

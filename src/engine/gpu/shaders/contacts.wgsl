@@ -179,7 +179,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
     }
     if (WALLS && !fixed_i) {
         for (var w = 0u; w < params.n_walls; w++) {
-            let wc = wall_touch_split(walls.w[w], pi, lo_i, ri);
+            let wc = wall_touch_split(walls.w[params.job * MAX_WALLS + w], pi, lo_i, ri);
             if (!wc.hit) { continue; }
             let n = wc.normal;
             let bi = -(n * (ri - wc.overlap * 0.5));
@@ -205,7 +205,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
 @compute @workgroup_size(WG)
 fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= jobs[0].n) { return; }
     // Steps done after this one (1-based step index); the next kick_drift reads it.
     let k = atomicLoad(&status[ST_STEP_NEXT]);
     if (i == 0u) {
@@ -213,6 +213,8 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // Void when the lists went stale at this step or before (the host redoes it).
     if (atomicLoad(&status[ST_STALE]) < k) { return; }
+    enter(i);
+    if (params.running == 0u) { return; }
     let use_rows = HISTORY;
     if (use_rows) {
         rows_open(i);
@@ -243,13 +245,13 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     load[i] = Load(vec4<f32>(f, f32(g.nc)), vec4<f32>(t, max_ov));
     if (full) {
-        atomicMin(&status[ST_FULL_STEP], k);
-        atomicMin(&status[ST_FULL_INDEX], i);
+        atomicMin(&status[sw(ST_FULL_STEP)], k);
+        atomicMin(&status[sw(ST_FULL_INDEX)], i);
     }
-    if (max_ov > bitcast<f32>(atomicLoad(&status[ST_MAX_OVERLAP]))) {
-        atomicMax(&status[ST_MAX_OVERLAP], bitcast<u32>(max_ov));
+    if (max_ov > bitcast<f32>(atomicLoad(&status[sw(ST_MAX_OVERLAP)]))) {
+        atomicMax(&status[sw(ST_MAX_OVERLAP)], bitcast<u32>(max_ov));
     }
     if (max_ov > params.overlap_limit) {
-        atomicMin(&status[ST_OVERLAP_STEP], k);
+        atomicMin(&status[sw(ST_OVERLAP_STEP)], k);
     }
 }

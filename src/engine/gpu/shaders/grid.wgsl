@@ -42,10 +42,11 @@ fn cell_of(p: vec3<f32>) -> vec3<u32> {
 @compute @workgroup_size(WG)
 fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n || void_build()) { return; }
-    if (info[i].alive == 0u) { return; }
+    if (i >= jobs[0].n || void_build()) { return; }
+    enter(i);
+    if (info[i].alive == 0u || params.running == 0u) { return; }
     let c3 = cell_of(pos_r[i].xyz);
-    let c = (c3.z * params.ny + c3.y) * params.nx + c3.x;
+    let c = params.cell_offset + (c3.z * params.ny + c3.y) * params.nx + c3.x;
     cell_rank[i] = vec2<u32>(c, atomicAdd(&cell_count[c], 1u));
 }
 
@@ -53,6 +54,7 @@ fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(WG)
 fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = gid.x;
+    enter_global();
     if (c >= params.n_chunks || void_build()) { return; }
     let a = c * params.scan_chunk;
     let b = min(a + params.scan_chunk, params.ncell);
@@ -67,6 +69,7 @@ fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
 // clears the staleness it answers)...
 @compute @workgroup_size(1)
 fn scan_totals() {
+    enter_global();
     if (void_build()) { return; }
     atomicStore(&status[ST_STALE], 0xffffffffu);
     atomicAdd(&status[ST_BUILDS], 1u);
@@ -82,6 +85,7 @@ fn scan_totals() {
 @compute @workgroup_size(WG)
 fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = gid.x;
+    enter_global();
     if (c >= params.n_chunks || void_build()) { return; }
     let a = c * params.scan_chunk;
     let b = min(a + params.scan_chunk, params.ncell);
@@ -99,8 +103,9 @@ fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(WG)
 fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n || void_build()) { return; }
-    if (info[i].alive == 0u) { return; }
+    if (i >= jobs[0].n || void_build()) { return; }
+    enter(i);
+    if (info[i].alive == 0u || params.running == 0u) { return; }
     let cr = cell_rank[i];
     sorted[cell_start[cr.x] + cr.y] = i;
 }
@@ -149,14 +154,15 @@ fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
 @compute @workgroup_size(WG)
 fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n || void_build()) { return; }
+    if (i >= jobs[0].n || void_build()) { return; }
+    enter(i);
     let p4 = pos_r[i];
     ref_pos[i] = p4;
     if (ORIENTED) {
         // The axis the rotational skin criterion measures turns from.
         ref_pos[shape_at(i)] = pos_r[shape_at(i)];
     }
-    if (info[i].alive == 0u) {
+    if (info[i].alive == 0u || params.running == 0u) {
         nbr[nbr_at(i, 0u)] = 0u;
         return;
     }
@@ -175,7 +181,7 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var oy = 0u; oy < 3u; oy++) {
             let y = around(c.y, oy, params.ny, PERIODIC_Y);
             if (y < 0) { continue; }
-            let base = (u32(z) * params.ny + u32(y)) * params.nx;
+            let base = params.cell_offset + (u32(z) * params.ny + u32(y)) * params.nx;
             if (contiguous) {
                 k = scan_range(i, p, ri, cell_start[base + x_lo], cell_start[base + x_hi + 1u], k);
             } else {
@@ -201,6 +207,6 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     nbr[nbr_at(i, 0u)] = m;
     if (k > params.stride) {
-        atomicMax(&status[ST_LIST_OVERFLOW], k);
+        atomicMax(&status[sw(ST_LIST_OVERFLOW)], k);
     }
 }

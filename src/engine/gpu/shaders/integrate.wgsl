@@ -25,12 +25,14 @@ fn flag_stale(k: u32) {
 @compute @workgroup_size(WG)
 fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n) { return; }
+    if (i >= jobs[0].n) { return; }
     let k = atomicLoad(&status[ST_STEP]);
     if (atomicLoad(&status[ST_STALE]) < k) { return; }
     if (i == 0u) {
         atomicStore(&status[ST_STEP_NEXT], k + 1u);
     }
+    enter(i);
+    if (params.running == 0u) { return; }
     translate(i, k);
     if (ORIENTED) {
         kick_rotate(i, k);
@@ -65,8 +67,8 @@ fn translate(i: u32, k: u32) {
     pos_r[lo_at(i)] = vec4<f32>(lo, 0.0);
     if (SINK && x.z < params.sink_z) {
         info[i].alive = 0u;
-        let e = atomicAdd(&status[ST_DEATHS], 1u);
-        events[e] = vec2<u32>(i, k);
+        let e = atomicAdd(&status[sw(ST_DEATHS)], 1u);
+        events[params.job * params.n_job + e] = vec2<u32>(i, k);
     }
     // Oriented particles test their ends after turning, in kick_rotate.
     if (ORIENTED) { return; }
@@ -79,7 +81,9 @@ fn translate(i: u32, k: u32) {
 @compute @workgroup_size(WG)
 fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.n || atomicLoad(&status[ST_STALE]) != 0xffffffffu) { return; }
+    if (i >= jobs[0].n || atomicLoad(&status[ST_STALE]) != 0xffffffffu) { return; }
+    enter(i);
+    if (params.running == 0u) { return; }
     let half = params.half_dt;
     let vi = vel_im[i];
     let im = vi.w;
@@ -117,7 +121,7 @@ var<workgroup> ke_part: array<f32, WG>;
 // and rotational, as State::kinetic_energy; zero when fixed).
 fn check_particle(i: u32) -> f32 {
     if (info[i].alive == 0u) { return 0.0; }
-    atomicAdd(&status[ST_CONTACTS], u32(load[i].force.w));
+    atomicAdd(&status[sw(ST_CONTACTS)], u32(load[i].force.w));
     var kind = 4u;
     if (!is_finite3(pos_r[i].xyz)) {
         kind = 0u;
@@ -129,7 +133,7 @@ fn check_particle(i: u32) -> f32 {
         kind = 3u;
     }
     if (kind < 4u) {
-        atomicMin(&status[ST_NONFINITE], i * 4u + kind);
+        atomicMin(&status[sw(ST_NONFINITE)], i * 4u + kind);
     }
     if (vel_im[i].w == 0.0) { return 0.0; }
     let v = vel_im[i].xyz;
@@ -153,8 +157,11 @@ fn finish(
 ) {
     let i = gid.x;
     var e = 0.0;
-    if (i < params.n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
-        e = check_particle(i);
+    if (i < jobs[0].n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
+        enter(i);
+        if (params.running != 0u) {
+            e = check_particle(i);
+        }
     }
     ke_part[lid.x] = e;
     workgroupBarrier();

@@ -343,7 +343,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         let ri = p4.w;
         let wi = omega[i].xyz;
         for (var w = 0u; w < params.n_walls; w++) {
-            let wc = touch_oriented(walls.w[w], p4.xyz, pos_r[lo_at(i)].xyz, sh.xyz, sh.w, ri);
+            let wc = touch_oriented(walls.w[params.job * MAX_WALLS + w], p4.xyz, pos_r[lo_at(i)].xyz, sh.xyz, sh.w, ri);
             if (!wc.hit) { continue; }
             let v_rel = v4.xyz + cross3(wi, wc.arm) - wc.wall_velocity;
             let key = WALL_KEY | w;
