@@ -1,6 +1,7 @@
 //! Command-line definitions (clap derive) and dispatch; one file per subcommand in `cli/`.
 
 mod bench;
+mod bench_batch;
 mod cancel;
 mod collect;
 mod export;

@@ -168,3 +168,47 @@ fn a_stopped_or_replaced_job_leaves_the_others_unchanged() {
         assert!(s == solo[k].1, "job {k} differs from its run alone");
     }
 }
+
+#[test]
+fn sweep_bench_times_a_batch() {
+    let Some(_dev) = device() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bench = |extra: &[&str]| {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "silo-bed",
+            "--particles",
+            "400",
+            "--steps",
+            "30",
+            "--batch",
+            "3",
+            "--no-store",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+            .current_dir(dir.path())
+            .env_remove("SWEEP_DB")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = bench(&["--backend", "gpu", "--allow-software-gpu"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["jobs"], 3);
+    let rate = v["particle_steps_per_s"].as_f64().unwrap();
+    let per_job = v["per_job_particle_steps_per_s"].as_f64().unwrap();
+    assert!(rate > 0.0 && (rate / per_job - 3.0).abs() < 1e-9, "{v}");
+    assert!(
+        v["dispatches"]["per_steady_step"].as_u64().unwrap() <= 2,
+        "{v}"
+    );
+    // A batch on the CPU is refused by name.
+    let out = bench(&["--backend", "cpu"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--backend gpu"));
+}

@@ -53,6 +53,10 @@ pub struct Arguments {
     /// `mpirun -np 2 lmp -in in.SCENE`.
     #[arg(long, value_name = "DIR")]
     pub lammps: Option<std::path::PathBuf>,
+    /// Advance this many copies of the scene together on the GPU (one batch, 1 to 32 jobs) and
+    /// report their aggregate rate (not stored).
+    #[arg(long, value_name = "J", value_parser = clap::value_parser!(u32).range(1..=32))]
+    pub batch: Option<u32>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -90,6 +94,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if let Some(dir) = &a.lammps {
         let input = sweep::lammps::export(&scene_name, &sc, a.steps, dir)?;
         eprintln!("LAMMPS input: {}", input.display());
+    }
+    if let Some(j) = a.batch {
+        return super::bench_batch::run(&a, &sc, &scene_name, j as usize);
     }
     let mut rates = Vec::new();
     let mut last = None;
@@ -296,7 +303,7 @@ fn settled_bed(
 }
 
 /// The counts of the timed run alone (the engine counts from its start).
-fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
+pub fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
     DispatchCount {
         steps: d1.steps - d0.steps,
         dispatches: d1.dispatches - d0.dispatches,
@@ -309,7 +316,7 @@ fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
     }
 }
 
-fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
+pub fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
     serde_json::json!({
         "per_step": d.dispatches as f64 / d.steps.max(1) as f64,
         "per_steady_step": d.max_steady_step,

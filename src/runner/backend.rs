@@ -315,7 +315,7 @@ fn gpu(
 }
 
 /// The device `--backend gpu` runs on, and a note when it is a software adapter.
-fn gpu_device(select: &GpuSelect) -> anyhow::Result<(GpuDevice, Option<String>)> {
+pub fn gpu_device(select: &GpuSelect) -> anyhow::Result<(GpuDevice, Option<String>)> {
     let adapters = enumerate_adapters();
     let k = match select.index {
         Some(n) => check_index(n, adapters.len())?,
