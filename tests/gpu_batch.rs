@@ -8,6 +8,9 @@
 
 mod common;
 
+use common::cli::{
+    assert_same_results, campaign, results, stderr, stdout, sweep_cmd, write_campaign,
+};
 use common::gpu::device;
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::walls::{WallRotation, WallShape};
@@ -211,4 +214,53 @@ fn sweep_bench_times_a_batch() {
     let out = bench(&["--backend", "cpu"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--backend gpu"));
+}
+
+/// `sweep launch --backend gpu --parallel 4 --batch J` on the tiny silo campaign (two orifices ×
+/// two frequencies, f32); returns the database.
+fn launch_batched(dir: &std::path::Path, batch: &str) -> (std::path::PathBuf, String) {
+    let mut c = campaign("batched", &[0.02, 0.025], &[0.0, 1.0], 0.1);
+    c["run"]["precision"] = serde_json::json!("f32");
+    let file = write_campaign(dir, "batched.json", &c);
+    let db = dir.join(format!("batch-{batch}.db"));
+    let o = sweep_cmd(dir)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args([
+            "--backend",
+            "gpu",
+            "--allow-software-gpu",
+            "--parallel",
+            "4",
+        ])
+        .args(["--batch", batch])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    (db, stderr(&o))
+}
+
+#[test]
+fn a_campaign_run_in_batches_stores_what_it_stores_alone() {
+    let Some(_dev) = device() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let (db, err) = launch_batched(dir.path(), "1");
+    assert!(!err.contains("shared engines"), "{err}");
+    let alone = results(&db);
+    // Separate work directories: the fill stages are shared within one, not across.
+    let dir2 = tempfile::tempdir().unwrap();
+    let (db, err) = launch_batched(dir2.path(), "4");
+    eprintln!("{err}");
+    assert!(
+        err.contains("shared engines, up to"),
+        "no batch formed:\n{err}"
+    );
+    let batched = results(&db);
+    assert_eq!(alone.jobs.len(), 4);
+    assert!(!alone.series.is_empty());
+    assert_same_results(&alone, &batched);
 }

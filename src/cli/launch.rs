@@ -51,6 +51,7 @@ fn run_jobs(
         threads: r.threads,
         backend: r.backend,
         gpu: r.gpu.select(),
+        batch: r.batch,
         checkpoint_interval_s,
         max_attempts,
         interrupt: interrupt_flag(),

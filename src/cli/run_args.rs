@@ -28,6 +28,25 @@ pub struct RunArgs {
     /// Engine threads per job (0: cores / parallel; at most 1024).
     #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, MAX_THREADS))]
     pub threads: usize,
+    /// GPU jobs running at the same time (--parallel) share one engine, up to J per batch
+    /// (1 to 32; auto: all of them, as the device's buffer limits allow). Each job's results are
+    /// those it has alone.
+    #[arg(long, default_value = "auto", value_name = "auto|J", value_parser = parse_batch)]
+    pub batch: usize,
+}
+
+/// `--batch`: auto (every job running at once, at most 32) or J in 1..=32.
+fn parse_batch(s: &str) -> Result<usize, String> {
+    if s == "auto" {
+        return Ok(sweep::engine::gpu::MAX_JOBS);
+    }
+    match s.parse::<usize>() {
+        Ok(j) if (1..=sweep::engine::gpu::MAX_JOBS).contains(&j) => Ok(j),
+        _ => Err(format!(
+            "expected auto or a number of jobs from 1 to {}, got {s:?}",
+            sweep::engine::gpu::MAX_JOBS
+        )),
+    }
 }
 
 /// Which GPU adapter `--backend gpu|auto` takes (launch, resume, run-job, bench).

@@ -9,6 +9,7 @@
 use std::collections::BTreeSet;
 use std::sync::Mutex;
 
+use super::gpu_batch::GpuBatches;
 use crate::campaign::Precision;
 use crate::engine::gpu::{
     enumerate_adapters, list_adapters, vulkan_driver_files, AdapterReport, GpuDevice, GpuEngine,
@@ -448,6 +449,29 @@ pub fn build_on(
     state: &State<f64>,
     threads: usize,
 ) -> anyhow::Result<Built> {
+    build_shared(choice, select, None, precision, config, state, threads)
+}
+
+/// [`build_on`], and a GPU job joins one of `batches` (one device, engines shared by the jobs
+/// running at the same time) when given.
+///
+/// # Errors
+/// As [`build_on`].
+pub fn build_shared(
+    choice: BackendChoice,
+    select: &GpuSelect,
+    batches: Option<&GpuBatches>,
+    precision: Precision,
+    config: EngineConfig,
+    state: &State<f64>,
+    threads: usize,
+) -> anyhow::Result<Built> {
+    let on = |dev: &GpuDevice, config: EngineConfig| -> anyhow::Result<Box<dyn Backend>> {
+        match batches {
+            Some(b) => Ok(b.join(dev, config, state)?),
+            None => gpu(dev, config, state),
+        }
+    };
     match choice {
         BackendChoice::Cpu => Ok(Built {
             engine: cpu(precision, config, state, threads),
@@ -459,22 +483,32 @@ pub fn build_on(
                     "the GPU backend runs f32, this job asks for f64: use \"run\": {{\"precision\": \"f32\"}} in the campaign (--precision f32 for sweep bench), or --backend cpu"
                 );
             }
-            let (dev, note) = gpu_device(select)?;
+            let (dev, note) = match batches {
+                Some(b) => b.device(|| gpu_device(select))?,
+                None => gpu_device(select)?,
+            };
             Ok(Built {
-                engine: gpu(&dev, config, state)?,
+                engine: on(&dev, config)?,
                 note,
             })
         }
-        BackendChoice::Auto => match auto_device(select, precision)? {
-            Ok(dev) => Ok(Built {
-                engine: gpu(&dev, config, state)?,
-                note: None,
-            }),
-            Err(why) => Ok(Built {
-                engine: cpu(precision, config, state, threads),
-                note: Some(auto_note(&why)),
-            }),
-        },
+        BackendChoice::Auto => {
+            // A batch keeps the first device auto found (a later job's own is dropped).
+            let dev = match (auto_device(select, precision)?, batches) {
+                (Ok(dev), Some(b)) => Ok(b.device(|| Ok((dev, None)))?.0),
+                (found, _) => found,
+            };
+            match dev {
+                Ok(dev) => Ok(Built {
+                    engine: on(&dev, config)?,
+                    note: None,
+                }),
+                Err(why) => Ok(Built {
+                    engine: cpu(precision, config, state, threads),
+                    note: Some(auto_note(&why)),
+                }),
+            }
+        }
     }
 }
 

@@ -45,6 +45,8 @@ pub struct JobContext {
     pub backend: BackendChoice,
     /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
     pub gpu: GpuSelect,
+    /// The engines GPU jobs of this run share (`--batch`), if they do.
+    pub batches: Option<Arc<super::gpu_batch::GpuBatches>>,
     pub threads: usize,
     /// Simulated seconds between checkpoints.
     pub checkpoint_interval_s: f64,
@@ -240,18 +242,20 @@ pub fn run<S: Study>(
     let spec = study.spec();
     let origin = spec.origin_m();
     let built = if origin == [0.0; 3] {
-        backend::build_on(
+        backend::build_shared(
             backend::for_job(spec, ctx.backend),
             &ctx.gpu,
+            ctx.batches.as_deref(),
             spec.precision,
             study.engine_config(),
             &state,
             ctx.threads,
         )
     } else {
-        backend::build_on(
+        backend::build_shared(
             backend::for_job(spec, ctx.backend),
             &ctx.gpu,
+            ctx.batches.as_deref(),
             spec.precision,
             translated::config(&study.engine_config(), origin),
             &translated::state(&state, origin),

@@ -8,6 +8,7 @@
 pub mod adaptive;
 pub mod backend;
 pub mod chute_job;
+pub mod gpu_batch;
 pub mod job;
 pub mod job_lock;
 pub mod pool;

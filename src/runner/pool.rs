@@ -26,6 +26,8 @@ pub struct PoolOptions {
     pub backend: BackendChoice,
     /// Which GPU adapter (`--gpu N`, `--allow-software-gpu`).
     pub gpu: GpuSelect,
+    /// GPU jobs running at the same time share an engine, this many at most (1: each its own).
+    pub batch: usize,
     pub checkpoint_interval_s: f64,
     /// Overrides each job's own `run.max_attempts` (`sweep resume --max-attempts`).
     pub max_attempts: Option<i64>,
@@ -73,8 +75,12 @@ pub fn run_pending(
     let summary = Arc::new(Mutex::new(PoolSummary::default()));
     let done_count = Arc::new(AtomicUsize::new(already_done));
     let mut handles = Vec::new();
+    // GPU jobs running at the same time share engines (CPU jobs never join one).
+    let batches = (opts.batch > 1 && parallel > 1)
+        .then(|| Arc::new(super::gpu_batch::GpuBatches::new(opts.batch.min(parallel))));
     for _ in 0..parallel {
         let opts = opts.clone();
+        let batches = batches.clone();
         let multi = multi.clone();
         let overall = overall.clone();
         let summary = summary.clone();
@@ -128,6 +134,7 @@ pub fn run_pending(
                     work_dir: opts.work_dir.clone(),
                     backend: opts.backend,
                     gpu: opts.gpu,
+                    batches: batches.clone(),
                     threads,
                     checkpoint_interval_s: checkpoint_interval(&conn, job.id)
                         .unwrap_or(opts.checkpoint_interval_s),
@@ -199,6 +206,12 @@ pub fn run_pending(
         }
     }
     overall.finish_and_clear();
+    if let Some(b) = batches.filter(|b| b.largest() > 1) {
+        eprintln!(
+            "sweep: GPU jobs shared engines, up to {} jobs in one batch",
+            b.largest()
+        );
+    }
     if let Some(e) = first_err {
         return Err(e);
     }

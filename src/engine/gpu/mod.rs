@@ -17,4 +17,4 @@ pub use device::{
 };
 pub use engine::{GpuEngine, GpuOptions};
 pub use grid::{list_capacity, plan_grid, GridSpec};
-pub use layout::{MAX_WALLS, WORKGROUP_SIZE};
+pub use layout::{MAX_JOBS, MAX_WALLS, WORKGROUP_SIZE};

@@ -146,6 +146,7 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
         work_dir: o.work_dir.clone(),
         backend: o.backend,
         gpu: o.gpu,
+        batches: None,
         threads,
         checkpoint_interval_s: spec.checkpoint_interval_s,
         interrupt: interrupt.clone(),
