@@ -25,8 +25,9 @@ use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
 use super::grid::{plan_grid, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS, ST_BUILDS,
-    ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_STALE, ST_STEP, ST_STEP_NEXT, WORKGROUP_SIZE,
+    status_initial, LawGpu, Params, WallGpu, MAX_JOBS, MAX_WALLS, SCAN_ITEMS, STATUS_WORDS,
+    ST_BUILDS, ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_STALE, ST_STEP, ST_STEP_NEXT,
+    WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -48,11 +49,8 @@ pub struct GpuOptions {
     /// Record a list build every this many steps instead of predicting (tests: builds must not
     /// change the results).
     pub build_every: Option<u64>,
-    /// Run length of the chunked prefix scan (default ⌈√cells⌉).
-    pub scan_chunk: Option<u32>,
-    /// Only `max_overlap_ratio` applies: the energy check needs the kinetic energy, which the
-    /// status block does not carry (a device-side sum would need float atomics or a reduction
-    /// pass per chunk).
+    /// Only `max_overlap_ratio` applies: the energy check also needs the elastic energy and the
+    /// work of gravity and the walls, which the kernels do not sum.
     pub watchdog: Watchdog,
 }
 
@@ -61,7 +59,6 @@ impl Default for GpuOptions {
         Self {
             steps_per_submit: 64,
             build_every: None,
-            scan_chunk: None,
             watchdog: Watchdog::default(),
         }
     }
@@ -324,14 +321,10 @@ impl GpuEngine {
         let grids: Vec<GridSpec> = states
             .iter()
             .zip(&self.configs)
-            .map(|(s, c)| plan_grid(s, c, None))
+            .map(|(s, c)| plan_grid(s, c))
             .collect();
         let ncell: u32 = grids.iter().map(|g| g.ncell).sum();
-        let scan_chunk = self
-            .options
-            .scan_chunk
-            .unwrap_or_else(|| (ncell as f64).sqrt().ceil() as u32)
-            .max(1);
+        let scan_chunk = WORKGROUP_SIZE * SCAN_ITEMS;
         let all = GridSpec {
             ncell,
             stride: grids.iter().map(|g| g.stride).max().unwrap_or(1),
@@ -341,7 +334,7 @@ impl GpuEngine {
         };
         let max_groups = self.dev.limits.max_compute_workgroups_per_dimension;
         let groups = (total as u32).div_ceil(WORKGROUP_SIZE);
-        if groups.max(all.n_chunks.div_ceil(WORKGROUP_SIZE)) > max_groups {
+        if groups.max(all.n_chunks) > max_groups {
             return Err(EngineError::Device(format!(
                 "{total} particle slots need {groups} workgroups of {WORKGROUP_SIZE}; {} dispatches at most {max_groups}",
                 self.dev.info.name
@@ -712,7 +705,7 @@ impl GpuEngine {
     /// redone step), up to `steps_per_submit` steps, and the closing passes after the last.
     fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
-        let gc = run.grid.n_chunks.div_ceil(WORKGROUP_SIZE);
+        let gc = run.grid.n_chunks;
         let pipes = &self.pipes;
         let binds = &run.binds;
         let mut dispatches = 0u64;
@@ -726,7 +719,7 @@ impl GpuEngine {
             |pass: &mut wgpu::ComputePass<'_>,
              dispatch: &mut dyn FnMut(&mut wgpu::ComputePass<'_>, usize, u32)| {
                 for (p, &k) in kernel::BUILD.iter().enumerate() {
-                    // histogram, scan_chunks, scan_totals, scan_apply, scatter, build_list.
+                    // histogram, scan_blocks, scan_totals, scan_apply, scatter, build_list.
                     let groups = match p {
                         1 | 3 => gc,
                         2 => 1,

@@ -15,14 +15,13 @@ pub struct GridSpec {
     pub ncell: u32,
     /// Neighbour-list capacity per particle.
     pub stride: u32,
-    /// Cells per run of the chunked scan, and the number of runs.
+    /// Cells per block of the cell-start scan, and the number of blocks.
     pub scan_chunk: u32,
     pub n_chunks: u32,
 }
 
-/// Chooses the grid for `state`. `scan_chunk` overrides the scan's run length (default
-/// ⌈√ncell⌉, which balances the parallel runs against the one sequential pass over their totals).
-pub fn plan_grid(state: &State<f64>, config: &EngineConfig, scan_chunk: Option<u32>) -> GridSpec {
+/// Chooses the grid for `state`.
+pub fn plan_grid(state: &State<f64>, config: &EngineConfig) -> GridSpec {
     let n = state.len();
     // The reach of a particle from its centre: its radius, plus l/2 for a spherocylinder (as
     // the CPU's grid.rs). Cells are sized from the longest particle.
@@ -102,9 +101,7 @@ pub fn plan_grid(state: &State<f64>, config: &EngineConfig, scan_chunk: Option<u
     let width: [f32; 3] =
         std::array::from_fn(|k| ((b[k] - a[k]).max(cell) / dims[k] as f64) as f32);
     let ncell = dims[0] * dims[1] * dims[2];
-    let scan_chunk = scan_chunk
-        .unwrap_or((ncell as f64).sqrt().ceil() as u32)
-        .max(1);
+    let scan_chunk = super::layout::WORKGROUP_SIZE * super::layout::SCAN_ITEMS;
     GridSpec {
         lo: std::array::from_fn(|k| a[k] as f32),
         width,

@@ -13,6 +13,9 @@ use crate::engine::walls::{Wall, WallShape};
 /// lanes, 8 wide) and is a safe multiple of the warp/wavefront size of real GPUs.
 pub const WORKGROUP_SIZE: u32 = 64;
 
+/// Cells each invocation of the cell-start scan takes: a block is WORKGROUP_SIZE × SCAN_ITEMS.
+pub const SCAN_ITEMS: u32 = 4;
+
 /// Most walls a run may have (they live in one uniform array).
 pub const MAX_WALLS: usize = 16;
 
@@ -94,7 +97,8 @@ pub fn prelude() -> String {
         "const WG: u32 = {WORKGROUP_SIZE}u;\nconst MAX_SLOTS: u32 = {MAX_SLOTS}u;\n\
          const MAX_WALLS: u32 = {MAX_WALLS}u;\nconst EMPTY: u32 = {EMPTY}u;\n\
          const WALL_KEY: u32 = {}u;\nconst MAX_JOBS: u32 = {MAX_JOBS}u;\n\
-         const MAX_WALLS_ALL: u32 = {}u;\nconst STATUS_WORDS: u32 = {STATUS_WORDS}u;\n",
+         const MAX_WALLS_ALL: u32 = {}u;\nconst STATUS_WORDS: u32 = {STATUS_WORDS}u;\n\
+         const SCAN_ITEMS: u32 = {SCAN_ITEMS}u;\n",
         crate::engine::history::wall_key(0),
         MAX_WALLS * MAX_JOBS
     );
@@ -184,7 +188,7 @@ pub struct Params {
     pub periodic_y: u32,
     pub rotation: u32,
     pub has_sink: u32,
-    /// Cells summed by one invocation of the chunked scan.
+    /// Cells per block of the cell-start scan (WORKGROUP_SIZE × SCAN_ITEMS).
     pub scan_chunk: u32,
     pub n_chunks: u32,
     pub groups_particles: u32,

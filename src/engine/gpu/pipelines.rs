@@ -145,17 +145,7 @@ pub const KERNELS: [KernelSpec; 10] = [
     },
     KernelSpec {
         module: Module::Grid,
-        entry: "scan_chunks",
-        bindings: &[b::PARAMS, b::STATUS, b::CELL_COUNT, b::CHUNK_SUMS],
-    },
-    KernelSpec {
-        module: Module::Grid,
-        entry: "scan_totals",
-        bindings: &[b::PARAMS, b::STATUS, b::CHUNK_SUMS],
-    },
-    KernelSpec {
-        module: Module::Grid,
-        entry: "scan_apply",
+        entry: "scan_blocks",
         bindings: &[
             b::PARAMS,
             b::STATUS,
@@ -163,6 +153,16 @@ pub const KERNELS: [KernelSpec; 10] = [
             b::CELL_START,
             b::CHUNK_SUMS,
         ],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scan_totals",
+        bindings: &[b::PARAMS, b::STATUS, b::CELL_START, b::CHUNK_SUMS],
+    },
+    KernelSpec {
+        module: Module::Grid,
+        entry: "scan_apply",
+        bindings: &[b::PARAMS, b::STATUS, b::CELL_START, b::CHUNK_SUMS],
     },
     KernelSpec {
         module: Module::Grid,

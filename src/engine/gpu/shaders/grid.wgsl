@@ -50,53 +50,120 @@ fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
     cell_rank[i] = vec2<u32>(c, atomicAdd(&cell_count[c], 1u));
 }
 
-// Chunked exclusive scan, barrier-free: each invocation sums a run of scan_chunk cells...
+// The cell starts: a work-efficient exclusive scan of the counts in three passes. Each
+// workgroup scans a block of WG × SCAN_ITEMS cells (block-relative starts, the block's total),
+// one workgroup scans the block totals, and each workgroup adds its block's offset. Integer
+// sums, so the order of the additions cannot change a bit.
+
+var<workgroup> wg_sum: array<u32, WG>;
+var<workgroup> wg_flag: u32;
+
+// Whether this build is void, as a value every invocation of the workgroup agrees on (the
+// passes below synchronise, so they may only return together).
+fn uniform_void(t: u32) -> bool {
+    if (t == 0u) {
+        wg_flag = select(0u, 1u, void_build());
+    }
+    return workgroupUniformLoad(&wg_flag) != 0u;
+}
+
+// The exclusive prefix of v over the workgroup's invocations (x) and their total (y).
+fn workgroup_exclusive(t: u32, v: u32) -> vec2<u32> {
+    wg_sum[t] = v;
+    workgroupBarrier();
+    for (var o = 1u; o < WG; o = o * 2u) {
+        var add = 0u;
+        if (t >= o) {
+            add = wg_sum[t - o];
+        }
+        workgroupBarrier();
+        wg_sum[t] = wg_sum[t] + add;
+        workgroupBarrier();
+    }
+    let out = vec2<u32>(wg_sum[t] - v, wg_sum[WG - 1u]);
+    workgroupBarrier();
+    return out;
+}
+
+// One block: block-relative starts into cell_start, the total into chunk_sums; the counts are
+// zeroed for the next build.
 @compute @workgroup_size(WG)
-fn scan_chunks(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let c = gid.x;
+fn scan_blocks(
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
     enter_global();
-    if (c >= params.n_chunks || void_build()) { return; }
-    let a = c * params.scan_chunk;
-    let b = min(a + params.scan_chunk, params.ncell);
+    let t = lid.x;
+    if (uniform_void(t)) { return; }
+    let base = (wid.x * WG + t) * SCAN_ITEMS;
+    var own: array<u32, SCAN_ITEMS>;
+    var run = 0u;
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        let c = base + k;
+        own[k] = run;
+        if (c < params.ncell) {
+            run += atomicLoad(&cell_count[c]);
+            atomicStore(&cell_count[c], 0u);
+        }
+    }
+    let p = workgroup_exclusive(t, run);
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        let c = base + k;
+        if (c < params.ncell) {
+            cell_start[c] = p.x + own[k];
+        }
+    }
+    if (t == 0u) {
+        chunk_sums[wid.x] = p.y;
+    }
+}
+
+// The block totals, scanned by one workgroup (each invocation a run of them); it also writes the
+// end sentinel, counts the build and clears the staleness it answers (alone on the device).
+@compute @workgroup_size(WG)
+fn scan_totals(@builtin(local_invocation_id) lid: vec3<u32>) {
+    enter_global();
+    let t = lid.x;
+    if (uniform_void(t)) { return; }
+    if (t == 0u) {
+        atomicStore(&status[ST_STALE], 0xffffffffu);
+        atomicAdd(&status[ST_BUILDS], 1u);
+    }
+    let blocks = params.n_chunks;
+    let per = (blocks + WG - 1u) / WG;
+    let a = min(t * per, blocks);
+    let b = min(a + per, blocks);
     var s = 0u;
     for (var k = a; k < b; k++) {
-        s += atomicLoad(&cell_count[k]);
+        s += chunk_sums[k];
     }
-    chunk_sums[c] = s;
+    let p = workgroup_exclusive(t, s);
+    var run = p.x;
+    for (var k = a; k < b; k++) {
+        let x = chunk_sums[k];
+        chunk_sums[k] = run;
+        run += x;
+    }
+    if (t == WG - 1u) {
+        cell_start[params.ncell] = p.y;
+    }
 }
 
-// ...one invocation scans the run totals (and, alone on the device, counts the build and
-// clears the staleness it answers)...
-@compute @workgroup_size(1)
-fn scan_totals() {
+// Each block's offset added to its starts.
+@compute @workgroup_size(WG)
+fn scan_apply(
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
     enter_global();
     if (void_build()) { return; }
-    atomicStore(&status[ST_STALE], 0xffffffffu);
-    atomicAdd(&status[ST_BUILDS], 1u);
-    var run = 0u;
-    for (var c = 0u; c < params.n_chunks; c++) {
-        let s = chunk_sums[c];
-        chunk_sums[c] = run;
-        run += s;
-    }
-}
-
-// ...and each invocation writes its run's starts, zeroing the counts for the next build.
-@compute @workgroup_size(WG)
-fn scan_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let c = gid.x;
-    enter_global();
-    if (c >= params.n_chunks || void_build()) { return; }
-    let a = c * params.scan_chunk;
-    let b = min(a + params.scan_chunk, params.ncell);
-    var run = chunk_sums[c];
-    for (var k = a; k < b; k++) {
-        cell_start[k] = run;
-        run += atomicLoad(&cell_count[k]);
-        atomicStore(&cell_count[k], 0u);
-    }
-    if (c + 1u == params.n_chunks) {
-        cell_start[params.ncell] = run;
+    let off = chunk_sums[wid.x];
+    let base = (wid.x * WG + lid.x) * SCAN_ITEMS;
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        let c = base + k;
+        if (c < params.ncell) {
+            cell_start[c] += off;
+        }
     }
 }
 
