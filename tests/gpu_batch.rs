@@ -260,7 +260,34 @@ fn a_campaign_run_in_batches_stores_what_it_stores_alone() {
         "no batch formed:\n{err}"
     );
     let batched = results(&db);
+    // The fill stages ran on the GPU (stored under keys of their own).
+    let fills = fill_backends(dir2.path());
+    assert!(
+        !fills.is_empty() && fills.iter().all(|b| b == "gpu"),
+        "{fills:?}"
+    );
     assert_eq!(alone.jobs.len(), 4);
     assert!(!alone.series.is_empty());
     assert_same_results(&alone, &batched);
+}
+
+/// The backend of every fill-stage checkpoint under `dir`.
+fn fill_backends(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                todo.push(p);
+            } else if p.to_string_lossy().contains("stages")
+                && p.extension().is_some_and(|x| x == "bin")
+            {
+                let bytes = std::fs::read(&p).unwrap();
+                let (h, _, _) = sweep::checkpoint::decode(&bytes, "fill", None).unwrap();
+                out.push(h.backend);
+            }
+        }
+    }
+    out
 }

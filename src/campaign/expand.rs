@@ -157,6 +157,12 @@ impl JobSpec {
     }
 }
 
+/// `key` made specific to `what` (a fill stage run on a particular GPU adapter): another key of
+/// the same form.
+pub fn key_with(key: &str, what: &str) -> String {
+    hex(&Sha256::digest(format!("{key}\n{what}").as_bytes()))
+}
+
 fn hex(b: &[u8]) -> String {
     b.iter().map(|x| format!("{x:02x}")).collect()
 }

@@ -452,6 +452,36 @@ pub fn build_on(
     build_shared(choice, select, None, precision, config, state, threads)
 }
 
+/// The GPU a job of `choice` and `precision` runs on (its batches' when given), or None where it
+/// runs on the CPU: what its fill stage runs on too.
+///
+/// # Errors
+/// As [`build_on`] for `gpu`.
+pub fn job_device(
+    choice: BackendChoice,
+    select: &GpuSelect,
+    batches: Option<&GpuBatches>,
+    precision: Precision,
+) -> anyhow::Result<Option<GpuDevice>> {
+    match choice {
+        BackendChoice::Cpu => Ok(None),
+        BackendChoice::Gpu => {
+            if precision == Precision::F64 {
+                return Ok(None);
+            }
+            Ok(Some(match batches {
+                Some(b) => b.device(|| gpu_device(select))?.0,
+                None => gpu_device(select)?.0,
+            }))
+        }
+        BackendChoice::Auto => Ok(match (auto_device(select, precision)?, batches) {
+            (Ok(dev), Some(b)) => Some(b.device(|| Ok((dev, None)))?.0),
+            (Ok(dev), None) => Some(dev),
+            (Err(_), _) => None,
+        }),
+    }
+}
+
 /// [`build_on`], and a GPU job joins one of `batches` (one device, engines shared by the jobs
 /// running at the same time) when given.
 ///

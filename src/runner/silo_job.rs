@@ -42,12 +42,23 @@ struct Progress {
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
 /// same fill parameters. Returns the settled state and the particle-steps it cost (0 if reused).
+/// A GPU job fills on its GPU; its fill is stored apart from the CPU's (and each adapter's),
+/// since the bits differ.
 fn fill_stage(
     spec: &JobSpec,
     scene: &SiloScene,
     ctx: &JobContext,
 ) -> anyhow::Result<(State<f64>, u64)> {
-    let (key, seed) = spec.fill_key();
+    let dev = backend::job_device(
+        backend::for_job(spec, ctx.backend),
+        &ctx.gpu,
+        ctx.batches.as_deref(),
+        spec.precision,
+    )?;
+    let (mut key, seed) = spec.fill_key();
+    if let Some(d) = &dev {
+        key = crate::campaign::key_with(&key, &format!("gpu {}", d.info.name));
+    }
     let dir = ctx.work_dir.join("stages").join(&key[..16]);
     // One process fills (holding the stage's OS lock); the others sharing the stage wait for its
     // checkpoint, or take the stage over when the filler dies (the kernel drops its lock).
@@ -84,7 +95,7 @@ fn fill_stage(
         }
         std::thread::sleep(std::time::Duration::from_millis(200));
     };
-    fill_stage_run(spec, scene, ctx, &dir, &key, seed)
+    fill_stage_run(spec, scene, ctx, dev.as_ref(), &dir, &key, seed)
 }
 
 /// The run was interrupted (SIGINT/SIGTERM) before its first checkpoint: the job is paused.
@@ -96,19 +107,30 @@ fn fill_stage_run(
     spec: &JobSpec,
     scene: &SiloScene,
     ctx: &JobContext,
+    dev: Option<&crate::engine::gpu::GpuDevice>,
     dir: &Path,
     key: &str,
     seed: u64,
 ) -> anyhow::Result<(State<f64>, u64)> {
     let config = scene.engine_config(SiloPhase::Fill);
     let init = scene.initial_state(seed);
-    let mut engine = backend::build(
-        BackendChoice::Cpu,
-        spec.precision,
-        config,
-        &init,
-        ctx.threads,
-    )?;
+    let mut engine: Box<dyn Backend> = match dev {
+        Some(d) => Box::new(crate::engine::gpu::GpuEngine::new(
+            d,
+            config,
+            &init,
+            crate::engine::gpu::GpuOptions::default(),
+        )?),
+        None => backend::build(
+            BackendChoice::Cpu,
+            spec.precision,
+            config,
+            &init,
+            ctx.threads,
+        )?,
+    };
+    let fill_backend = if dev.is_some() { "gpu" } else { "cpu" };
+    drop(init);
     let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
     let mut steps = 0u64;
     let mut s;
@@ -149,7 +171,7 @@ fn fill_stage_run(
         job_hash: key.to_string(),
         step: s.step,
         time_s: s.time,
-        backend: "cpu".into(),
+        backend: fill_backend.into(),
         precision: spec.precision.name().into(),
     };
     checkpoint::save(dir, &h, &s, "{}")?;
