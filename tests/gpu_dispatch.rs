@@ -151,3 +151,77 @@ fn the_kinetic_energy_is_summed_on_the_device() {
         assert!(rel < 1e-5, "K differs by {rel:.2e}");
     }
 }
+
+/// The device's contact records against the CPU f32 engine's of the same downloaded state: the
+/// same contacts, each once, with forces within 10⁻⁴ of the largest and branches within 10⁻⁶ d.
+fn records_match(name: &str, config: sweep::engine::EngineConfig, e: &mut dyn Backend) {
+    use std::collections::BTreeMap;
+    let state = e.download();
+    let gpu = e.contacts().unwrap();
+    let mut cpu_engine = sweep::engine::CpuEngine::<f32>::new(config, state.convert(), 1);
+    let cpu = cpu_engine.contact_records();
+    assert!(cpu.len() > 100, "{name}: only {} contacts", cpu.len());
+    assert_eq!(gpu.len(), cpu.len(), "{name}: contact counts differ");
+    let fmax = cpu
+        .iter()
+        .map(|r| r.force_on_i.iter().map(|x| x * x).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    let d = 2.0 * state.radius.iter().cloned().fold(0.0, f64::max);
+    // Pairs by (i, j); wall contacts of a particle summed.
+    type Key = (u32, Option<u32>);
+    let sum = |recs: &[sweep::engine::contact::ContactRecord]| {
+        let mut m: BTreeMap<Key, ([f64; 3], [f64; 3], bool, usize)> = BTreeMap::new();
+        for r in recs {
+            let e = m
+                .entry((r.i, r.j))
+                .or_insert(([0.0; 3], [0.0; 3], r.j_fixed, 0));
+            for k in 0..3 {
+                e.0[k] += r.force_on_i[k];
+                e.1[k] += r.branch[k];
+            }
+            e.3 += 1;
+        }
+        m
+    };
+    let (g, c) = (sum(&gpu), sum(&cpu));
+    assert_eq!(
+        g.keys().collect::<Vec<_>>(),
+        c.keys().collect::<Vec<_>>(),
+        "{name}: different contacts"
+    );
+    for (k, a) in &g {
+        let b = &c[k];
+        assert_eq!((a.2, a.3), (b.2, b.3), "{name}: contact {k:?}");
+        for x in 0..3 {
+            assert!(
+                (a.0[x] - b.0[x]).abs() <= 1e-4 * fmax,
+                "{name}: force of {k:?}: {:?} against {:?}",
+                a.0,
+                b.0
+            );
+            assert!(
+                (a.1[x] - b.1[x]).abs() <= 1e-6 * d,
+                "{name}: branch of {k:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn contacts_are_recorded_on_the_device_as_the_cpu_records_them() {
+    let Some(dev) = device() else { return };
+    let sc = sweep::bench::scene("silo-bed", 1500, 7).expect("bench scene");
+    let mut e = engine(&dev, 1500);
+    e.advance(200).unwrap();
+    records_match("silo bed", sc.config, &mut e);
+    let rods = sweep::bench::scene("chute-rods", 800, 3).expect("bench scene");
+    let mut e = GpuEngine::new(
+        &dev,
+        rods.config.clone(),
+        &rods.state,
+        GpuOptions::default(),
+    )
+    .expect("GPU engine");
+    e.advance(300).unwrap();
+    records_match("rods on a rough base", rods.config, &mut e);
+}

@@ -237,12 +237,8 @@ impl Backend for BatchMember {
         }
     }
 
-    /// From a download, by the CPU engine's f32 kernels (as `GpuEngine::contacts`).
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
-        let state = self.try_download()?;
-        let config = lock(&self.hub.inner).engine.config_of(self.job).clone();
-        let mut cpu = crate::engine::cpu::CpuEngine::<f32>::new(config, state.convert(), 1);
-        Ok(cpu.contact_records())
+        lock(&self.hub.inner).engine.contact_records_job(self.job)
     }
 
     fn describe(&self) -> BackendInfo {

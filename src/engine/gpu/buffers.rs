@@ -214,6 +214,8 @@ pub struct GpuBuffers {
     pub sorted: wgpu::Buffer,
     /// Kinetic energy per workgroup of particles (`finish`).
     pub energy: wgpu::Buffer,
+    /// Contact records (`record_contacts`), grown when a call finds it short.
+    pub records: wgpu::Buffer,
     /// `RodGpu` per particle; one zeroed record when the run is not oriented.
     pub rod: wgpu::Buffer,
     pub oriented: bool,
@@ -326,6 +328,7 @@ impl GpuBuffers {
                 STORAGE,
             ),
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
+            records: records_buffer(dev, 1),
             oriented,
         })
     }
@@ -351,6 +354,7 @@ impl GpuBuffers {
             binding::CHUNK_SUMS => &self.chunk_sums,
             binding::SORTED => &self.sorted,
             binding::ENERGY => &self.energy,
+            binding::RECORDS => &self.records,
             binding::ROD => &self.rod,
             _ => unreachable!("no buffer at binding {b}"),
         }
@@ -396,6 +400,16 @@ impl GpuBuffers {
             rod: bytemuck::pod_collect_to_vec(&parts[6]),
         })
     }
+}
+
+/// A buffer of `n` contact records.
+pub fn records_buffer(dev: &GpuDevice, n: usize) -> wgpu::Buffer {
+    dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("contact records"),
+        size: (n.max(1) * std::mem::size_of::<super::layout::RecordGpu>()) as u64,
+        usage: STORAGE,
+        mapped_at_creation: false,
+    })
 }
 
 /// The `bytes` of `buffer` from `offset`.

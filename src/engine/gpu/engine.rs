@@ -25,9 +25,9 @@ use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
 use super::grid::{plan_grid, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, WallGpu, MAX_JOBS, MAX_WALLS, SCAN_ITEMS, STATUS_WORDS,
-    ST_BUILDS, ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_STALE, ST_STEP, ST_STEP_NEXT,
-    WORKGROUP_SIZE,
+    status_initial, LawGpu, Params, RecordGpu, WallGpu, MAX_JOBS, MAX_WALLS, SCAN_ITEMS,
+    STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_RECORDS, ST_STALE, ST_STEP,
+    ST_STEP_NEXT, WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -486,6 +486,80 @@ impl GpuEngine {
         }
     }
 
+    /// Every contact of job j's current state, each once, computed on the device by the contact
+    /// kernel's own arithmetic (nothing changes): in the order of a download's particles, each
+    /// particle's partners by slot, then its walls.
+    ///
+    /// # Errors
+    /// A failed dispatch or read-back.
+    pub fn contact_records_job(&mut self, j: usize) -> Result<Vec<ContactRecord>, EngineError> {
+        let Some(run) = self.run.as_mut() else {
+            return Ok(Vec::new());
+        };
+        let per = std::mem::size_of::<RecordGpu>() as u64;
+        let groups = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
+        let (count, raw) = loop {
+            let capacity = run.bufs.records.size() / per;
+            self.dev.queue.write_buffer(
+                &run.bufs.status,
+                ST_RECORDS as u64 * 4,
+                bytemuck::bytes_of(&0u32),
+            );
+            let mut enc = self
+                .dev
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("contact records"),
+                });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("contact records"),
+                    timestamp_writes: None,
+                });
+                let k = kernel::RECORD_CONTACTS;
+                pass.set_pipeline(&self.pipes.pipelines[k]);
+                pass.set_bind_group(0, &run.binds.0[k], &[]);
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
+            self.dev.queue.submit([enc.finish()]);
+            let w = buffers::read_at(&self.dev, &run.bufs.status, ST_RECORDS as u64 * 4, 4)?;
+            let count = u32::from_le_bytes([w[0], w[1], w[2], w[3]]) as u64;
+            if count <= capacity {
+                let raw = if count > 0 {
+                    buffers::read_at(&self.dev, &run.bufs.records, 0, count * per)?
+                } else {
+                    Vec::new()
+                };
+                break (count, raw);
+            }
+            // Too short: grow with room to spare and run again.
+            run.bufs.records =
+                buffers::records_buffer(&self.dev, (count + count / 4 + 64) as usize);
+            run.binds = self.pipes.bind(&self.dev, &run.bufs);
+        };
+        debug_assert_eq!(raw.len() as u64, count * per);
+        let base = (j * run.n_job) as u32;
+        let mut recs: Vec<RecordGpu> = bytemuck::pod_collect_to_vec::<u8, RecordGpu>(&raw)
+            .into_iter()
+            .filter(|r| r.who[0] >= base && r.who[0] < base + run.n_job as u32)
+            .collect();
+        // Atomics appended them in any order: the order of the particles, then partners by
+        // slot, walls last.
+        recs.sort_by_key(|r| (r.who[0], r.who[3] & 1, r.who[2]));
+        let v = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
+        Ok(recs
+            .iter()
+            .map(|r| ContactRecord {
+                i: r.who[1],
+                j: (r.who[3] & 1 == 0).then_some(r.pos[3].to_bits()),
+                pos_i: v(r.pos),
+                branch: v(r.branch),
+                force_on_i: v(r.force),
+                j_fixed: r.who[3] & 2 != 0,
+            })
+            .collect())
+    }
+
     /// Job j's kinetic energy (summed on the device at the last chunk's end).
     ///
     /// # Errors
@@ -896,13 +970,8 @@ impl Backend for GpuEngine {
         }
     }
 
-    /// Computed from a download by the CPU engine's f32 kernels (the same arithmetic as the
-    /// device's): stress observers sample rarely, so one O(N) copy per sample is cheap.
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError> {
-        let state = self.download_job(0)?;
-        let mut cpu =
-            crate::engine::cpu::CpuEngine::<f32>::new(self.configs[0].clone(), state.convert(), 1);
-        Ok(cpu.contact_records())
+        self.contact_records_job(0)
     }
 
     /// Summed on the device at the last chunk's end (per workgroup, then in f64 here), so a

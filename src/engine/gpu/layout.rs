@@ -54,6 +54,8 @@ pub const ST_NONFINITE: usize = 10;
 /// The step after the one being taken: written by `kick_drift`, read by `compute_forces` (so the
 /// step index advances without a dispatch of its own).
 pub const ST_STEP_NEXT: usize = 11;
+/// Contacts `record_contacts` appended (all jobs'; it may exceed the record buffer's length).
+pub const ST_RECORDS: usize = 12;
 
 /// Status words at the start of a chunk: no step taken, nothing stale, minima at u32::MAX.
 pub fn status_initial() -> [u32; STATUS_WORDS] {
@@ -87,6 +89,8 @@ pub mod binding {
     pub const SORTED: u32 = 16;
     /// Kinetic energy per workgroup of particles, left by `finish`.
     pub const ENERGY: u32 = 17;
+    /// Contact records (`record_contacts`), `RecordGpu`.
+    pub const RECORDS: u32 = 19;
     /// Orientation, angular momentum and body inertia of oriented particles (`RodGpu`).
     pub const ROD: u32 = 18;
 }
@@ -127,6 +131,7 @@ pub fn prelude() -> String {
         ("ST_CONTACTS", ST_CONTACTS),
         ("ST_NONFINITE", ST_NONFINITE),
         ("ST_STEP_NEXT", ST_STEP_NEXT),
+        ("ST_RECORDS", ST_RECORDS),
     ] {
         s += &format!("const {name}: u32 = {v}u;\n");
     }
@@ -319,6 +324,18 @@ pub struct RodGpu {
     pub ang_mom: [f32; 4],
     /// Inverse principal moments (body frame, 1/(kg m²)), zero when fixed; w = l/2 (m).
     pub inv_inertia_h: [f32; 4],
+}
+
+/// One contact as `record_contacts` leaves it (contacts.wgsl `Rec`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct RecordGpu {
+    /// Slot of i, id of i, slot of j or the wall's index, flags (1 wall, 2 j fixed).
+    pub who: [u32; 4],
+    /// Position of i; w: the id of j, as bits.
+    pub pos: [f32; 4],
+    pub branch: [f32; 4],
+    pub force: [f32; 4],
 }
 
 /// Force and torque of the last evaluation; force.w holds the contact count, torque.w the

@@ -8,7 +8,7 @@ use std::num::NonZeroU64;
 use super::buffers::GpuBuffers;
 use super::device::GpuDevice;
 use super::layout::{
-    binding as b, prelude, Params, RodGpu, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS,
+    binding as b, prelude, Params, RecordGpu, RodGpu, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS,
 };
 use crate::engine::config::EngineConfig;
 
@@ -83,10 +83,12 @@ pub mod kernel {
     /// The six list-build passes, in execution order.
     pub const BUILD: [usize; 6] = [3, 4, 5, 6, 7, 8];
     pub const COMPUTE_FORCES: usize = 9;
+    /// Contact records for observers (compiled with RECORD).
+    pub const RECORD_CONTACTS: usize = 10;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 10] = [
+pub const KERNELS: [KernelSpec; 11] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -205,6 +207,24 @@ pub const KERNELS: [KernelSpec; 10] = [
             b::HIST,
             b::NBR,
             b::STATUS,
+            b::RECORDS,
+        ],
+    },
+    KernelSpec {
+        module: Module::Contacts,
+        entry: "record_contacts",
+        bindings: &[
+            b::PARAMS,
+            b::WALLS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::HIST,
+            b::NBR,
+            b::STATUS,
+            b::RECORDS,
         ],
     },
 ];
@@ -219,6 +239,7 @@ fn min_size(binding: u32) -> u64 {
         b::EVENTS | b::CELL_RANK => 8,
         b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED | b::ENERGY => 4,
         b::ROD => std::mem::size_of::<RodGpu>() as u64,
+        b::RECORDS => std::mem::size_of::<RecordGpu>() as u64,
         _ => 16,
     }
 }
@@ -269,9 +290,10 @@ impl Specialization {
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 9] {
+    fn constants(&self, record: bool) -> [(&'static str, f64); 10] {
         let b = |x: bool| if x { 1.0 } else { 0.0 };
         [
+            ("RECORD", b(record)),
             ("ROTATION", b(self.rotation)),
             ("ORIENTED", b(self.oriented)),
             ("HISTORY", b(self.history)),
@@ -299,7 +321,8 @@ pub struct BindGroups(pub Vec<wgpu::BindGroup>);
 impl Pipelines {
     /// Compiles every module and builds every pipeline, specialised for `spec`.
     pub fn new(dev: &GpuDevice, spec: Specialization) -> Self {
-        let constants = spec.constants();
+        let constants = spec.constants(false);
+        let recording = spec.constants(true);
         let d = &dev.device;
         let pre = prelude();
         let modules: Vec<wgpu::ShaderModule> = Module::ALL
@@ -350,7 +373,11 @@ impl Pipelines {
                 module,
                 entry_point: Some(k.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
+                    constants: if k.entry == "record_contacts" {
+                        &recording
+                    } else {
+                        &constants
+                    },
                     zero_initialize_workgroup_memory: false,
                 },
                 cache: None,

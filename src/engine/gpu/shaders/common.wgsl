@@ -15,6 +15,9 @@ override WALLS: bool = true;
 override PERIODIC_X: bool = true;
 override PERIODIC_Y: bool = true;
 override SINK: bool = true;
+// The contact-record kernel only: gather as compute_forces does, change nothing, and append each
+// contact once to `records` (contacts.wgsl).
+override RECORD: bool = false;
 
 struct Law {
     hertz: u32,

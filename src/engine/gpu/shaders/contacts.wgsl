@@ -12,6 +12,25 @@
 @group(0) @binding(7) var<storage, read_write> hist: array<Slot>;
 @group(0) @binding(8) var<storage, read> nbr: array<u32>;
 @group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(19) var<storage, read_write> records: array<Rec>;
+
+// One contact as `record_contacts` leaves it: (slot of i, id of i, slot of j or the wall's index,
+// flags: 1 wall, 2 j fixed), (position of i, id of j as bits), branch c_i − c_j or c_i − contact
+// point, force on i.
+struct Rec {
+    who: vec4<u32>,
+    pos: vec4<f32>,
+    branch: vec4<f32>,
+    force: vec4<f32>,
+}
+
+fn emit(i: u32, me: Info, key: u32, id_j: u32, flags: u32, p: vec3<f32>, branch: vec3<f32>, f: vec3<f32>) {
+    let k = atomicAdd(&status[ST_RECORDS], 1u);
+    if (k < arrayLength(&records)) {
+        records[k] = Rec(vec4<u32>(i, me.id, key, flags), vec4<f32>(p, bitcast<f32>(id_j)),
+                         vec4<f32>(branch, 0.0), vec4<f32>(f, 0.0));
+    }
+}
 
 var<private> old_key: array<u32, MAX_SLOTS>;
 var<private> old_spring: array<vec3<f32>, MAX_SLOTS>;
@@ -41,6 +60,7 @@ fn rows_get(key: u32) -> vec3<f32> {
 }
 
 fn rows_put(i: u32, key: u32, spring: vec3<f32>) {
+    if (RECORD) { return; }
     if (new_len >= params.slots) {
         full = true;
         return;
@@ -50,6 +70,7 @@ fn rows_put(i: u32, key: u32, spring: vec3<f32>) {
 }
 
 fn rows_close(i: u32) {
+    if (RECORD) { return; }
     for (var s = new_len; s < max(old_len, new_len); s++) {
         hist[slot_at(i, s)] = Slot(vec3<f32>(0.0), EMPTY);
     }
@@ -88,7 +109,9 @@ fn contact_force(law: Law, overlap: f32, n: vec3<f32>, v_rel: vec3<f32>, r_eff: 
         if (s2 > 0.0) {
             s = s * sqrt(old2 / s2);
         }
-        s = s + vt * params.dt;
+        // Records give the force of the last step: the stored spring, not advanced (dt = 0),
+        // as the CPU's contact_records.
+        s = s + vt * select(params.dt, 0.0, RECORD);
         var ft = -(s * kt) - vt * gamma_t;
         let limit = law.mu * abs(fn_mag);
         let ft2 = dot3(ft, ft);
@@ -176,6 +199,9 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
         t = t + cross3(bi, fc);
         max_ov = max(max_ov, overlap / (min(ri, rj) * 2.0));
         nc++;
+        if (RECORD && !fixed_i && (fixed_j || me.id < other.id)) {
+            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pi, d, fc);
+        }
     }
     if (WALLS && !fixed_i) {
         for (var w = 0u; w < params.n_walls; w++) {
@@ -197,6 +223,9 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
             t = t + cross3(bi, fc);
             max_ov = max(max_ov, wc.overlap / (ri * 2.0));
             nc++;
+            if (RECORD) {
+                emit(i, me, w, 0u, 3u, pi, -bi, fc);
+            }
         }
     }
     return Gathered(f, t, max_ov, nc);
@@ -253,5 +282,26 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (max_ov > params.overlap_limit) {
         atomicMin(&status[sw(ST_OVERLAP_STEP)], k);
+    }
+}
+
+// Every contact of the current state, each once (pairs from the side of the lower id, or of the
+// mobile particle), with the force a step would compute now: for stress observers
+// (`GpuEngine::contact_records_job`). Writes nothing else.
+@compute @workgroup_size(WG)
+fn record_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= jobs[0].n) { return; }
+    enter(i);
+    if (params.running == 0u) { return; }
+    let me = info[i];
+    if (me.alive == 0u) { return; }
+    if (HISTORY) {
+        rows_open(i);
+    }
+    if (ORIENTED) {
+        gather_oriented(i, me);
+    } else {
+        gather_spheres(i, me);
     }
 }

@@ -336,6 +336,9 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         t = t + cross3(arm_i, force_i);
         max_ov = rmax(max_ov, pc.overlap / (rmin(ra, rb) * 2.0));
         nc++;
+        if (RECORD && !fixed_i && (fixed_j || i_is_a)) {
+            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pos_r[i].xyz, select(-d, d, i_is_a), force_i);
+        }
     }
     if (WALLS && !fixed_i) {
         let p4 = pos_r[i];
@@ -363,6 +366,9 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
             t = t + cross3(wc.arm, fc);
             max_ov = rmax(max_ov, wc.overlap / (ri * 2.0));
             nc++;
+            if (RECORD) {
+                emit(i, me, w, 0u, 3u, p4.xyz, -wc.arm, fc);
+            }
         }
     }
     return Gathered(f, t, max_ov, nc);
