@@ -11,10 +11,10 @@ mod common;
 use common::cli::{
     assert_same_results, campaign, results, stderr, stdout, sweep_cmd, write_campaign,
 };
-use common::gpu::device;
+use common::gpu::{device, report_bits, state_bits};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::walls::{WallRotation, WallShape};
-use sweep::engine::{Backend, ChunkReport, EngineConfig, State};
+use sweep::engine::{Backend, EngineConfig, State};
 
 const D: f64 = 0.0058;
 
@@ -57,33 +57,6 @@ fn jobs() -> Vec<(EngineConfig, State<f64>)> {
         .enumerate()
         .map(|(k, &(d, f))| silo(if k == 1 { 700 } else { 800 }, 11 + k as u64, d, f))
         .collect()
-}
-
-fn state_bits(s: &State<f64>) -> Vec<u64> {
-    let mut out: Vec<u64> = s.id.iter().map(|&i| i as u64).collect();
-    for v in s.pos.iter().chain(&s.vel).chain(&s.omega).chain(&s.force) {
-        out.extend(v.to_f64().map(f64::to_bits));
-    }
-    for v in &s.history.spring {
-        out.extend([v.x, v.y, v.z].map(f64::to_bits));
-    }
-    out.extend(s.history.partner.iter().map(|&p| p as u64));
-    out.push(s.time.to_bits());
-    out.push(s.step);
-    out
-}
-
-fn report_bits(r: &ChunkReport) -> Vec<u64> {
-    let mut out = vec![
-        r.steps,
-        r.particle_steps,
-        r.max_overlap_ratio.to_bits(),
-        r.contacts_per_particle.to_bits(),
-    ];
-    for e in &r.removed {
-        out.extend([e.id as u64, e.time_s.to_bits(), e.mass_kg.to_bits()]);
-    }
-    out
 }
 
 const CHUNKS: usize = 3;

@@ -10,9 +10,9 @@
 
 mod common;
 
-use common::gpu::device;
+use common::gpu::{device, report_bits, state_bits};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
-use sweep::engine::{Backend, ChunkReport, State};
+use sweep::engine::Backend;
 
 fn engine(dev: &GpuDevice, n: usize) -> GpuEngine {
     let sc = sweep::bench::scene("silo-bed", n, 7).expect("bench scene");
@@ -30,40 +30,13 @@ fn stirred(dev: &GpuDevice, n: usize, options: GpuOptions) -> GpuEngine {
     GpuEngine::new(dev, sc.config, &sc.state, options).expect("GPU engine")
 }
 
-/// Every number of a state, as bits (ids, positions, velocities, spins, forces, history).
-fn bits(s: &State<f64>) -> Vec<u64> {
-    let mut out: Vec<u64> = s.id.iter().map(|&i| i as u64).collect();
-    for v in s.pos.iter().chain(&s.vel).chain(&s.omega).chain(&s.force) {
-        out.extend(v.to_f64().map(f64::to_bits));
-    }
-    for v in &s.history.spring {
-        out.extend([v.x, v.y, v.z].map(f64::to_bits));
-    }
-    out.extend(s.history.partner.iter().map(|&p| p as u64));
-    out
-}
-
-/// What a chunk reports, list builds aside (those depend on where they were recorded).
-fn report_bits(r: &ChunkReport) -> Vec<u64> {
-    let mut out = vec![
-        r.steps,
-        r.particle_steps,
-        r.max_overlap_ratio.to_bits(),
-        r.contacts_per_particle.to_bits(),
-    ];
-    for e in &r.removed {
-        out.extend([e.id as u64, e.time_s.to_bits(), e.mass_kg.to_bits()]);
-    }
-    out
-}
-
 /// `chunks` chunks of `steps`: the reports' bits and the final state's.
 fn run(e: &mut GpuEngine, chunks: usize, steps: u64) -> (Vec<u64>, Vec<u64>) {
     let mut reports = Vec::new();
     for _ in 0..chunks {
         reports.extend(report_bits(&e.advance(steps).expect("chunk")));
     }
-    (reports, bits(&e.download()))
+    (reports, state_bits(&e.download()))
 }
 
 #[test]

@@ -226,20 +226,28 @@ fn check_index(n: usize, count: usize) -> anyhow::Result<usize> {
     }
 }
 
-/// What `--backend auto` resolves to on this machine, in words (for launch and `sweep info`).
-pub fn auto_summary(index: Option<usize>) -> String {
+/// The adapters here, and what `--backend auto` does with an f32 job on them.
+fn auto_here(index: Option<usize>) -> (Vec<AdapterSummary>, Result<usize, Fallback>) {
     let adapters: Vec<AdapterSummary> = list_adapters().iter().map(AdapterSummary::of).collect();
-    if let Some(n) = index {
-        if let Err(e) = check_index(n, adapters.len()) {
-            return format!("{e:#}");
-        }
-    }
+    // Driver files matter only to say why no adapter was found.
     let files = if adapters.is_empty() {
         vulkan_driver_files().len()
     } else {
         0
     };
-    match auto_decision(&adapters, Precision::F32, index, files) {
+    let decision = auto_decision(&adapters, Precision::F32, index, files);
+    (adapters, decision)
+}
+
+/// What `--backend auto` resolves to on this machine, in words (for launch and `sweep info`).
+pub fn auto_summary(index: Option<usize>) -> String {
+    let (adapters, decision) = auto_here(index);
+    if let Some(n) = index {
+        if let Err(e) = check_index(n, adapters.len()) {
+            return format!("{e:#}");
+        }
+    }
+    match decision {
         Ok(k) => format!(
             "GPU [{k}] {} for f32 jobs, the CPU for f64 jobs",
             adapters[k].name
@@ -256,16 +264,11 @@ fn auto_note(why: &Fallback) -> String {
 /// Says on stderr what `--backend auto` does with f32 jobs here (a launch's first line): the
 /// GPU it takes, or why every job runs on the CPU (then said once only, not again per job).
 pub fn announce_auto(index: Option<usize>) {
-    let adapters: Vec<AdapterSummary> = list_adapters().iter().map(AdapterSummary::of).collect();
+    let (adapters, decision) = auto_here(index);
     if index.is_some_and(|n| n >= adapters.len()) {
         return; // Each job fails with the reason.
     }
-    let files = if adapters.is_empty() {
-        vulkan_driver_files().len()
-    } else {
-        0
-    };
-    match auto_decision(&adapters, Precision::F32, index, files) {
+    match decision {
         Ok(k) => eprintln!(
             "sweep: --backend auto: GPU [{k}] {} for f32 jobs, the CPU for f64 jobs",
             adapters[k].name

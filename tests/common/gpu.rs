@@ -28,3 +28,33 @@ pub fn device() -> Option<GpuDevice> {
     })
     .clone()
 }
+
+/// Every number of a state as bits (ids, positions, velocities, spins, forces, history, time and
+/// step): two states are the same run's only if these are equal.
+pub fn state_bits(s: &sweep::engine::State<f64>) -> Vec<u64> {
+    let mut out: Vec<u64> = s.id.iter().map(|&i| i as u64).collect();
+    for v in s.pos.iter().chain(&s.vel).chain(&s.omega).chain(&s.force) {
+        out.extend(v.to_f64().map(f64::to_bits));
+    }
+    for v in &s.history.spring {
+        out.extend([v.x, v.y, v.z].map(f64::to_bits));
+    }
+    out.extend(s.history.partner.iter().map(|&p| p as u64));
+    out.push(s.time.to_bits());
+    out.push(s.step);
+    out
+}
+
+/// What a chunk reports, as bits, list builds aside (those depend on where they were recorded).
+pub fn report_bits(r: &sweep::engine::ChunkReport) -> Vec<u64> {
+    let mut out = vec![
+        r.steps,
+        r.particle_steps,
+        r.max_overlap_ratio.to_bits(),
+        r.contacts_per_particle.to_bits(),
+    ];
+    for e in &r.removed {
+        out.extend([e.id as u64, e.time_s.to_bits(), e.mass_kg.to_bits()]);
+    }
+    out
+}

@@ -422,20 +422,7 @@ pub fn read_at(
     offset: u64,
     bytes: u64,
 ) -> Result<Vec<u8>, EngineError> {
-    let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: bytes.max(4),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut enc = dev
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("readback"),
-        });
-    enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, bytes);
-    dev.queue.submit([enc.finish()]);
-    map_all(dev, &staging, &[bytes]).map(|mut v| v.swap_remove(0))
+    read_ranges(dev, &[(buffer, offset, bytes)]).map(|mut v| v.swap_remove(0))
 }
 
 /// Copies `(buffer, bytes)` ranges into one MAP_READ buffer and returns their bytes.
@@ -443,7 +430,16 @@ pub fn read_at(
 /// # Errors
 /// A failed map or poll, or an error the device reported meanwhile (`EngineError::Device`).
 pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, EngineError> {
-    let total: u64 = parts.iter().map(|p| p.1).sum();
+    let ranges: Vec<(&wgpu::Buffer, u64, u64)> = parts.iter().map(|&(b, n)| (b, 0, n)).collect();
+    read_ranges(dev, &ranges)
+}
+
+/// Copies `(buffer, offset, bytes)` ranges into one MAP_READ buffer and returns their bytes.
+fn read_ranges(
+    dev: &GpuDevice,
+    parts: &[(&wgpu::Buffer, u64, u64)],
+) -> Result<Vec<Vec<u8>>, EngineError> {
+    let total: u64 = parts.iter().map(|p| p.2).sum();
     let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: total.max(4),
@@ -456,14 +452,14 @@ pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u
             label: Some("readback"),
         });
     let mut off = 0;
-    for &(b, bytes) in parts {
+    for &(b, from, bytes) in parts {
         if bytes > 0 {
-            enc.copy_buffer_to_buffer(b, 0, &staging, off, bytes);
+            enc.copy_buffer_to_buffer(b, from, &staging, off, bytes);
         }
         off += bytes;
     }
     dev.queue.submit([enc.finish()]);
-    let sizes: Vec<u64> = parts.iter().map(|p| p.1).collect();
+    let sizes: Vec<u64> = parts.iter().map(|p| p.2).collect();
     map_all(dev, &staging, &sizes)
 }
 
