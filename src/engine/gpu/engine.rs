@@ -23,7 +23,7 @@ use std::collections::VecDeque;
 
 use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
-use super::grid::{plan_grid, GridSpec};
+use super::grid::{plan_grid, sort_by_cell, GridSpec};
 use super::layout::{
     status_initial, LawGpu, Params, RecordGpu, WallGpu, MAX_JOBS, MAX_WALLS, SCAN_ITEMS,
     STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_RECORDS, ST_STALE, ST_STEP,
@@ -49,6 +49,9 @@ pub struct GpuOptions {
     /// Record a list build every this many steps instead of predicting (tests: builds must not
     /// change the results).
     pub build_every: Option<u64>,
+    /// Sort each job's particles by cell at every chunk's start (a read-back and upload), so
+    /// that neighbours are read from nearby memory.
+    pub reorder_by_cell: bool,
     /// Only `max_overlap_ratio` applies: the energy check also needs the elastic energy and the
     /// work of gravity and the walls, which the kernels do not sum.
     pub watchdog: Watchdog,
@@ -59,6 +62,7 @@ impl Default for GpuOptions {
         Self {
             steps_per_submit: 64,
             build_every: None,
+            reorder_by_cell: true,
             watchdog: Watchdog::default(),
         }
     }
@@ -572,14 +576,27 @@ impl GpuEngine {
         }
     }
 
-    /// Drops removed particles once they fill more than 1/8 of some job's particles.
-    fn compact_if_sparse(&mut self) -> Result<(), EngineError> {
-        let sparse = self
-            .run
-            .as_ref()
-            .is_some_and(|r| r.jobs.iter().any(|j| (j.loaded - j.alive) * 8 > j.loaded));
-        if sparse {
-            let all = self.read_states()?;
+    /// At a chunk's start: with `reorder_by_cell`, every job's particles sorted by cell (and the
+    /// removed ones dropped); otherwise the removed ones dropped once they fill more than 1/8 of
+    /// some job's particles.
+    fn reorder_or_compact(&mut self) -> Result<(), EngineError> {
+        let Some(run) = &self.run else {
+            return Ok(());
+        };
+        let sparse = run.jobs.iter().any(|j| (j.loaded - j.alive) * 8 > j.loaded);
+        if self.options.reorder_by_cell || sparse {
+            let mut all = self.read_states()?;
+            if self.options.reorder_by_cell {
+                // Stopped jobs are left as they are.
+                for ((s, c), _) in all
+                    .iter_mut()
+                    .zip(&self.configs)
+                    .zip(&self.active)
+                    .filter(|(_, &on)| on)
+                {
+                    sort_by_cell(s, c);
+                }
+            }
             let refs: Vec<&State<f64>> = all.iter().collect();
             self.load(&refs)?;
         }
@@ -605,7 +622,7 @@ impl GpuEngine {
         if steps == 0 {
             return Ok((0..jobs).map(|_| Ok(ChunkReport::default())).collect());
         }
-        self.compact_if_sparse()?;
+        self.reorder_or_compact()?;
         let dt = self.configs[0].dt_s;
         let Some(run) = &self.run else {
             let mut out = Vec::new();
