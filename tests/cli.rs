@@ -665,6 +665,35 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     .unwrap();
     drop(conn);
     plan_assertions(&plan(), 2.0e6);
+    // `--backend gpu`: the job without a backend of its own is estimated from the GPU's bench.
+    let conn = sweep::store::open(&db).unwrap();
+    conn.execute(
+        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
+         VALUES ('silo-bed', 'gpu', 'f32', 0, 1000, 10, 1e-6, 8.0e6, 5.0, 'x', 'test')",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let o = sweep_cmd(d)
+        .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+        .args(["--threads", "1", "--backend", "gpu"])
+        .output()
+        .unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "{text}\n{}", stderr(&o));
+    for k in ["1", "2"] {
+        let cols: Vec<&str> = text
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(k))
+            .unwrap_or_else(|| panic!("no line for job {k}:\n{text}"))
+            .split_whitespace()
+            .collect();
+        let (ps, wall): (f64, f64) = (cols[4].parse().unwrap(), cols[5].parse().unwrap());
+        assert!(
+            (wall - ps / 8.0e6).abs() <= 0.5,
+            "job {k}: {wall} s for {ps} particle-steps at the GPU's 8e6/s\n{text}"
+        );
+    }
 }
 
 /// `sweep plan`'s output for a CPU job 1 estimated at `rate` and a GPU job 2 without a bench.

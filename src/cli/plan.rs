@@ -19,6 +19,11 @@ pub struct Arguments {
     /// Engine threads per job the estimate assumes (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Where the jobs without a backend of their own will run: cpu, or gpu (estimated from
+    /// `sweep bench --backend gpu`; a campaign launched with --backend auto on a machine with a
+    /// hardware GPU runs its f32 jobs there).
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
+    pub backend: String,
     /// Also write each sphere chute job's scene (its initial state, law, gravity, dt, box) as a
     /// LAMMPS data file and input, in DIR/job-K (K as numbered here), running the job's longest
     /// time; `scripts/compare-lammps-chute.sh` runs both codes from it.
@@ -58,11 +63,15 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         None
     };
     // Each job's throughput from the newest bench of its scene, engine and precision (a job
-    // without a fixed backend is estimated on the CPU, where `auto` puts it without a hardware
-    // GPU); the GPU's rate does not depend on CPU threads.
+    // without a fixed backend is estimated on `--backend`, the CPU by default, where `auto` puts
+    // it without a hardware GPU); the GPU's rate does not depend on CPU threads.
+    let default_backend = a.backend.clone();
     let mut rates: std::collections::BTreeMap<(String, String), Option<f64>> = Default::default();
     let mut rate_of = |j: &sweep::campaign::JobSpec| -> Option<f64> {
-        let backend = j.backend.map_or("cpu", |b| b.name()).to_string();
+        let backend = j
+            .backend
+            .map_or(default_backend.as_str(), |b| b.name())
+            .to_string();
         let precision = j.precision.name().to_string();
         *rates
             .entry((backend.clone(), precision.clone()))
