@@ -455,34 +455,57 @@ pub fn build_on(
     build_shared(choice, select, None, precision, config, state, threads)
 }
 
-/// The GPU a job of `choice` and `precision` runs on (its batches' when given), or None where it
-/// runs on the CPU: what its fill stage runs on too.
+/// Where a job runs: a GPU, or the CPU with `auto`'s reason.
+enum Placement {
+    Gpu(Box<GpuDevice>, Option<String>),
+    Cpu(Option<String>),
+}
+
+/// Resolves `choice` for a job of `precision` to a device (its batches' when given; a batch
+/// keeps the first device auto found, a later job's own is dropped).
+fn place(
+    choice: BackendChoice,
+    select: &GpuSelect,
+    batches: Option<&GpuBatches>,
+    precision: Precision,
+) -> anyhow::Result<Placement> {
+    match choice {
+        BackendChoice::Cpu => Ok(Placement::Cpu(None)),
+        BackendChoice::Gpu => {
+            if precision == Precision::F64 {
+                anyhow::bail!(
+                    "the GPU backend runs f32, this job asks for f64: use \"run\": {{\"precision\": \"f32\"}} in the campaign (--precision f32 for sweep bench), or --backend cpu"
+                );
+            }
+            let (dev, note) = match batches {
+                Some(b) => b.device(|| gpu_device(select))?,
+                None => gpu_device(select)?,
+            };
+            Ok(Placement::Gpu(Box::new(dev), note))
+        }
+        BackendChoice::Auto => Ok(match (auto_device(select, precision)?, batches) {
+            (Ok(dev), Some(b)) => Placement::Gpu(Box::new(b.device(|| Ok((dev, None)))?.0), None),
+            (Ok(dev), None) => Placement::Gpu(Box::new(dev), None),
+            (Err(why), _) => Placement::Cpu(Some(auto_note(&why))),
+        }),
+    }
+}
+
+/// The GPU a job runs on (its batches' when given), or None where it runs on the CPU: what its
+/// fill stage runs on too.
 ///
 /// # Errors
-/// As [`build_on`] for `gpu`.
+/// As [`build_on`].
 pub fn job_device(
     choice: BackendChoice,
     select: &GpuSelect,
     batches: Option<&GpuBatches>,
     precision: Precision,
 ) -> anyhow::Result<Option<GpuDevice>> {
-    match choice {
-        BackendChoice::Cpu => Ok(None),
-        BackendChoice::Gpu => {
-            if precision == Precision::F64 {
-                return Ok(None);
-            }
-            Ok(Some(match batches {
-                Some(b) => b.device(|| gpu_device(select))?.0,
-                None => gpu_device(select)?.0,
-            }))
-        }
-        BackendChoice::Auto => Ok(match (auto_device(select, precision)?, batches) {
-            (Ok(dev), Some(b)) => Some(b.device(|| Ok((dev, None)))?.0),
-            (Ok(dev), None) => Some(dev),
-            (Err(_), _) => None,
-        }),
-    }
+    Ok(match place(choice, select, batches, precision)? {
+        Placement::Gpu(dev, _) => Some(*dev),
+        Placement::Cpu(_) => None,
+    })
 }
 
 /// [`build_on`], and a GPU job joins one of `batches` (one device, engines shared by the jobs
@@ -499,50 +522,19 @@ pub fn build_shared(
     state: &State<f64>,
     threads: usize,
 ) -> anyhow::Result<Built> {
-    let on = |dev: &GpuDevice, config: EngineConfig| -> anyhow::Result<Box<dyn Backend>> {
-        match batches {
-            Some(b) => Ok(b.join(dev, config, state)?),
-            None => gpu(dev, config, state),
-        }
-    };
-    match choice {
-        BackendChoice::Cpu => Ok(Built {
+    Ok(match place(choice, select, batches, precision)? {
+        Placement::Gpu(dev, note) => Built {
+            engine: match batches {
+                Some(b) => b.join(&dev, config, state)?,
+                None => gpu(&dev, config, state)?,
+            },
+            note,
+        },
+        Placement::Cpu(note) => Built {
             engine: cpu(precision, config, state, threads),
-            note: None,
-        }),
-        BackendChoice::Gpu => {
-            if precision == Precision::F64 {
-                anyhow::bail!(
-                    "the GPU backend runs f32, this job asks for f64: use \"run\": {{\"precision\": \"f32\"}} in the campaign (--precision f32 for sweep bench), or --backend cpu"
-                );
-            }
-            let (dev, note) = match batches {
-                Some(b) => b.device(|| gpu_device(select))?,
-                None => gpu_device(select)?,
-            };
-            Ok(Built {
-                engine: on(&dev, config)?,
-                note,
-            })
-        }
-        BackendChoice::Auto => {
-            // A batch keeps the first device auto found (a later job's own is dropped).
-            let dev = match (auto_device(select, precision)?, batches) {
-                (Ok(dev), Some(b)) => Ok(b.device(|| Ok((dev, None)))?.0),
-                (found, _) => found,
-            };
-            match dev {
-                Ok(dev) => Ok(Built {
-                    engine: on(&dev, config)?,
-                    note: None,
-                }),
-                Err(why) => Ok(Built {
-                    engine: cpu(precision, config, state, threads),
-                    note: Some(auto_note(&why)),
-                }),
-            }
-        }
-    }
+            note,
+        },
+    })
 }
 
 #[cfg(test)]

@@ -257,9 +257,7 @@ impl Drop for BatchMember {
         inner.members[self.job].request = None;
         inner.engine.set_active(self.job, false);
         // The others may have been waiting for this member only.
-        if inner.try_round() {
-            self.hub.turn.notify_all();
-        }
+        inner.try_round();
         self.hub.turn.notify_all();
     }
 }

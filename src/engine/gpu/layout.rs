@@ -196,8 +196,9 @@ pub struct Params {
     /// Cells per block of the cell-start scan (WORKGROUP_SIZE × SCAN_ITEMS).
     pub scan_chunk: u32,
     pub n_chunks: u32,
-    pub groups_particles: u32,
-    pub groups_chunks: u32,
+    /// Unused (keeps the record's layout; the WGSL struct has the same two words).
+    pub pad0: u32,
+    pub pad1: u32,
     pub lo_x: f32,
     pub lo_y: f32,
     pub lo_z: f32,
