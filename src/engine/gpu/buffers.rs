@@ -188,6 +188,12 @@ pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) ->
         }
     }
     s.history = history;
+    // By id: the slots' order is the device's business (it may reorder them).
+    if s.id.windows(2).any(|w| w[0] > w[1]) {
+        let mut order: Vec<u32> = (0..s.len() as u32).collect();
+        order.sort_unstable_by_key(|&k| s.id[k as usize]);
+        s.permute(&order);
+    }
     s
 }
 
@@ -212,7 +218,7 @@ pub struct GpuBuffers {
     pub cell_start: wgpu::Buffer,
     pub chunk_sums: wgpu::Buffer,
     pub sorted: wgpu::Buffer,
-    /// Kinetic energy per workgroup of particles (`finish`).
+    /// Kinetic energy per slot (`finish`), then its fixed-point sum per workgroup (`energy_sum`).
     pub energy: wgpu::Buffer,
     /// Contact records (`record_contacts`), grown when a call finds it short.
     pub records: wgpu::Buffer,
@@ -323,8 +329,8 @@ impl GpuBuffers {
             chunk_sums: zeroed("scan run totals", g.n_chunks as u64 * 4, STORAGE),
             sorted: zeroed("cell-sorted indices", n as u64 * 4, STORAGE),
             energy: zeroed(
-                "kinetic energy per workgroup",
-                (n as u64).div_ceil(super::layout::WORKGROUP_SIZE as u64) * 4,
+                "kinetic energy per slot and per workgroup",
+                (n as u64 + 2 * (n as u64).div_ceil(super::layout::WORKGROUP_SIZE as u64)) * 4,
                 STORAGE,
             ),
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),

@@ -25,9 +25,9 @@ use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
 use super::grid::{plan_grid, sort_by_cell, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, RecordGpu, WallGpu, MAX_JOBS, MAX_WALLS, SCAN_ITEMS,
-    STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_FULL_INDEX, ST_NONFINITE, ST_RECORDS, ST_STALE, ST_STEP,
-    ST_STEP_NEXT, WORKGROUP_SIZE,
+    status_initial, LawGpu, Params, RecordGpu, WallGpu, KE_BITS, MAX_JOBS, MAX_WALLS, SCAN_ITEMS,
+    STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE, ST_STEP, ST_STEP_NEXT,
+    WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -70,9 +70,8 @@ impl Default for GpuOptions {
 
 /// The host's record of one job of the uploaded batch.
 struct JobRun {
-    /// Id and mass per slot of the job's block (its particles at the upload; padding after).
-    ids: Vec<u32>,
-    masses: Vec<f32>,
+    /// (id, mass) of the job's particles at the upload, by id: sink events name ids.
+    masses: Vec<(u32, f32)>,
     /// Particles at the upload, slots still alive, and live mobile particles (what
     /// particle-steps count, as on the CPU).
     loaded: usize,
@@ -357,8 +356,15 @@ impl GpuEngine {
             .iter()
             .zip(&grids)
             .map(|(s, g)| JobRun {
-                ids: s.id.clone(),
-                masses: s.mass.iter().map(|&m| m as f32).collect(),
+                masses: {
+                    let mut m: Vec<(u32, f32)> =
+                        s.id.iter()
+                            .zip(&s.mass)
+                            .map(|(&i, &m)| (i, m as f32))
+                            .collect();
+                    m.sort_unstable_by_key(|&(i, _)| i);
+                    m
+                },
                 loaded: s.len(),
                 alive: s.len(),
                 mobile: s.inv_mass.iter().filter(|&&m| m != 0.0).count(),
@@ -492,7 +498,7 @@ impl GpuEngine {
 
     /// Every contact of job j's current state, each once, computed on the device by the contact
     /// kernel's own arithmetic (nothing changes): in the order of a download's particles, each
-    /// particle's partners by slot, then its walls.
+    /// particle's partners by id, then its walls.
     ///
     /// # Errors
     /// A failed dispatch or read-back.
@@ -547,9 +553,17 @@ impl GpuEngine {
             .into_iter()
             .filter(|r| r.who[0] >= base && r.who[0] < base + run.n_job as u32)
             .collect();
-        // Atomics appended them in any order: the order of the particles, then partners by
-        // slot, walls last.
-        recs.sort_by_key(|r| (r.who[0], r.who[3] & 1, r.who[2]));
+        // Atomics appended them in any order: by particle id, then partners by id, walls last
+        // (by index), whatever slots the particles sit in.
+        recs.sort_by_key(|r| {
+            let wall = r.who[3] & 1;
+            let partner = if wall == 0 {
+                r.pos[3].to_bits()
+            } else {
+                r.who[2]
+            };
+            (r.who[1], wall, partner)
+        });
         let v = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
         Ok(recs
             .iter()
@@ -644,16 +658,20 @@ impl GpuEngine {
             .queue
             .write_buffer(&run.bufs.status, 0, bytemuck::cast_slice(&initial));
         let chunk = self.run_steps(run, steps)?;
-        let groups = (run.bufs.n as u64).div_ceil(WORKGROUP_SIZE as u64);
-        let parts = buffers::read(
+        let n = run.bufs.n as u64;
+        let groups = n.div_ceil(WORKGROUP_SIZE as u64);
+        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&buffers::read_at(
             &self.dev,
-            &[
-                (&run.bufs.status, (jobs * STATUS_WORDS) as u64 * 4),
-                (&run.bufs.energy, groups * 4),
-            ],
-        )?;
-        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
-        let sums: Vec<f32> = bytemuck::pod_collect_to_vec(&parts[1]);
+            &run.bufs.status,
+            0,
+            (jobs * STATUS_WORDS) as u64 * 4,
+        )?);
+        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&buffers::read_at(
+            &self.dev,
+            &run.bufs.energy,
+            n * 4,
+            groups * 8,
+        )?);
         let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
         let mut outs = Vec::with_capacity(jobs);
         let mut updates = Vec::with_capacity(jobs);
@@ -666,33 +684,21 @@ impl GpuEngine {
             }
             let base = j * run.n_job;
             let mut st = st_all[j * STATUS_WORDS..(j + 1) * STATUS_WORDS].to_vec();
-            // The batch's words, and slots as the job's own.
+            // The batch's word.
             st[ST_BUILDS] = st_all[ST_BUILDS];
-            for w in [ST_FULL_INDEX] {
-                if st[w] != u32::MAX {
-                    st[w] -= base as u32;
-                }
-            }
-            if st[ST_NONFINITE] != u32::MAX {
-                st[ST_NONFINITE] -= 4 * base as u32;
-            }
             let deaths = (st[ST_DEATHS] as u64).min(run.n_job as u64);
             let events: Vec<[u32; 2]> = if deaths > 0 {
                 let p = buffers::read_at(&self.dev, &run.bufs.events, base as u64 * 8, deaths * 8)?;
                 bytemuck::pod_collect_to_vec::<u8, [u32; 2]>(&p)
-                    .into_iter()
-                    .map(|[i, k]| [i - base as u32, k])
-                    .collect()
             } else {
                 Vec::new()
             };
-            let energy: f64 = sums[j * per_job_groups..(j + 1) * per_job_groups]
-                .iter()
-                .map(|&e| e as f64)
-                .sum();
+            let energy = fixed_point_energy(
+                &sums[j * per_job_groups..(j + 1) * per_job_groups],
+                st[ST_KE_MAX],
+            );
             let out = read_chunk(
                 &ChunkContext {
-                    ids: &jr.ids,
                     masses: &jr.masses,
                     alive: jr.alive,
                     mobile: jr.mobile,
@@ -868,6 +874,7 @@ impl GpuEngine {
                 // The closing half kick, then finiteness, contact counts and kinetic energy.
                 dispatch(&mut pass, kernel::CLOSE_KICK, gp);
                 dispatch(&mut pass, kernel::FINISH, gp);
+                dispatch(&mut pass, kernel::ENERGY_SUM, gp);
                 c.closed = true;
             }
         }
@@ -942,6 +949,17 @@ impl InFlight {
         let word = u32::from_le_bytes([view[0], view[1], view[2], view[3]]);
         Ok(word)
     }
+}
+
+/// A job's kinetic energy from `energy_sum`'s workgroup sums (low, high words) of particle
+/// energies in units of 2^(e − KE_BITS), 2^e bounding the largest (`max_bits`, its f32 bits).
+fn fixed_point_energy(sums: &[[u32; 2]], max_bits: u32) -> f64 {
+    let total: u128 = sums
+        .iter()
+        .map(|&[lo, hi]| ((hi as u128) << 32) | lo as u128)
+        .sum();
+    let exponent = ((max_bits >> 23) & 0xff) as i32 - 126;
+    total as f64 * 2f64.powi(exponent - KE_BITS)
 }
 
 /// The first oriented particle whose inertia is not that of a symmetric top about its axis

@@ -161,5 +161,7 @@ fn packing_bound(ball: f64, r_min: f64) -> u32 {
     } else {
         256
     };
-    k.div_ceil(4).saturating_mul(4).clamp(32, 256)
+    k.div_ceil(4)
+        .saturating_mul(4)
+        .clamp(32, super::layout::MAX_LIST)
 }

@@ -16,6 +16,14 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Cells each invocation of the cell-start scan takes: a block is WORKGROUP_SIZE × SCAN_ITEMS.
 pub const SCAN_ITEMS: u32 = 4;
 
+/// Most neighbours a list row holds (`grid::list_capacity` stays within it).
+pub const MAX_LIST: u32 = 256;
+
+/// Bits below a job's largest particle energy kept by the fixed-point kinetic-energy sum: each
+/// particle's energy is rounded to 2^(e_max − KE_BITS), where 2^e_max bounds the largest, so a
+/// workgroup's sum of 64 stays below 2^51 and the host's sum of them is exact in u64.
+pub const KE_BITS: i32 = 44;
+
 /// Most walls a run may have (they live in one uniform array).
 pub const MAX_WALLS: usize = 16;
 
@@ -39,7 +47,7 @@ pub const ST_MAX_OVERLAP: usize = 3;
 pub const ST_OVERLAP_STEP: usize = 4;
 /// First step (1-based in the chunk) at which a history table overflowed.
 pub const ST_FULL_STEP: usize = 5;
-/// Smallest particle index whose history table overflowed.
+/// Smallest id of a particle whose history table overflowed.
 pub const ST_FULL_INDEX: usize = 6;
 /// Largest neighbour count that did not fit in a list row (0: none).
 pub const ST_LIST_OVERFLOW: usize = 7;
@@ -48,7 +56,7 @@ pub const ST_LIST_OVERFLOW: usize = 7;
 pub const ST_STEP: usize = 8;
 /// Sum of the contact counts at the chunk's end.
 pub const ST_CONTACTS: usize = 9;
-/// Smallest 4 i + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity,
+/// Smallest 4 id + kind of a non-finite particle (kind 0 position, 1 velocity, 2 angular velocity,
 /// 3 orientation).
 pub const ST_NONFINITE: usize = 10;
 /// The step after the one being taken: written by `kick_drift`, read by `compute_forces` (so the
@@ -56,6 +64,9 @@ pub const ST_NONFINITE: usize = 10;
 pub const ST_STEP_NEXT: usize = 11;
 /// Contacts `record_contacts` appended (all jobs'; it may exceed the record buffer's length).
 pub const ST_RECORDS: usize = 12;
+/// Largest kinetic energy of one particle at the chunk's end, as f32 bits: the scale of the
+/// fixed-point energy sum (`energy_sum`).
+pub const ST_KE_MAX: usize = 13;
 
 /// Status words at the start of a chunk: no step taken, nothing stale, minima at u32::MAX.
 pub fn status_initial() -> [u32; STATUS_WORDS] {
@@ -102,7 +113,8 @@ pub fn prelude() -> String {
          const MAX_WALLS: u32 = {MAX_WALLS}u;\nconst EMPTY: u32 = {EMPTY}u;\n\
          const WALL_KEY: u32 = {}u;\nconst MAX_JOBS: u32 = {MAX_JOBS}u;\n\
          const MAX_WALLS_ALL: u32 = {}u;\nconst STATUS_WORDS: u32 = {STATUS_WORDS}u;\n\
-         const SCAN_ITEMS: u32 = {SCAN_ITEMS}u;\n",
+         const SCAN_ITEMS: u32 = {SCAN_ITEMS}u;\nconst MAX_LIST: u32 = {MAX_LIST}u;\n\
+         const KE_BITS: i32 = {KE_BITS};\n",
         crate::engine::history::wall_key(0),
         MAX_WALLS * MAX_JOBS
     );
@@ -132,6 +144,7 @@ pub fn prelude() -> String {
         ("ST_NONFINITE", ST_NONFINITE),
         ("ST_STEP_NEXT", ST_STEP_NEXT),
         ("ST_RECORDS", ST_RECORDS),
+        ("ST_KE_MAX", ST_KE_MAX),
     ] {
         s += &format!("const {name}: u32 = {v}u;\n");
     }

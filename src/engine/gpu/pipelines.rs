@@ -85,10 +85,12 @@ pub mod kernel {
     pub const COMPUTE_FORCES: usize = 9;
     /// Contact records for observers (compiled with RECORD).
     pub const RECORD_CONTACTS: usize = 10;
+    /// The chunk's fixed-point kinetic-energy sum, after `FINISH`.
+    pub const ENERGY_SUM: usize = 11;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 11] = [
+pub const KERNELS: [KernelSpec; 12] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -226,6 +228,11 @@ pub const KERNELS: [KernelSpec; 11] = [
             b::STATUS,
             b::RECORDS,
         ],
+    },
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "energy_sum",
+        bindings: &[b::PARAMS, b::STATUS, b::ENERGY],
     },
 ];
 

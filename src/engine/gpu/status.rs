@@ -11,9 +11,8 @@ use crate::engine::backend::{ChunkReport, EngineError, SinkEvent};
 
 /// What the host knows of the chunk it just ran.
 pub struct ChunkContext<'a> {
-    /// Id and mass per particle slot (the storage order of the upload).
-    pub ids: &'a [u32],
-    pub masses: &'a [f32],
+    /// (id, mass) of the job's particles, by id.
+    pub masses: &'a [(u32, f32)],
     /// Live slots and live mobile particles at the chunk's start.
     pub alive: usize,
     pub mobile: usize,
@@ -38,21 +37,26 @@ pub struct ChunkOutcome {
     pub error: Option<EngineError>,
 }
 
-/// Reads the status words `st` and the sink `events` (slot, 0-based step) of a chunk.
+/// Reads the status words `st` and the sink `events` (id, 0-based step) of a chunk.
 pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> ChunkOutcome {
     let deaths = (st[ST_DEATHS] as usize).min(events.len());
     let mut events = events[..deaths].to_vec();
-    events.sort_by_key(|&[i, k]| (k, c.ids[i as usize]));
+    events.sort_by_key(|&[id, k]| (k, id));
+    let mass_of = |id: u32| {
+        c.masses
+            .binary_search_by_key(&id, |&(i, _)| i)
+            .map_or(0.0, |k| c.masses[k].1 as f64)
+    };
     let mut report = ChunkReport::default();
     let mut t = c.time0;
     let mut next = events.iter().peekable();
     let mut dead_steps = 0u64;
     for k in 0..c.steps {
         t += c.dt;
-        while let Some(&&[i, _]) = next.peek().filter(|e| e[1] as u64 == k) {
+        while let Some(&&[id, _]) = next.peek().filter(|e| e[1] as u64 == k) {
             report.removed.push(SinkEvent {
-                id: c.ids[i as usize],
-                mass_kg: c.masses[i as usize] as f64,
+                id,
+                mass_kg: mass_of(id),
                 time_s: t,
             });
             // Not counted from the step it fell on.
@@ -67,7 +71,6 @@ pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> Chun
     report.max_overlap_ratio = f32::from_bits(st[ST_MAX_OVERLAP]) as f64;
     report.contacts_per_particle = st[ST_CONTACTS] as f64 / alive.max(1) as f64;
     report.list_builds = st[ST_BUILDS] as u64;
-    let id_at = |slot: u32| c.ids.get(slot as usize).copied().unwrap_or(0);
     let (full_k, ov_k, nonfinite) = (st[ST_FULL_STEP], st[ST_OVERLAP_STEP], st[ST_NONFINITE]);
     let error = if st[ST_LIST_OVERFLOW] > 0 {
         Some(EngineError::Device(format!(
@@ -77,7 +80,7 @@ pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> Chun
     } else if full_k != u32::MAX && full_k <= ov_k {
         // The CPU checks the table during the step, before the step count advances.
         Some(EngineError::HistoryFull {
-            id: id_at(st[ST_FULL_INDEX]),
+            id: st[ST_FULL_INDEX],
             slots: c.slots,
             step: c.step0 + full_k as u64 - 1,
         })
@@ -95,7 +98,7 @@ pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> Chun
                 2 => "angular velocity",
                 _ => "orientation",
             },
-            id: id_at(nonfinite / 4),
+            id: nonfinite / 4,
             step: c.step0 + c.steps,
             time_s: t,
         })

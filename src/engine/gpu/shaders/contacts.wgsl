@@ -275,7 +275,7 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     load[i] = Load(vec4<f32>(f, f32(g.nc)), vec4<f32>(t, max_ov));
     if (full) {
         atomicMin(&status[sw(ST_FULL_STEP)], k);
-        atomicMin(&status[sw(ST_FULL_INDEX)], i);
+        atomicMin(&status[sw(ST_FULL_INDEX)], me.id);
     }
     if (max_ov > bitcast<f32>(atomicLoad(&status[sw(ST_MAX_OVERLAP)]))) {
         atomicMax(&status[sw(ST_MAX_OVERLAP)], bitcast<u32>(max_ov));

@@ -1,8 +1,8 @@
 // Neighbour search: a uniform cell grid filled by a counting sort (atomic histogram, chunked
 // prefix sum, scatter of particle indices), then a full Verlet list per particle with cutoff
-// r_i + r_j + skin (r the reach: the radius, plus l/2 for a spherocylinder), sorted by particle
-// index so that force sums do not depend on the order the atomics happened to run in, nor on
-// when the lists were built. The host records these passes only at steps it chose (engine.rs);
+// r_i + r_j + skin (r the reach: the radius, plus l/2 for a spherocylinder), ordered by partner
+// id so that force sums depend neither on the order the atomics happened to run in, nor on when
+// the lists were built, nor on where the particles sit in the buffers. The host records these passes only at steps it chose (engine.rs);
 // each returns at once when an earlier step left the lists stale (the submission is void past
 // that step and the host redoes it).
 
@@ -199,7 +199,11 @@ fn reach(j: u32, r: f32) -> f32 {
     return r;
 }
 
-// Appends the particles of sorted[a..b) within the cutoff of i to i's row; returns the count.
+// The row being built, in the order found: partner ids and their slots.
+var<private> found_id: array<u32, MAX_LIST>;
+var<private> found_slot: array<u32, MAX_LIST>;
+
+// Appends the particles of sorted[a..b) within the cutoff of i to the row; returns the count.
 fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
     var k = k0;
     for (var s = a; s < b; s++) {
@@ -210,7 +214,8 @@ fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
         let cut = ri + reach(j, pj.w) + params.skin;
         if (dot3(d, d) < cut * cut) {
             if (k < params.stride) {
-                nbr[nbr_at(i, 1u + k)] = j;
+                found_id[k] = info[j].id;
+                found_slot[k] = j;
             }
             k++;
         }
@@ -262,15 +267,15 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let m = min(k, params.stride);
-    // Insertion sort by particle index: a deterministic summation order.
-    for (var a = 1u; a < m; a++) {
-        let v = nbr[nbr_at(i, 1u + a)];
-        var b = a;
-        while (b > 0u && nbr[nbr_at(i, b)] > v) {
-            nbr[nbr_at(i, 1u + b)] = nbr[nbr_at(i, b)];
-            b--;
+    // Each partner goes to its rank by id (ids are distinct): the same summation order whatever
+    // the slots, with a fixed amount of work per pair and one write per entry.
+    for (var a = 0u; a < m; a++) {
+        let key = found_id[a];
+        var rank = 0u;
+        for (var b = 0u; b < m; b++) {
+            rank += select(0u, 1u, found_id[b] < key);
         }
-        nbr[nbr_at(i, 1u + b)] = v;
+        nbr[nbr_at(i, 1u + rank)] = found_slot[a];
     }
     nbr[nbr_at(i, 0u)] = m;
     if (k > params.stride) {

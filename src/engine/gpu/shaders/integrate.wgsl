@@ -68,7 +68,7 @@ fn translate(i: u32, k: u32) {
     if (SINK && x.z < params.sink_z) {
         info[i].alive = 0u;
         let e = atomicAdd(&status[sw(ST_DEATHS)], 1u);
-        events[params.job * params.n_job + e] = vec2<u32>(i, k);
+        events[params.job * params.n_job + e] = vec2<u32>(info[i].id, k);
     }
     // Oriented particles test their ends after turning, in kick_rotate.
     if (ORIENTED) { return; }
@@ -113,9 +113,9 @@ fn is_finite3(v: vec3<f32>) -> bool {
     return all(e != vec3<u32>(0x7f800000u));
 }
 
-@group(0) @binding(17) var<storage, read_write> energy: array<f32>;
-
-var<workgroup> ke_part: array<f32, WG>;
+// Each slot's kinetic energy as f32 bits (`finish`), then two words (low, high) per workgroup:
+// the fixed-point sum of `energy_sum`.
+@group(0) @binding(17) var<storage, read_write> energy: array<u32>;
 
 // Finiteness and the contact count of live particle i; returns its kinetic energy (translational
 // and rotational, as State::kinetic_energy; zero when fixed).
@@ -133,7 +133,7 @@ fn check_particle(i: u32) -> f32 {
         kind = 3u;
     }
     if (kind < 4u) {
-        atomicMin(&status[sw(ST_NONFINITE)], i * 4u + kind);
+        atomicMin(&status[sw(ST_NONFINITE)], info[i].id * 4u + kind);
     }
     if (vel_im[i].w == 0.0) { return 0.0; }
     let v = vel_im[i].xyz;
@@ -147,31 +147,73 @@ fn check_particle(i: u32) -> f32 {
     return e;
 }
 
-// The chunk's closing checks; each workgroup leaves its particles' kinetic energy, summed by a
-// fixed tree (so the same state gives the same bits), in energy[workgroup].
+// The chunk's closing checks: each live particle's kinetic energy is left in energy[i] and the
+// job's largest in its status block (the scale of `energy_sum`).
 @compute @workgroup_size(WG)
-fn finish(
+fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= jobs[0].n) { return; }
+    var e = 0.0;
+    if (atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
+        enter(i);
+        if (params.running != 0u) {
+            // +0 for anything not positive (−0 and NaN would order above every energy as bits).
+            e = check_particle(i);
+            e = select(0.0, e, e > 0.0);
+            atomicMax(&status[sw(ST_KE_MAX)], bitcast<u32>(e));
+        }
+    }
+    energy[i] = bitcast<u32>(e);
+}
+
+var<workgroup> ke_lo: array<u32, WG>;
+var<workgroup> ke_hi: array<u32, WG>;
+
+// The exponent x of 2^x > every particle energy of the job, from the largest one's f32 bits.
+fn ke_exponent(max_bits: u32) -> i32 {
+    return i32((max_bits >> 23u) & 0xffu) - 126;
+}
+
+// The kinetic energy summed so that no order of the particles (in the buffers or in time) can
+// change a bit: each particle's energy is rounded to a multiple of 2^(ke_exponent − KE_BITS) and
+// the integers are added exactly (two words with carry); the host adds the workgroups' sums in
+// u128 and scales back.
+@compute @workgroup_size(WG)
+fn energy_sum(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
     let i = gid.x;
-    var e = 0.0;
+    let t = lid.x;
+    var lo = 0u;
+    var hi = 0u;
     if (i < jobs[0].n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
         enter(i);
-        if (params.running != 0u) {
-            e = check_particle(i);
+        let e = bitcast<f32>(energy[i]);
+        if (params.running != 0u && e > 0.0) {
+            let scale = KE_BITS - ke_exponent(atomicLoad(&status[sw(ST_KE_MAX)]));
+            let x = round(ldexp(e, scale));
+            let h = floor(ldexp(x, -32));
+            hi = u32(h);
+            lo = u32(x - ldexp(h, 32));
         }
     }
-    ke_part[lid.x] = e;
+    ke_lo[t] = lo;
+    ke_hi[t] = hi;
     workgroupBarrier();
     for (var s = WG / 2u; s > 0u; s = s / 2u) {
-        if (lid.x < s) {
-            ke_part[lid.x] = ke_part[lid.x] + ke_part[lid.x + s];
+        if (t < s) {
+            let a = ke_lo[t];
+            let l = a + ke_lo[t + s];
+            ke_lo[t] = l;
+            ke_hi[t] = ke_hi[t] + ke_hi[t + s] + select(0u, 1u, l < a);
         }
         workgroupBarrier();
     }
-    if (lid.x == 0u) {
-        energy[wid.x] = ke_part[0];
+    if (t == 0u) {
+        let at = jobs[0].n + 2u * wid.x;
+        energy[at] = ke_lo[0];
+        energy[at + 1u] = ke_hi[0];
     }
 }
