@@ -131,6 +131,55 @@ fn where_particles_sit_in_the_buffers_does_not_change_the_bits() {
     }
 }
 
+/// The share of consecutive live slots whose cells (z, y, x of the engine's grid) do not
+/// decrease, and the number of live slots.
+fn cell_ordered_share(e: &GpuEngine) -> (f64, usize) {
+    let g = e.grid().expect("particles on the device");
+    let cell = |p: [f32; 3]| {
+        let axis = |k: usize| {
+            let c = ((p[k] - g.lo[k]) / g.width[k]).floor() as i64;
+            c.clamp(0, g.dims[k] as i64 - 1) as u64
+        };
+        (axis(2) * g.dims[1] as u64 + axis(1)) * g.dims[0] as u64 + axis(0)
+    };
+    let live: Vec<u64> = e
+        .slots_job(0)
+        .unwrap()
+        .into_iter()
+        .flatten()
+        .map(|(_, p)| cell(p))
+        .collect();
+    let ordered = live.windows(2).filter(|w| w[0] <= w[1]).count();
+    (ordered as f64 / (live.len() - 1) as f64, live.len())
+}
+
+#[test]
+fn list_builds_sort_the_particles_by_cell() {
+    let Some(dev) = device() else { return };
+    for reorder_by_cell in [true, false] {
+        let options = GpuOptions {
+            reorder_by_cell,
+            ..GpuOptions::default()
+        };
+        let mut e = stirred(&dev, 3000, options);
+        // Uploaded in reverse: far from cell order.
+        let mut s = e.download();
+        let order: Vec<u32> = (0..s.len() as u32).rev().collect();
+        s.permute(&order);
+        e.upload(&s);
+        // A chunk's first step follows a build: the slots are in the order it left.
+        e.advance(1).expect("chunk");
+        let (share, live) = cell_ordered_share(&e);
+        eprintln!("sorted by cell: {reorder_by_cell}: {share:.3} of {live} slots in cell order");
+        assert_eq!(live, 3000);
+        if reorder_by_cell {
+            assert!(share > 0.99, "{share}");
+        } else {
+            assert!(share < 0.9, "{share}");
+        }
+    }
+}
+
 #[test]
 fn a_hundred_thousand_particles_run_twice_to_the_same_bits() {
     let Some(dev) = device() else { return };

@@ -224,6 +224,9 @@ pub struct GpuBuffers {
     pub records: wgpu::Buffer,
     /// `RodGpu` per particle; one zeroed record when the run is not oriented.
     pub rod: wgpu::Buffer,
+    /// Each slot's packed record between `scatter` and `settle` (16 bytes when builds keep the
+    /// order).
+    pub scratch: wgpu::Buffer,
     pub oriented: bool,
 }
 
@@ -275,6 +278,13 @@ impl GpuBuffers {
         check("load", n as u64 * 32)?;
         check("position", (blocks + 1) * n as u64 * 16)?;
         check("rod", p.rod.len() as u64 * 48)?;
+        let reorder = params[0].reorder != 0;
+        let scratch = if reorder {
+            super::layout::scratch_bytes(n, oriented, slots)
+        } else {
+            16
+        };
+        check("cell-order scratch", scratch)?;
         let d = &dev.device;
         let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
             // Zero-length bindings are invalid: every buffer holds at least one record (48 bytes
@@ -334,6 +344,7 @@ impl GpuBuffers {
                 STORAGE,
             ),
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
+            scratch: zeroed("cell-order scratch", scratch, wgpu::BufferUsages::STORAGE),
             records: records_buffer(dev, 1),
             oriented,
         })
@@ -362,6 +373,7 @@ impl GpuBuffers {
             binding::ENERGY => &self.energy,
             binding::RECORDS => &self.records,
             binding::ROD => &self.rod,
+            binding::SCRATCH => &self.scratch,
             _ => unreachable!("no buffer at binding {b}"),
         }
     }

@@ -73,9 +73,10 @@ pub fn is_hardware(info: &wgpu::AdapterInfo) -> bool {
     )
 }
 
-/// Storage buffers the widest kernel binds (`kick_drift`, which turns rods in the same pass as it
-/// moves them); every Vulkan, Metal and D3D12 GPU offers far more than WebGPU's default 8.
-pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 9;
+/// Storage buffers the widest kernel binds (`scatter`, which packs every particle's record when
+/// list builds sort by cell); every Vulkan, Metal and D3D12 GPU offers far more than WebGPU's
+/// default 8.
+pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 12;
 
 /// The limits the engine requests: WebGPU's defaults except the storage buffers per kernel and
 /// the storage binding and buffer sizes, raised to what the adapter offers so that large runs fit.

@@ -23,11 +23,11 @@ use std::collections::VecDeque;
 
 use super::buffers::{self, pack, unpack, GpuBuffers};
 use super::device::GpuDevice;
-use super::grid::{plan_grid, sort_by_cell, GridSpec};
+use super::grid::{plan_grid, GridSpec};
 use super::layout::{
-    status_initial, LawGpu, Params, RecordGpu, WallGpu, KE_BITS, MAX_JOBS, MAX_WALLS, SCAN_ITEMS,
-    STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE, ST_STEP, ST_STEP_NEXT,
-    WORKGROUP_SIZE,
+    scratch_bytes, status_initial, LawGpu, Params, RecordGpu, WallGpu, KE_BITS, MAX_JOBS,
+    MAX_WALLS, SCAN_ITEMS, STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE,
+    ST_STEP, ST_STEP_NEXT, WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -49,8 +49,9 @@ pub struct GpuOptions {
     /// Record a list build every this many steps instead of predicting (tests: builds must not
     /// change the results).
     pub build_every: Option<u64>,
-    /// Sort each job's particles by cell at every chunk's start (a read-back and upload), so
-    /// that neighbours are read from nearby memory.
+    /// Sort each job's particles by cell at every list build, on the device, so that
+    /// neighbours are read from nearby memory (one more dispatch per build, and a scratch of
+    /// every particle's record).
     pub reorder_by_cell: bool,
     /// Only `max_overlap_ratio` applies: the energy check also needs the elastic energy and the
     /// work of gravity and the walls, which the kernels do not sum.
@@ -91,6 +92,8 @@ struct Run {
     /// Slots per job block.
     n_job: usize,
     jobs: Vec<JobRun>,
+    /// Whether each list build also sorts the particles by cell (`settle` recorded).
+    reorder: bool,
 }
 
 /// The GPU engine (f32). It advances a batch of jobs in the same dispatches (`batch`): each job
@@ -212,6 +215,24 @@ impl GpuEngine {
         self.run.as_ref().map(|r| r.jobs[0].grid)
     }
 
+    /// The id in each slot of job j's block and its position there (None: an empty slot), as
+    /// the device holds them: the order the builds left (`GpuOptions::reorder_by_cell`).
+    ///
+    /// # Errors
+    /// A failed read-back.
+    pub fn slots_job(&self, j: usize) -> Result<Vec<Option<(u32, [f32; 3])>>, EngineError> {
+        let Some(run) = &self.run else {
+            return Ok(Vec::new());
+        };
+        let p = run.bufs.read_particles(&self.dev)?;
+        let b = buffers::block(&p, j, run.n_job, self.slots);
+        Ok(b.info
+            .iter()
+            .zip(&b.pos_r)
+            .map(|(m, x)| (m.alive != 0).then_some((m.id, [x[0], x[1], x[2]])))
+            .collect())
+    }
+
     /// Job j's record for the kernels: its own grid, walls, laws and sink, the batch's sizes.
     fn params(
         &self,
@@ -244,7 +265,7 @@ impl GpuEngine {
             has_sink: c.sink_z.is_some() as u32,
             scan_chunk: all.scan_chunk,
             n_chunks: all.n_chunks,
-            pad0: 0,
+            reorder: 0,
             pad1: 0,
             lo_x: g.lo[0],
             lo_y: g.lo[1],
@@ -343,10 +364,16 @@ impl GpuEngine {
                 self.dev.info.name
             )));
         }
+        // Builds sort the particles by cell unless the scratch for it would not bind.
+        let reorder = self.options.reorder_by_cell
+            && scratch_bytes(total, self.oriented, self.slots)
+                <= self.dev.limits.max_storage_buffer_binding_size as u64;
         let mut params = Vec::with_capacity(states.len());
         let mut offset = 0u32;
         for (j, g) in grids.iter().enumerate() {
-            params.push(self.params(j, total, n_job, g, &all, offset));
+            let mut p = self.params(j, total, n_job, g, &all, offset);
+            p.reorder = reorder as u32;
+            params.push(p);
             offset += g.ncell;
         }
         let packed = buffers::concat(states.iter().map(|s| pack(s)).collect(), n_job, self.slots);
@@ -378,6 +405,7 @@ impl GpuEngine {
             grid: all,
             n_job,
             jobs,
+            reorder,
         });
         Ok(())
     }
@@ -590,27 +618,15 @@ impl GpuEngine {
         }
     }
 
-    /// At a chunk's start: with `reorder_by_cell`, every job's particles sorted by cell (and the
-    /// removed ones dropped); otherwise the removed ones dropped once they fill more than 1/8 of
-    /// some job's particles.
-    fn reorder_or_compact(&mut self) -> Result<(), EngineError> {
+    /// At a chunk's start: the removed particles dropped once they fill more than 1/8 of some
+    /// job's slots (builds that sort by cell move them to the end of the job's block, but the
+    /// dispatches still cover them).
+    fn compact(&mut self) -> Result<(), EngineError> {
         let Some(run) = &self.run else {
             return Ok(());
         };
-        let sparse = run.jobs.iter().any(|j| (j.loaded - j.alive) * 8 > j.loaded);
-        if self.options.reorder_by_cell || sparse {
-            let mut all = self.read_states()?;
-            if self.options.reorder_by_cell {
-                // Stopped jobs are left as they are.
-                for ((s, c), _) in all
-                    .iter_mut()
-                    .zip(&self.configs)
-                    .zip(&self.active)
-                    .filter(|(_, &on)| on)
-                {
-                    sort_by_cell(s, c);
-                }
-            }
+        if run.jobs.iter().any(|j| (j.loaded - j.alive) * 8 > j.loaded) {
+            let all = self.read_states()?;
             let refs: Vec<&State<f64>> = all.iter().collect();
             self.load(&refs)?;
         }
@@ -636,7 +652,7 @@ impl GpuEngine {
         if steps == 0 {
             return Ok((0..jobs).map(|_| Ok(ChunkReport::default())).collect());
         }
-        self.reorder_or_compact()?;
+        self.compact()?;
         let dt = self.configs[0].dt_s;
         let Some(run) = &self.run else {
             let mut out = Vec::new();
@@ -803,6 +819,7 @@ impl GpuEngine {
     fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
         let gc = run.grid.n_chunks;
+        let build_dispatches = BUILD_DISPATCHES + run.reorder as u8;
         let pipes = &self.pipes;
         let binds = &run.binds;
         let mut dispatches = 0u64;
@@ -822,6 +839,9 @@ impl GpuEngine {
                         2 => 1,
                         _ => gp,
                     };
+                    if k == kernel::BUILD[5] && run.reorder {
+                        dispatch(pass, kernel::SETTLE, gp);
+                    }
                     dispatch(pass, k, groups);
                 }
             };
@@ -846,7 +866,7 @@ impl GpuEngine {
                 dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
                 c.count.builds += 1;
                 c.builds.push(s as i64);
-                c.per_step[s as usize] = 1 + BUILD_DISPATCHES + 1;
+                c.per_step[s as usize] = 1 + build_dispatches + 1;
             }
             let end = c.steps.min(c.next + self.options.steps_per_submit.max(1));
             for k in c.next..end {
@@ -864,7 +884,7 @@ impl GpuEngine {
                 }
                 dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
                 c.per_step.push(if due {
-                    STEP_DISPATCHES + BUILD_DISPATCHES
+                    STEP_DISPATCHES + build_dispatches
                 } else {
                     STEP_DISPATCHES
                 });

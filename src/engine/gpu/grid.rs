@@ -113,29 +113,6 @@ pub fn plan_grid(state: &State<f64>, config: &EngineConfig) -> GridSpec {
     }
 }
 
-/// Orders `state`'s particles by their cell of `plan_grid` (z, then y, then x), then by id: the
-/// neighbours of a particle then lie close in memory, and the order is a function of the state
-/// alone (a resumed run reorders as the uninterrupted one did).
-pub fn sort_by_cell(state: &mut State<f64>, config: &EngineConfig) {
-    if state.is_empty() {
-        return;
-    }
-    let g = plan_grid(state, config);
-    let axis = |x: f64, k: usize| -> u64 {
-        let c = ((x - g.lo[k] as f64) / g.width[k] as f64).floor();
-        c.clamp(0.0, (g.dims[k] - 1) as f64) as u64
-    };
-    let key = |i: usize| {
-        let p = state.pos[i].to_f64();
-        let cell =
-            (axis(p[2], 2) * g.dims[1] as u64 + axis(p[1], 1)) * g.dims[0] as u64 + axis(p[0], 0);
-        (cell, state.id[i])
-    };
-    let mut order: Vec<u32> = (0..state.len() as u32).collect();
-    order.sort_by_cached_key(|&i| key(i as usize));
-    state.permute(&order);
-}
-
 /// Neighbours a list row holds: a packing bound on the spheres of radius ≥ r_min whose centres
 /// lie within r_max + r_min + skin (density 0.75 of the ball of radius cutoff + r_min, radii
 /// shrunk by 10 % for overlaps), rounded up to a multiple of 4, between 32 and 256. A run that

@@ -24,6 +24,17 @@ pub const MAX_LIST: u32 = 256;
 /// workgroup's sum of 64 stays below 2^51 and the host's sum of them is exact in u64.
 pub const KE_BITS: i32 = 44;
 
+/// Entries (16 bytes each) of a particle's packed record before its history rows, for spheres
+/// and for oriented particles (`scatter` and `settle`).
+pub const PACKED_SPHERE: u32 = 7;
+pub const PACKED_ROD: u32 = 11;
+
+/// Bytes of the scratch that holds every slot's packed record when lists builds sort by cell.
+pub fn scratch_bytes(slots_total: usize, oriented: bool, history_slots: usize) -> u64 {
+    let head = if oriented { PACKED_ROD } else { PACKED_SPHERE };
+    slots_total as u64 * (head as u64 + history_slots as u64) * 16
+}
+
 /// Most walls a run may have (they live in one uniform array).
 pub const MAX_WALLS: usize = 16;
 
@@ -104,6 +115,9 @@ pub mod binding {
     pub const RECORDS: u32 = 19;
     /// Orientation, angular momentum and body inertia of oriented particles (`RodGpu`).
     pub const ROD: u32 = 18;
+    /// Every particle's record packed at its slot of the next order (`scatter` writes it,
+    /// `settle` unpacks it): `reorder.wgsl`.
+    pub const SCRATCH: u32 = 20;
 }
 
 /// WGSL constants generated from this file, prepended to `common.wgsl`.
@@ -114,7 +128,8 @@ pub fn prelude() -> String {
          const WALL_KEY: u32 = {}u;\nconst MAX_JOBS: u32 = {MAX_JOBS}u;\n\
          const MAX_WALLS_ALL: u32 = {}u;\nconst STATUS_WORDS: u32 = {STATUS_WORDS}u;\n\
          const SCAN_ITEMS: u32 = {SCAN_ITEMS}u;\nconst MAX_LIST: u32 = {MAX_LIST}u;\n\
-         const KE_BITS: i32 = {KE_BITS};\n",
+         const KE_BITS: i32 = {KE_BITS};\nconst PACKED_SPHERE: u32 = {PACKED_SPHERE}u;\n\
+         const PACKED_ROD: u32 = {PACKED_ROD}u;\n",
         crate::engine::history::wall_key(0),
         MAX_WALLS * MAX_JOBS
     );
@@ -209,8 +224,9 @@ pub struct Params {
     /// Cells per block of the cell-start scan (WORKGROUP_SIZE × SCAN_ITEMS).
     pub scan_chunk: u32,
     pub n_chunks: u32,
-    /// Unused (keeps the record's layout; the WGSL struct has the same two words).
-    pub pad0: u32,
+    /// 1: each list build also sorts the particles by cell (`scatter`, `settle`).
+    pub reorder: u32,
+    /// Unused (keeps the record's layout; the WGSL struct has the same word).
     pub pad1: u32,
     pub lo_x: f32,
     pub lo_y: f32,

@@ -1,6 +1,6 @@
 //! Shader modules, explicit bind-group layouts and compute pipelines, built once per engine; bind
 //! groups are rebuilt whenever the buffers are (each upload). Every kernel binds only the buffers
-//! it uses, at most 8 storage buffers (WebGPU's default per-stage limit), in group 0 with the
+//! it uses, at most `STORAGE_BUFFERS_PER_KERNEL` storage buffers (device.rs), in group 0 with the
 //! binding numbers of layout.rs.
 
 use std::num::NonZeroU64;
@@ -21,6 +21,10 @@ const GRID: &str = concat!(
     include_str!("shaders/common.wgsl"),
     include_str!("shaders/grid.wgsl")
 );
+const REORDER: &str = concat!(
+    include_str!("shaders/common.wgsl"),
+    include_str!("shaders/reorder.wgsl")
+);
 const CONTACTS: &str = concat!(
     include_str!("shaders/common.wgsl"),
     include_str!("shaders/walls.wgsl"),
@@ -28,21 +32,28 @@ const CONTACTS: &str = concat!(
     include_str!("shaders/rods.wgsl")
 );
 
-/// The three shader modules.
+/// The shader modules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Module {
     Integrate,
     Grid,
+    Reorder,
     Contacts,
 }
 
 impl Module {
-    const ALL: [Module; 3] = [Module::Integrate, Module::Grid, Module::Contacts];
+    const ALL: [Module; 4] = [
+        Module::Integrate,
+        Module::Grid,
+        Module::Reorder,
+        Module::Contacts,
+    ];
 
     fn source(self) -> &'static str {
         match self {
             Module::Integrate => INTEGRATE,
             Module::Grid => GRID,
+            Module::Reorder => REORDER,
             Module::Contacts => CONTACTS,
         }
     }
@@ -51,6 +62,7 @@ impl Module {
         match self {
             Module::Integrate => "integrate.wgsl",
             Module::Grid => "grid.wgsl",
+            Module::Reorder => "reorder.wgsl",
             Module::Contacts => "contacts.wgsl",
         }
     }
@@ -59,7 +71,11 @@ impl Module {
     fn read_only(self, binding: u32) -> bool {
         match self {
             Module::Integrate => matches!(binding, b::LOAD | b::REF_POS),
-            Module::Grid => matches!(binding, b::POS_R | b::INFO),
+            Module::Grid => matches!(
+                binding,
+                b::POS_R | b::INFO | b::VEL_IM | b::OMEGA | b::LOAD | b::HIST | b::ROD
+            ),
+            Module::Reorder => matches!(binding, b::CELL_START | b::SCRATCH),
             Module::Contacts => {
                 matches!(binding, b::POS_R | b::VEL_IM | b::OMEGA | b::INFO | b::NBR)
             }
@@ -87,10 +103,12 @@ pub mod kernel {
     pub const RECORD_CONTACTS: usize = 10;
     /// The chunk's fixed-point kinetic-energy sum, after `FINISH`.
     pub const ENERGY_SUM: usize = 11;
+    /// Unpacks the records `scatter` packed in cell order (a build that sorts by cell).
+    pub const SETTLE: usize = 12;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 12] = [
+pub const KERNELS: [KernelSpec; 13] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -178,6 +196,13 @@ pub const KERNELS: [KernelSpec; 12] = [
             b::CELL_RANK,
             b::CELL_START,
             b::SORTED,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::LOAD,
+            b::HIST,
+            b::ROD,
+            b::SCRATCH,
         ],
     },
     KernelSpec {
@@ -234,6 +259,23 @@ pub const KERNELS: [KernelSpec; 12] = [
         entry: "energy_sum",
         bindings: &[b::PARAMS, b::STATUS, b::ENERGY],
     },
+    KernelSpec {
+        module: Module::Reorder,
+        entry: "settle",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::HIST,
+            b::STATUS,
+            b::CELL_START,
+            b::ROD,
+            b::SCRATCH,
+        ],
+    },
 ];
 
 /// Smallest valid binding size of each buffer: one record.
@@ -244,6 +286,7 @@ fn min_size(binding: u32) -> u64 {
         b::LOAD => 32,
         b::STATUS => STATUS_WORDS as u64 * 4,
         b::EVENTS | b::CELL_RANK => 8,
+        b::SCRATCH => 16,
         b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED | b::ENERGY => 4,
         b::ROD => std::mem::size_of::<RodGpu>() as u64,
         b::RECORDS => std::mem::size_of::<RecordGpu>() as u64,

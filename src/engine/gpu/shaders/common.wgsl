@@ -45,7 +45,7 @@ struct Params {
     has_sink: u32,
     scan_chunk: u32,
     n_chunks: u32,
-    pad0: u32,
+    reorder: u32,
     pad1: u32,
     lo_x: f32,
     lo_y: f32,

@@ -16,6 +16,12 @@
 @group(0) @binding(14) var<storage, read_write> cell_start: array<u32>;
 @group(0) @binding(15) var<storage, read_write> chunk_sums: array<u32>;
 @group(0) @binding(16) var<storage, read_write> sorted: array<u32>;
+@group(0) @binding(3) var<storage, read> vel_im: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> omega: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> load: array<Load>;
+@group(0) @binding(7) var<storage, read> hist: array<Slot>;
+@group(0) @binding(18) var<storage, read> rod: array<Rod>;
+@group(0) @binding(20) var<storage, read_write> scratch: array<vec4<u32>>;
 
 // Whether a step before this one found the lists stale (this build is then void).
 fn void_build() -> bool {
@@ -167,6 +173,10 @@ fn scan_apply(
     }
 }
 
+// Each live particle's place in its cell's run of `sorted`. With `reorder`, that place is also
+// its slot from now on: the job's live particles fill the start of its block in cell order
+// (within a cell, in the atomics' order: nothing depends on it, reorder.wgsl), so `sorted` holds
+// the new slots and the particle's record goes to `scratch` for `settle` to unpack.
 @compute @workgroup_size(WG)
 fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -174,7 +184,45 @@ fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     enter(i);
     if (info[i].alive == 0u || params.running == 0u) { return; }
     let cr = cell_rank[i];
-    sorted[cell_start[cr.x] + cr.y] = i;
+    let s = cell_start[cr.x] + cr.y;
+    if (params.reorder == 0u) {
+        sorted[s] = i;
+        return;
+    }
+    let t = params.job * params.n_job + (s - cell_start[params.cell_offset]);
+    sorted[s] = t;
+    pack(i, t);
+}
+
+// Record entry q of slot t in `scratch` (slot-major, as the history rows).
+fn packed_at(t: u32, q: u32) -> u32 {
+    return q * params.n + t;
+}
+
+// Particle i's record, written at slot t of `scratch`: the layout `settle` reads.
+fn pack(i: u32, t: u32) {
+    scratch[packed_at(t, 0u)] = bitcast<vec4<u32>>(pos_r[i]);
+    scratch[packed_at(t, 1u)] = bitcast<vec4<u32>>(pos_r[lo_at(i)]);
+    scratch[packed_at(t, 2u)] = bitcast<vec4<u32>>(vel_im[i]);
+    scratch[packed_at(t, 3u)] = bitcast<vec4<u32>>(omega[i]);
+    let m = info[i];
+    scratch[packed_at(t, 4u)] =
+        vec4<u32>(m.id, m.alive, bitcast<u32>(m.mass), bitcast<u32>(m.inv_inertia));
+    scratch[packed_at(t, 5u)] = bitcast<vec4<u32>>(load[i].force);
+    scratch[packed_at(t, 6u)] = bitcast<vec4<u32>>(load[i].torque);
+    if (ORIENTED) {
+        scratch[packed_at(t, 7u)] = bitcast<vec4<u32>>(pos_r[shape_at(i)]);
+        let r = rod[i];
+        scratch[packed_at(t, 8u)] = bitcast<vec4<u32>>(r.q);
+        scratch[packed_at(t, 9u)] = bitcast<vec4<u32>>(r.ang_mom);
+        scratch[packed_at(t, 10u)] = bitcast<vec4<u32>>(r.inv_inertia_h);
+    }
+    let h0 = select(PACKED_SPHERE, PACKED_ROD, ORIENTED);
+    for (var q = 0u; q < params.slots; q++) {
+        let h = hist[slot_at(i, q)];
+        scratch[packed_at(t, h0 + q)] = vec4<u32>(bitcast<vec3<u32>>(h.spring), h.key);
+        if (h.key == EMPTY) { break; }
+    }
 }
 
 // The o-th (0, 1, 2) neighbour of cell c on an axis of n cells, or −1. On a periodic axis with
