@@ -69,6 +69,9 @@ impl Default for GpuOptions {
     }
 }
 
+/// A live slot as the device holds it: the particle's id and position (`slots_job`).
+pub type SlotView = (u32, [f32; 3]);
+
 /// The host's record of one job of the uploaded batch.
 struct JobRun {
     /// (id, mass) of the job's particles at the upload, by id: sink events name ids.
@@ -220,7 +223,7 @@ impl GpuEngine {
     ///
     /// # Errors
     /// A failed read-back.
-    pub fn slots_job(&self, j: usize) -> Result<Vec<Option<(u32, [f32; 3])>>, EngineError> {
+    pub fn slots_job(&self, j: usize) -> Result<Vec<Option<SlotView>>, EngineError> {
         let Some(run) = &self.run else {
             return Ok(Vec::new());
         };
@@ -367,7 +370,7 @@ impl GpuEngine {
         // Builds sort the particles by cell unless the scratch for it would not bind.
         let reorder = self.options.reorder_by_cell
             && scratch_bytes(total, self.oriented, self.slots)
-                <= self.dev.limits.max_storage_buffer_binding_size as u64;
+                <= self.dev.limits.max_storage_buffer_binding_size;
         let mut params = Vec::with_capacity(states.len());
         let mut offset = 0u32;
         for (j, g) in grids.iter().enumerate() {
