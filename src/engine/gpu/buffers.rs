@@ -453,7 +453,10 @@ pub fn read(dev: &GpuDevice, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u
 }
 
 /// Copies `(buffer, offset, bytes)` ranges into one MAP_READ buffer and returns their bytes.
-fn read_ranges(
+///
+/// # Errors
+/// As `read`.
+pub fn read_ranges(
     dev: &GpuDevice,
     parts: &[(&wgpu::Buffer, u64, u64)],
 ) -> Result<Vec<Vec<u8>>, EngineError> {

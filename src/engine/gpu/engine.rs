@@ -679,18 +679,16 @@ impl GpuEngine {
         let chunk = self.run_steps(run, steps)?;
         let n = run.bufs.n as u64;
         let groups = n.div_ceil(WORKGROUP_SIZE as u64);
-        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&buffers::read_at(
+        // One read-back: the status words and the energy's workgroup sums.
+        let parts = buffers::read_ranges(
             &self.dev,
-            &run.bufs.status,
-            0,
-            (jobs * STATUS_WORDS) as u64 * 4,
-        )?);
-        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&buffers::read_at(
-            &self.dev,
-            &run.bufs.energy,
-            n * 4,
-            groups * 8,
-        )?);
+            &[
+                (&run.bufs.status, 0, (jobs * STATUS_WORDS) as u64 * 4),
+                (&run.bufs.energy, n * 4, groups * 8),
+            ],
+        )?;
+        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
+        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&parts[1]);
         let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
         let mut outs = Vec::with_capacity(jobs);
         let mut updates = Vec::with_capacity(jobs);
