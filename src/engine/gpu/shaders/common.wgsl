@@ -227,6 +227,11 @@ fn slot_at(i: u32, s: u32) -> u32 {
     return s * params.n + i;
 }
 
+// Entry q of slot t's packed record in the cell-order scratch (grid.wgsl `pack`, reorder.wgsl).
+fn packed_at(t: u32, q: u32) -> u32 {
+    return q * params.n + t;
+}
+
 // Oriented runs keep a second block of n records after the positions in pos_r (the unit axis
 // and l/2 of particle i, derived from its orientation) and after the reference positions in
 // ref_pos (the axis at the last list build): the contact kernel binds no more buffers than the

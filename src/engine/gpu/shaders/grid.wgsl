@@ -194,11 +194,6 @@ fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     pack(i, t);
 }
 
-// Record entry q of slot t in `scratch` (slot-major, as the history rows).
-fn packed_at(t: u32, q: u32) -> u32 {
-    return q * params.n + t;
-}
-
 // Particle i's record, written at slot t of `scratch`: the layout `settle` reads.
 fn pack(i: u32, t: u32) {
     scratch[packed_at(t, 0u)] = bitcast<vec4<u32>>(pos_r[i]);

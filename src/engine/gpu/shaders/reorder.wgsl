@@ -16,10 +16,6 @@
 @group(0) @binding(18) var<storage, read_write> rod: array<Rod>;
 @group(0) @binding(20) var<storage, read> scratch: array<vec4<u32>>;
 
-fn packed_at(t: u32, q: u32) -> u32 {
-    return q * params.n + t;
-}
-
 fn f4(t: u32, q: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(scratch[packed_at(t, q)]);
 }
