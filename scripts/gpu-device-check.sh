@@ -22,7 +22,9 @@ bench 90 silo30k-batch16 --backend gpu --scene silo-bed --particles 30000 --step
 bench 90 silo1m --backend gpu --scene silo-bed --particles 1000000 --steps 300
 bench 60 rods100k --backend gpu --scene chute-rods --particles 100000 --steps 1000
 bench 60 cpu16-silo30k --backend cpu --threads 16 --scene silo-bed --particles 30000 --steps 300
-timeout 200 $B launch campaigns/silo_paper_one_gpu.json --db "$OUT/paper.db" --backend gpu \
+# The job's database and work directory (checkpoints) stay out of $OUT: only the text comes back.
+P=/tmp/sweep-paper
+mkdir -p "$P"
+timeout 200 $B launch campaigns/silo_paper_one_gpu.json --db "$P/paper.db" --backend gpu \
   > "$OUT/paper.txt" 2>&1
-$B status --db "$OUT/paper.db" >> "$OUT/paper.txt" 2>&1
-rm -f "$OUT/paper.db"*
+$B status --db "$P/paper.db" >> "$OUT/paper.txt" 2>&1
