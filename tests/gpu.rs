@@ -684,6 +684,15 @@ fn sweep_bench_runs_on_the_gpu() {
     // The engine's own count: a step without a list build is two dispatches.
     let per_steady = v["dispatches"]["per_steady_step"].as_u64().unwrap();
     assert!((1..=2).contains(&per_steady), "{}", v["dispatches"]);
+    // Every build of this small bed also sorts it by cell (its scratch binds anywhere).
+    let builds = v["dispatches"]["list_builds"].as_u64().unwrap();
+    assert!(builds > 0, "{}", v["dispatches"]);
+    assert_eq!(
+        v["dispatches"]["list_builds_sorting_by_cell"].as_u64(),
+        Some(builds),
+        "{}",
+        v["dispatches"]
+    );
     // f64 on the GPU is refused with a clear message.
     let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
         .current_dir(dir.path())

@@ -178,10 +178,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         if let Some(d) = &dispatches {
             println!(
-                "  dispatches: {:.2} per step, {} per steady step, {} list builds, {} steps voided and redone, {} submissions",
+                "  dispatches: {:.2} per step, {} per steady step, {} list builds ({} sorting by cell), {} steps voided and redone, {} submissions",
                 d.dispatches as f64 / d.steps.max(1) as f64,
                 d.max_steady_step,
                 d.builds,
+                d.sorting_builds,
                 d.voided_steps,
                 d.submissions
             );
@@ -311,6 +312,7 @@ pub fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
         steady_dispatches: d1.steady_dispatches - d0.steady_dispatches,
         max_steady_step: d1.max_steady_step,
         builds: d1.builds - d0.builds,
+        sorting_builds: d1.sorting_builds - d0.sorting_builds,
         voided_steps: d1.voided_steps - d0.voided_steps,
         submissions: d1.submissions - d0.submissions,
     }
@@ -324,6 +326,7 @@ pub fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
         "steps": d.steps,
         "total": d.dispatches,
         "list_builds": d.builds,
+        "list_builds_sorting_by_cell": d.sorting_builds,
         "voided_steps": d.voided_steps,
         "submissions": d.submissions,
     })

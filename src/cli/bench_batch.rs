@@ -63,10 +63,11 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
             rate / jobs as f64
         );
         println!(
-            "  dispatches: {:.2} per step, {} per steady step, {} list builds, {} steps voided and redone",
+            "  dispatches: {:.2} per step, {} per steady step, {} list builds ({} sorting by cell), {} steps voided and redone",
             d.dispatches as f64 / d.steps.max(1) as f64,
             d.max_steady_step,
             d.builds,
+            d.sorting_builds,
             d.voided_steps
         );
     }

@@ -57,6 +57,9 @@ pub struct DispatchCount {
     pub max_steady_step: u64,
     /// List builds recorded: at chunk starts, where the engine predicted one, and after a stale step.
     pub builds: u64,
+    /// Of those, builds that also sorted the particles by cell (GPU `reorder_by_cell`, when the
+    /// scratch it needs binds).
+    pub sorting_builds: u64,
     /// Steps recorded past a step whose lists were found stale: void on the device, redone.
     pub voided_steps: u64,
     /// Command buffers submitted.
@@ -72,6 +75,7 @@ impl DispatchCount {
         self.steady_dispatches += other.steady_dispatches;
         self.max_steady_step = self.max_steady_step.max(other.max_steady_step);
         self.builds += other.builds;
+        self.sorting_builds += other.sorting_builds;
         self.voided_steps += other.voided_steps;
         self.submissions += other.submissions;
     }

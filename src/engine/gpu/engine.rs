@@ -821,6 +821,7 @@ impl GpuEngine {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
         let gc = run.grid.n_chunks;
         let build_dispatches = BUILD_DISPATCHES + run.reorder as u8;
+        let sorting = run.reorder as u64;
         let pipes = &self.pipes;
         let binds = &run.binds;
         let mut dispatches = 0u64;
@@ -861,11 +862,13 @@ impl GpuEngine {
                 // NOTE: every chunk starts from fresh lists, as on the CPU.
                 build(&mut pass, &mut dispatch);
                 c.count.builds += 1;
+                c.count.sorting_builds += sorting;
             }
             if let Some(s) = c.redo.take() {
                 build(&mut pass, &mut dispatch);
                 dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
                 c.count.builds += 1;
+                c.count.sorting_builds += sorting;
                 c.builds.push(s as i64);
                 c.per_step[s as usize] = 1 + build_dispatches + 1;
             }
@@ -880,6 +883,7 @@ impl GpuEngine {
                 if due {
                     build(&mut pass, &mut dispatch);
                     c.count.builds += 1;
+                    c.count.sorting_builds += sorting;
                     c.builds.push(k as i64);
                     c.schedule.scheduled();
                 }
