@@ -81,6 +81,17 @@ fn batch(dev: &GpuDevice, jobs: &[(EngineConfig, State<f64>)]) -> GpuEngine {
     GpuEngine::batch(dev, configs, &states, GpuOptions::default()).unwrap()
 }
 
+/// `CHUNKS` chunks of the whole batch: each job's reports' bits per chunk.
+fn batch_reports(e: &mut GpuEngine) -> Vec<Vec<Vec<u64>>> {
+    let mut reports = vec![Vec::new(); e.jobs()];
+    for _ in 0..CHUNKS {
+        for (k, r) in e.advance_batch(STEPS).unwrap().into_iter().enumerate() {
+            reports[k].push(report_bits(&r.unwrap()));
+        }
+    }
+    reports
+}
+
 #[test]
 fn batched_jobs_give_the_bits_of_each_job_alone() {
     let Some(dev) = device() else { return };
@@ -93,12 +104,7 @@ fn batched_jobs_give_the_bits_of_each_job_alone() {
     );
     for j in [1, 3, 8] {
         let mut e = batch(&dev, &all[..j]);
-        let mut reports = vec![Vec::new(); j];
-        for _ in 0..CHUNKS {
-            for (k, r) in e.advance_batch(STEPS).unwrap().into_iter().enumerate() {
-                reports[k].push(report_bits(&r.unwrap()));
-            }
-        }
+        let reports = batch_reports(&mut e);
         eprintln!("J = {j}: {:?}", e.dispatches().unwrap());
         for k in 0..j {
             assert!(
@@ -129,12 +135,7 @@ fn batched_rods_give_the_bits_of_each_job_alone() {
         .collect();
     let solo: Vec<_> = rods.iter().map(|j| alone(&dev, j)).collect();
     let mut e = batch(&dev, &rods);
-    let mut reports = vec![Vec::new(); rods.len()];
-    for _ in 0..CHUNKS {
-        for (k, r) in e.advance_batch(STEPS).unwrap().into_iter().enumerate() {
-            reports[k].push(report_bits(&r.unwrap()));
-        }
-    }
+    let reports = batch_reports(&mut e);
     for k in 0..rods.len() {
         assert!(reports[k] == solo[k].0, "rod job {k}: chunk reports differ");
         let s = state_bits(&e.download_job(k).unwrap());
