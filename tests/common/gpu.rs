@@ -29,12 +29,18 @@ pub fn device() -> Option<GpuDevice> {
     .clone()
 }
 
-/// Every number of a state as bits (ids, positions, velocities, spins, forces, history, time and
-/// step): two states are the same run's only if these are equal.
+/// Every number of a state as bits (ids, positions, velocities, spins, forces and torques,
+/// angular momenta and orientations, history, time and step): two states are the same run's only if these are equal.
 pub fn state_bits(s: &sweep::engine::State<f64>) -> Vec<u64> {
     let mut out: Vec<u64> = s.id.iter().map(|&i| i as u64).collect();
     for v in s.pos.iter().chain(&s.vel).chain(&s.omega).chain(&s.force) {
         out.extend(v.to_f64().map(f64::to_bits));
+    }
+    for v in s.torque.iter().chain(&s.ang_mom) {
+        out.extend(v.to_f64().map(f64::to_bits));
+    }
+    for q in &s.orientation {
+        out.extend(q.to_f64().map(f64::to_bits));
     }
     for v in &s.history.spring {
         out.extend([v.x, v.y, v.z].map(f64::to_bits));

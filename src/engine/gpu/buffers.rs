@@ -5,6 +5,9 @@
 //! Scratch (lists, cells, scan runs, the axes derived from the orientations) lives here, not in
 //! State.
 //!
+//! Velocities and spins are kept like positions, each with its rest below f32's spacing
+//! (`kick_split` in common.wgsl): `vel_im` and `omega` hold n records then n rests.
+//!
 //! Oriented runs double two buffers instead of binding two more (the contact kernel already binds
 //! WebGPU's default 8 storage buffers): `pos_r` holds n positions then n shape records (unit axis,
 //! l/2), and `ref_pos` n reference positions then n reference axes for the skin criterion.
@@ -30,7 +33,11 @@ pub struct Packed {
     /// The rest of each position below f32's spacing at it (`position.rs`), fourth place zero.
     pub pos_lo: Vec<[f32; 4]>,
     pub vel_im: Vec<[f32; 4]>,
+    /// The rest of each velocity (`kick_split` in common.wgsl), fourth place zero.
+    pub vel_lo: Vec<[f32; 4]>,
     pub omega: Vec<[f32; 4]>,
+    /// The rest of each integrated spin: ω of spheres, L of oriented particles.
+    pub spin_lo: Vec<[f32; 4]>,
     pub info: Vec<Info>,
     pub load: Vec<Load>,
     /// Slot-major: slot s of particle i at s n + i.
@@ -61,6 +68,27 @@ impl Packed {
 
 fn f4(v: &V3<f64>, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// A vector split as the kernels keep it (`position::split`): the nearest f32 with `w`, and
+/// the rest with a zero fourth place.
+fn split4(v: &V3<f64>, w: f64) -> ([f32; 4], [f32; 4]) {
+    let (hi, lo) = split_v3::<f32>(v.to_f64());
+    ([hi.x, hi.y, hi.z, w as f32], [lo.x, lo.y, lo.z, 0.0])
+}
+
+/// hi + lo in f64, exact for a pair the kernels wrote (`f64_rest` in common.wgsl); a zero rest
+/// leaves hi as it is (its sign included), as `split` gives it back.
+fn join(hi: &[f32; 4], lo: Option<&[f32; 4]>) -> V3<f64> {
+    let lo = lo.copied().unwrap_or_default();
+    let one = |h: f32, l: f32| {
+        if l == 0.0 {
+            h as f64
+        } else {
+            h as f64 + l as f64
+        }
+    };
+    V3::new(one(hi[0], lo[0]), one(hi[1], lo[1]), one(hi[2], lo[2]))
 }
 
 /// The history of `s`, slot s of particle i at s n + i (the kernels' slot-major order).
@@ -96,9 +124,17 @@ pub fn pack(s: &State<f64>) -> Packed {
                 [lo.x, lo.y, lo.z, 0.0]
             })
             .collect(),
-        vel_im: (0..n).map(|i| f4(&s.vel[i], s.inv_mass[i])).collect(),
+        vel_im: (0..n).map(|i| split4(&s.vel[i], s.inv_mass[i]).0).collect(),
+        vel_lo: (0..n).map(|i| split4(&s.vel[i], 0.0).1).collect(),
+        // Oriented: ω is derived from L (whose rest this is).
         omega: (0..n)
-            .map(|i| f4(s.omega.get(i).unwrap_or(&zero), 0.0))
+            .map(|i| split4(s.omega.get(i).unwrap_or(&zero), 0.0).0)
+            .collect(),
+        spin_lo: (0..n)
+            .map(|i| {
+                let spin = if s.oriented { &s.ang_mom } else { &s.omega };
+                split4(spin.get(i).unwrap_or(&zero), 0.0).1
+            })
             .collect(),
         info: (0..n)
             .map(|i| Info {
@@ -127,7 +163,7 @@ pub fn pack(s: &State<f64>) -> Packed {
                     let [x, y, z, w] = s.orientation[i].to_f64();
                     RodGpu {
                         q: [x as f32, y as f32, z as f32, w as f32],
-                        ang_mom: f4(&s.ang_mom[i], 0.0),
+                        ang_mom: split4(&s.ang_mom[i], 0.0).0,
                         inv_inertia_h: f4(&s.inv_inertia_body[i], s.half_length[i]),
                     }
                 })
@@ -157,10 +193,9 @@ pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) ->
             continue;
         }
         s.id.push(info.id);
-        let (hi, lo) = (v(&p.pos_r[i]), p.pos_lo.get(i).map_or(V3::zero(), v));
-        s.pos.push(hi + lo);
+        s.pos.push(join(&p.pos_r[i], p.pos_lo.get(i)));
         s.radius.push(p.pos_r[i][3] as f64);
-        s.vel.push(v(&p.vel_im[i]));
+        s.vel.push(join(&p.vel_im[i], p.vel_lo.get(i)));
         s.inv_mass.push(p.vel_im[i][3] as f64);
         s.mass.push(info.mass as f64);
         s.force.push(v(&p.load[i].force));
@@ -170,11 +205,11 @@ pub fn unpack(p: &Packed, slots: usize, rotation: bool, time: f64, step: u64) ->
             s.torque.push(v(&p.load[i].torque));
             let q = r.q.map(|c| c as f64);
             s.orientation.push(Quat::from_f64(q));
-            s.ang_mom.push(v(&r.ang_mom));
+            s.ang_mom.push(join(&r.ang_mom, p.spin_lo.get(i)));
             s.inv_inertia_body.push(v(&r.inv_inertia_h));
             s.half_length.push(r.inv_inertia_h[3] as f64);
         } else if rotation {
-            s.omega.push(v(&p.omega[i]));
+            s.omega.push(join(&p.omega[i], p.spin_lo.get(i)));
             s.torque.push(v(&p.load[i].torque));
             s.inv_inertia.push(info.inv_inertia as f64);
         }
@@ -277,6 +312,7 @@ impl GpuBuffers {
         check("neighbour list", nbr_words * 4)?;
         check("load", n as u64 * 32)?;
         check("position", (blocks + 1) * n as u64 * 16)?;
+        check("velocity", 2 * n as u64 * 16)?;
         check("rod", p.rod.len() as u64 * 48)?;
         let reorder = params[0].reorder != 0;
         let scratch = if reorder {
@@ -320,8 +356,18 @@ impl GpuBuffers {
                 data.resize(((blocks + 1) as usize) * n, [0.0; 4]);
                 init("pos_r", bytemuck::cast_slice(&data), STORAGE)
             },
-            vel_im: init("vel_im", bytemuck::cast_slice(&p.vel_im), STORAGE),
-            omega: init("omega", bytemuck::cast_slice(&p.omega), STORAGE),
+            vel_im: {
+                let mut data = p.vel_im.clone();
+                data.extend(&p.vel_lo);
+                data.resize(2 * n, [0.0; 4]);
+                init("vel_im", bytemuck::cast_slice(&data), STORAGE)
+            },
+            omega: {
+                let mut data = p.omega.clone();
+                data.extend(&p.spin_lo);
+                data.resize(2 * n, [0.0; 4]);
+                init("omega", bytemuck::cast_slice(&data), STORAGE)
+            },
             info: init("info", bytemuck::cast_slice(&p.info), STORAGE),
             load: init("load", bytemuck::cast_slice(&p.load), STORAGE),
             hist: init("history", bytemuck::cast_slice(&p.hist), STORAGE),
@@ -397,8 +443,8 @@ impl GpuBuffers {
             dev,
             &[
                 (&self.pos_r, self.rest_block() * n * 16 + n * 16),
-                (&self.vel_im, n * 16),
-                (&self.omega, n * 16),
+                (&self.vel_im, 2 * n * 16),
+                (&self.omega, 2 * n * 16),
                 (&self.info, n * 16),
                 (&self.load, n * 32),
                 (&self.hist, n * self.slots as u64 * 16),
@@ -410,8 +456,10 @@ impl GpuBuffers {
             pos_lo: bytemuck::pod_collect_to_vec(
                 &parts[0][self.rest_block() as usize * self.n * 16..],
             ),
-            vel_im: bytemuck::pod_collect_to_vec(&parts[1]),
-            omega: bytemuck::pod_collect_to_vec(&parts[2]),
+            vel_im: bytemuck::pod_collect_to_vec(&parts[1][..self.n * 16]),
+            vel_lo: bytemuck::pod_collect_to_vec(&parts[1][self.n * 16..]),
+            omega: bytemuck::pod_collect_to_vec(&parts[2][..self.n * 16]),
+            spin_lo: bytemuck::pod_collect_to_vec(&parts[2][self.n * 16..]),
             info: bytemuck::pod_collect_to_vec(&parts[3]),
             load: bytemuck::pod_collect_to_vec(&parts[4]),
             hist: bytemuck::pod_collect_to_vec(&parts[5]),
@@ -526,7 +574,9 @@ impl Packed {
         self.pos_r.resize(n, [0.0; 4]);
         self.pos_lo.resize(n, [0.0; 4]);
         self.vel_im.resize(n, [0.0; 4]);
+        self.vel_lo.resize(n, [0.0; 4]);
         self.omega.resize(n, [0.0; 4]);
+        self.spin_lo.resize(n, [0.0; 4]);
         self.info.resize(n, Info::default());
         self.load.resize(n, Load::default());
         if oriented {
@@ -552,7 +602,9 @@ pub fn concat(jobs: Vec<Packed>, n_job: usize, slots: usize) -> Packed {
         out.pos_r.extend(p.pos_r);
         out.pos_lo.extend(p.pos_lo);
         out.vel_im.extend(p.vel_im);
+        out.vel_lo.extend(p.vel_lo);
         out.omega.extend(p.omega);
+        out.spin_lo.extend(p.spin_lo);
         out.info.extend(p.info);
         out.load.extend(p.load);
         out.rod.extend(p.rod);
@@ -577,7 +629,9 @@ pub fn block(p: &Packed, j: usize, n_job: usize, slots: usize) -> Packed {
         pos_r: p.pos_r[r.clone()].to_vec(),
         pos_lo: p.pos_lo[r.clone()].to_vec(),
         vel_im: p.vel_im[r.clone()].to_vec(),
+        vel_lo: p.vel_lo[r.clone()].to_vec(),
         omega: p.omega[r.clone()].to_vec(),
+        spin_lo: p.spin_lo[r.clone()].to_vec(),
         info: p.info[r.clone()].to_vec(),
         load: p.load[r.clone()].to_vec(),
         hist,

@@ -26,8 +26,8 @@ pub const KE_BITS: i32 = 44;
 
 /// Entries (16 bytes each) of a particle's packed record before its history rows, for spheres
 /// and for oriented particles (`scatter` and `settle`).
-pub const PACKED_SPHERE: u32 = 7;
-pub const PACKED_ROD: u32 = 11;
+pub const PACKED_SPHERE: u32 = 9;
+pub const PACKED_ROD: u32 = 13;
 
 /// Bytes of the scratch that holds every slot's packed record when lists builds sort by cell.
 pub fn scratch_bytes(slots_total: usize, oriented: bool, history_slots: usize) -> u64 {

@@ -176,6 +176,37 @@ fn two_sum(a: vec3<f32>, b: vec3<f32>) -> TwoSum {
     return r;
 }
 
+// The rest `lo` of hi + lo, cut toward zero to a multiple of 2^(E − 52) where 2^E ≤ |hi| < 2^(E+1):
+// then hi + lo is exact in f64, so a download (hi + lo in f64) and an upload (position::split)
+// give back the same pair, and a job resumed from a checkpoint, compacted or moved into a batch
+// goes on with the same bits. It drops less than 2⁻⁵² of |hi|. Integer masking, not ldexp,
+// whose 2^e would overflow f32 for small rests. A zero rest is +0 (what an upload makes of it).
+fn f64_rest1(hi: f32, lo: f32) -> f32 {
+    let eh = i32((bitcast<u32>(hi) >> 23u) & 0xffu);
+    let b = bitcast<u32>(lo);
+    // lo's lowest bit is 2^(el − 150) (subnormals: el = 1), f64's lowest beside hi 2^(eh − 179).
+    let el = max(i32((b >> 23u) & 0xffu), 1);
+    let drop = eh - el - 29;
+    if (lo == 0.0 || drop >= 24) { return 0.0; }
+    if (drop <= 0) { return lo; }
+    return bitcast<f32>(b & ~((1u << u32(drop)) - 1u));
+}
+
+fn f64_rest(hi: vec3<f32>, lo: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(f64_rest1(hi.x, lo.x), f64_rest1(hi.y, lo.y), f64_rest1(hi.z, lo.z));
+}
+
+// A kick of a split quantity (velocity, ω of spheres, L of oriented particles: value in one
+// record, rest at `rest_at`): hi + lo + d, with the rest kept exactly (TwoSum) and cut by
+// `f64_rest`. A step's two half kicks are two of these, and so are a chunk's closing half kick
+// and the next chunk's opening one: where a chunk ends changes no bit. In plain f32 the slow
+// part of a speed (g dt/2 is ~40 ulps of 2 m/s at dt = 10⁻⁶ s) was rounded away at every step.
+fn kick_split(hi: vec3<f32>, lo: vec3<f32>, d: vec3<f32>) -> TwoSum {
+    var r = two_sum(hi, d + lo);
+    r.e = f64_rest(r.s, r.e);
+    return r;
+}
+
 // x, hidden from the shader compiler's algebra: WGSL cannot mark arithmetic exact, and a
 // compiler free to use x − (x − a) = a would fold TwoSum's error term to zero. The condition
 // is false whenever a kernel runs (it has particles), but the compiler cannot know it.
@@ -237,6 +268,13 @@ fn packed_at(t: u32, q: u32) -> u32 {
 // ref_pos (the axis at the last list build): the contact kernel binds no more buffers than the
 // sphere kernel.
 fn shape_at(i: u32) -> u32 {
+    return params.n + i;
+}
+
+// Velocities (vel_im) and the spin buffer (omega) keep, after their n records, n records with
+// the rest of each value (`kick_split`; for oriented particles the rest of L, whose value is in
+// the rod record; the fourth place zero).
+fn rest_at(i: u32) -> u32 {
     return params.n + i;
 }
 

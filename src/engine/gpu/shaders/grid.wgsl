@@ -205,12 +205,14 @@ fn pack(i: u32, t: u32) {
         vec4<u32>(m.id, m.alive, bitcast<u32>(m.mass), bitcast<u32>(m.inv_inertia));
     scratch[packed_at(t, 5u)] = bitcast<vec4<u32>>(load[i].force);
     scratch[packed_at(t, 6u)] = bitcast<vec4<u32>>(load[i].torque);
+    scratch[packed_at(t, 7u)] = bitcast<vec4<u32>>(vel_im[rest_at(i)]);
+    scratch[packed_at(t, 8u)] = bitcast<vec4<u32>>(omega[rest_at(i)]);
     if (ORIENTED) {
-        scratch[packed_at(t, 7u)] = bitcast<vec4<u32>>(pos_r[shape_at(i)]);
+        scratch[packed_at(t, 9u)] = bitcast<vec4<u32>>(pos_r[shape_at(i)]);
         let r = rod[i];
-        scratch[packed_at(t, 8u)] = bitcast<vec4<u32>>(r.q);
-        scratch[packed_at(t, 9u)] = bitcast<vec4<u32>>(r.ang_mom);
-        scratch[packed_at(t, 10u)] = bitcast<vec4<u32>>(r.inv_inertia_h);
+        scratch[packed_at(t, 10u)] = bitcast<vec4<u32>>(r.q);
+        scratch[packed_at(t, 11u)] = bitcast<vec4<u32>>(r.ang_mom);
+        scratch[packed_at(t, 12u)] = bitcast<vec4<u32>>(r.inv_inertia_h);
     }
     let h0 = select(PACKED_SPHERE, PACKED_ROD, ORIENTED);
     for (var q = 0u; q < params.slots; q++) {

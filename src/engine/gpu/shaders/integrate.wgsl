@@ -1,5 +1,5 @@
 // Velocity Verlet with the fused kick of cpu/rods.rs: `kick_drift` kicks by dt/2 at a chunk's first
-// step and by dt after (the previous step's closing half kick and this step's opening one),
+// step and by two dt/2 after (the previous step's closing half kick and this step's opening one),
 // drifts, wraps, flags sink deaths and list staleness, and for oriented runs turns the particle
 // (rotate.wgsl) in the same invocation; `close_kick` is the chunk's closing half kick; `finish`
 // checks finiteness, counts contacts and sums the kinetic energy per workgroup.
@@ -40,17 +40,30 @@ fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // The translational kick and drift of particle i at step k, the sink and (spheres) the skin.
+// A chunk's first step kicks by dt/2; every other step by the previous step's closing dt/2 and
+// then its own opening dt/2, two `kick_split`s, as a chunk's close_kick and the next chunk's
+// first step do.
 fn translate(i: u32, k: u32) {
-    let kick = select(params.dt, params.half_dt, k == 0u);
+    let half = params.half_dt;
     if (ROTATION && !ORIENTED) {
         // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
-        let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * kick);
-        omega[i] = vec4<f32>(w, 0.0);
+        let dw = load[i].torque.xyz * (info[i].inv_inertia * half);
+        var w = kick_split(omega[i].xyz, omega[rest_at(i)].xyz, dw);
+        if (k > 0u) {
+            w = kick_split(w.s, w.e, dw);
+        }
+        omega[i] = vec4<f32>(w.s, 0.0);
+        omega[rest_at(i)] = vec4<f32>(w.e, 0.0);
     }
     let vi = vel_im[i];
     let im = vi.w;
     if (im == 0.0 || info[i].alive == 0u) { return; }
-    let v = vi.xyz + (load[i].force.xyz * im + gravity()) * kick;
+    let dv = (load[i].force.xyz * im + gravity()) * half;
+    var vs = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
+    if (k > 0u) {
+        vs = kick_split(vs.s, vs.e, dv);
+    }
+    let v = vs.s;
     // The split drift (position::drift), then the wrap's shift added the same way.
     let moved = two_sum(pos_r[i].xyz, v * params.dt + pos_r[lo_at(i)].xyz);
     var x = moved.s;
@@ -62,6 +75,8 @@ fn translate(i: u32, k: u32) {
         x = back.s;
         lo = back.e;
     }
+    lo = f64_rest(x, lo);
+    vel_im[rest_at(i)] = vec4<f32>(vs.e, 0.0);
     vel_im[i] = vec4<f32>(v, im);
     pos_r[i] = vec4<f32>(x, pos_r[i].w);
     pos_r[lo_at(i)] = vec4<f32>(lo, 0.0);
@@ -88,12 +103,16 @@ fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
     let vi = vel_im[i];
     let im = vi.w;
     if (im != 0.0 && info[i].alive != 0u) {
-        let v = vi.xyz + (load[i].force.xyz * im + gravity()) * half;
-        vel_im[i] = vec4<f32>(v, im);
+        let dv = (load[i].force.xyz * im + gravity()) * half;
+        let v = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
+        vel_im[i] = vec4<f32>(v.s, im);
+        vel_im[rest_at(i)] = vec4<f32>(v.e, 0.0);
     }
     if (ROTATION && !ORIENTED) {
-        let w = omega[i].xyz + load[i].torque.xyz * (info[i].inv_inertia * half);
-        omega[i] = vec4<f32>(w, 0.0);
+        let dw = load[i].torque.xyz * (info[i].inv_inertia * half);
+        let w = kick_split(omega[i].xyz, omega[rest_at(i)].xyz, dw);
+        omega[i] = vec4<f32>(w.s, 0.0);
+        omega[rest_at(i)] = vec4<f32>(w.e, 0.0);
     }
     if (ORIENTED) {
         // oriented::close_kick: L gets the half kick, ω is refreshed from it (every particle,
@@ -101,9 +120,10 @@ fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
         let r = rod[i];
         let inv = r.inv_inertia_h.xyz;
         if (inv.x != 0.0) {
-            let l = r.ang_mom.xyz + load[i].torque.xyz * half;
-            rod[i].ang_mom = vec4<f32>(l, 0.0);
-            omega[i] = vec4<f32>(angular_velocity(r.q, inv, l), 0.0);
+            let l = kick_split(r.ang_mom.xyz, omega[rest_at(i)].xyz, load[i].torque.xyz * half);
+            rod[i].ang_mom = vec4<f32>(l.s, 0.0);
+            omega[rest_at(i)] = vec4<f32>(l.e, 0.0);
+            omega[i] = vec4<f32>(angular_velocity(r.q, inv, l.s), 0.0);
         }
     }
 }

@@ -48,9 +48,11 @@ fn settle(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = scratch[packed_at(t, 4u)];
     info[t] = Info(m.x, m.y, bitcast<f32>(m.z), bitcast<f32>(m.w));
     load[t] = Load(f4(t, 5u), f4(t, 6u));
+    vel_im[rest_at(t)] = f4(t, 7u);
+    omega[rest_at(t)] = f4(t, 8u);
     if (ORIENTED) {
-        pos_r[shape_at(t)] = f4(t, 7u);
-        rod[t] = Rod(f4(t, 8u), f4(t, 9u), f4(t, 10u));
+        pos_r[shape_at(t)] = f4(t, 9u);
+        rod[t] = Rod(f4(t, 10u), f4(t, 11u), f4(t, 12u));
     }
     let h0 = select(PACKED_SPHERE, PACKED_ROD, ORIENTED);
     var open = true;

@@ -91,21 +91,27 @@ fn rotate_free_symmetric(q: vec4<f32>, l: vec3<f32>, inv: vec3<f32>, dt: f32) ->
 }
 
 // After the translation of oriented particle i at step k: kick L by the torque (dt/2 at a
-// chunk's first step, dt after), turn freely for dt, refresh ω and the axis; then flag the lists
+// chunk's first step, two dt/2 after), turn freely for dt, refresh ω and the axis; then flag the lists
 // stale when the ends may have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu|
 // (as cpu/rods.rs).
 fn kick_rotate(i: u32, k: u32) {
     if (vel_im[i].w == 0.0 || info[i].alive == 0u) { return; }
-    let kick = select(params.dt, params.half_dt, k == 0u);
     let r = rod[i];
     let inv = r.inv_inertia_h.xyz;
     let h = r.inv_inertia_h.w;
     var turned = 0.0;
     if (inv.x != 0.0) {
-        let l = r.ang_mom.xyz + load[i].torque.xyz * kick;
+        // Two half kicks after a chunk's first step, as translate.
+        let dl = load[i].torque.xyz * params.half_dt;
+        var ls = kick_split(r.ang_mom.xyz, omega[rest_at(i)].xyz, dl);
+        if (k > 0u) {
+            ls = kick_split(ls.s, ls.e, dl);
+        }
+        let l = ls.s;
         let q = rotate_free_symmetric(r.q, l, inv, params.dt);
         rod[i].q = q;
         rod[i].ang_mom = vec4<f32>(l, 0.0);
+        omega[rest_at(i)] = vec4<f32>(ls.e, 0.0);
         omega[i] = vec4<f32>(angular_velocity(q, inv, l), 0.0);
         let u = axis_z(q);
         pos_r[shape_at(i)] = vec4<f32>(u, h);
