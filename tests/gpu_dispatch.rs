@@ -23,14 +23,9 @@ fn engine(dev: &GpuDevice, n: usize) -> GpuEngine {
     GpuEngine::new(dev, sc.config, &sc.state, GpuOptions::default()).expect("GPU engine")
 }
 
-/// The bed stirred: every particle given a velocity of up to 4 m/s, so that the lists go stale
-/// every few steps.
+/// The bed stirred (`stirred_scene`) on the GPU.
 fn stirred(dev: &GpuDevice, n: usize, options: GpuOptions) -> GpuEngine {
-    let mut sc = sweep::bench::scene("silo-bed", n, 7).expect("bench scene");
-    for (i, v) in sc.state.vel.iter_mut().enumerate() {
-        let a = i as f64;
-        *v = sweep::engine::V3::from_f64([(1.3 * a).sin(), (0.7 * a).cos(), (2.1 * a).sin()]) * 4.0;
-    }
+    let sc = stirred_scene("silo-bed", n);
     GpuEngine::new(dev, sc.config, &sc.state, options).expect("GPU engine")
 }
 
