@@ -676,19 +676,14 @@ impl GpuEngine {
         self.dev
             .queue
             .write_buffer(&run.bufs.status, 0, bytemuck::cast_slice(&initial));
-        let chunk = self.run_steps(run, steps)?;
-        let n = run.bufs.n as u64;
-        let groups = n.div_ceil(WORKGROUP_SIZE as u64);
-        // One read-back: the status words and the energy's workgroup sums.
-        let parts = buffers::read_ranges(
-            &self.dev,
-            &[
-                (&run.bufs.status, 0, (jobs * STATUS_WORDS) as u64 * 4),
-                (&run.bufs.energy, n * 4, groups * 8),
-            ],
-        )?;
-        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
-        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&parts[1]);
+        let mut chunk = self.run_steps(run, steps)?;
+        // The status words and the energy's workgroup sums, copied by the closing submission.
+        let closing = chunk.closing_read.take().ok_or_else(|| {
+            EngineError::Device("the chunk's closing read-back never completed".into())
+        })?;
+        let status_bytes = jobs * STATUS_WORDS * 4;
+        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&closing[..status_bytes]);
+        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&closing[status_bytes..]);
         let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
         let mut outs = Vec::with_capacity(jobs);
         let mut updates = Vec::with_capacity(jobs);
@@ -766,6 +761,7 @@ impl GpuEngine {
             builds: vec![-1],
             per_step: Vec::with_capacity(steps as usize),
             count: DispatchCount::default(),
+            closing_read: None,
         };
         let mut flight: VecDeque<InFlight> = VecDeque::new();
         loop {
@@ -777,8 +773,11 @@ impl GpuEngine {
             let Some(f) = flight.pop_front() else {
                 break;
             };
-            let stale = f.wait(&self.dev)?;
+            let (stale, closing) = f.wait(&self.dev)?;
             if stale == u32::MAX {
+                if closing.is_some() {
+                    c.closing_read = closing;
+                }
                 continue;
             }
             // Everything recorded past step `stale` (this buffer's rest and the next one's) was
@@ -825,6 +824,7 @@ impl GpuEngine {
         let pipes = &self.pipes;
         let binds = &run.binds;
         let mut dispatches = 0u64;
+        let mut closing = false;
         let mut dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
             pass.set_pipeline(&pipes.pipelines[k]);
             pass.set_bind_group(0, &binds.0[k], &[]);
@@ -901,15 +901,35 @@ impl GpuEngine {
                 dispatch(&mut pass, kernel::FINISH, gp);
                 dispatch(&mut pass, kernel::ENERGY_SUM, gp);
                 c.closed = true;
+                closing = true;
             }
         }
+        // The stale word; after the closing passes also every job's status words and the
+        // energy's workgroup sums, so the chunk's end needs no read-back of its own.
+        let n = run.bufs.n as u64;
+        let status_bytes = (self.jobs() * STATUS_WORDS) as u64 * 4;
+        let sums_bytes = n.div_ceil(WORKGROUP_SIZE as u64) * 8;
         let stale = self.dev.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stale step"),
-            size: 4,
+            size: if closing {
+                4 + status_bytes + sums_bytes
+            } else {
+                4
+            },
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         enc.copy_buffer_to_buffer(&run.bufs.status, ST_STALE as u64 * 4, &stale, 0, 4);
+        if closing {
+            enc.copy_buffer_to_buffer(&run.bufs.status, 0, &stale, 4, status_bytes);
+            enc.copy_buffer_to_buffer(
+                &run.bufs.energy,
+                n * 4,
+                &stale,
+                4 + status_bytes,
+                sums_bytes,
+            );
+        }
         let index = self.dev.queue.submit([enc.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         stale.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -917,7 +937,12 @@ impl GpuEngine {
         });
         c.count.dispatches += dispatches;
         c.count.submissions += 1;
-        InFlight { index, stale, rx }
+        InFlight {
+            index,
+            stale,
+            rx,
+            closing,
+        }
     }
 }
 
@@ -942,6 +967,9 @@ struct Chunk {
     /// Dispatches recorded per step taken.
     per_step: Vec<u8>,
     count: DispatchCount,
+    /// Every job's status words then the energy's workgroup sums, as the closing submission
+    /// copied them (once it completed without a stale step).
+    closing_read: Option<Vec<u8>>,
 }
 
 /// A submitted command buffer and the pending read of its stale word.
@@ -949,11 +977,14 @@ struct InFlight {
     index: wgpu::SubmissionIndex,
     stale: wgpu::Buffer,
     rx: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+    /// Whether it records the chunk's closing passes (and copies their results).
+    closing: bool,
 }
 
 impl InFlight {
-    /// Waits for the buffer and returns the first stale step it saw (u32::MAX: none).
-    fn wait(self, dev: &GpuDevice) -> Result<u32, EngineError> {
+    /// Waits for the buffer and returns the first stale step it saw (u32::MAX: none) and, for the
+    /// closing submission, the status words and energy sums it copied.
+    fn wait(self, dev: &GpuDevice) -> Result<(u32, Option<Vec<u8>>), EngineError> {
         dev.device
             .poll(wgpu::PollType::Wait {
                 submission_index: Some(self.index),
@@ -972,7 +1003,8 @@ impl InFlight {
             .get_mapped_range(..)
             .map_err(|e| EngineError::Device(format!("reading the status back: {e}")))?;
         let word = u32::from_le_bytes([view[0], view[1], view[2], view[3]]);
-        Ok(word)
+        let closing = self.closing.then(|| view[4..].to_vec());
+        Ok((word, closing))
     }
 }
 
