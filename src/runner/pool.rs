@@ -75,9 +75,14 @@ pub fn run_pending(
     let summary = Arc::new(Mutex::new(PoolSummary::default()));
     let done_count = Arc::new(AtomicUsize::new(already_done));
     let mut handles = Vec::new();
-    // GPU jobs running at the same time share engines (CPU jobs never join one).
-    let batches = (opts.batch > 1 && parallel > 1)
-        .then(|| Arc::new(super::gpu_batch::GpuBatches::new(opts.batch.min(parallel))));
+    // GPU jobs share one device (a silo job's fill and run included), and those running at the
+    // same time share engines (CPU jobs never join one).
+    let capacity = if parallel > 1 {
+        opts.batch.clamp(1, parallel)
+    } else {
+        1
+    };
+    let batches = Some(Arc::new(super::gpu_batch::GpuBatches::new(capacity)));
     for _ in 0..parallel {
         let opts = opts.clone();
         let batches = batches.clone();

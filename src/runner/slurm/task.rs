@@ -146,7 +146,10 @@ pub fn run_task(o: &TaskOptions) -> anyhow::Result<TaskEnd> {
         work_dir: o.work_dir.clone(),
         backend: o.backend,
         gpu: o.gpu,
-        batches: None,
+        // One device for the job's fill and run; a task runs one job, so no engine is shared.
+        batches: Some(std::sync::Arc::new(
+            crate::runner::gpu_batch::GpuBatches::new(1),
+        )),
         threads,
         checkpoint_interval_s: spec.checkpoint_interval_s,
         interrupt: interrupt.clone(),
