@@ -41,6 +41,7 @@ CREATE TABLE IF NOT EXISTS jobs (
     adapter         TEXT,
     precision       TEXT,
     backend_note    TEXT,                  -- why this backend: auto's reason for the CPU, a software adapter allowed
+    threads         INTEGER,               -- engine threads it ran with (core-hours = wall_time_s × threads)
     program_version TEXT,
     created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     finished_at     TEXT
@@ -351,4 +352,31 @@ CREATE TABLE IF NOT EXISTS target_work (
     ci95_rel_expected REAL,            -- what the work should bring the point to
     particle_steps_expected REAL NOT NULL,
     created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+
+-- A campaign's claims, decided at each look: after its first runs (round 0) and after each
+-- round of added work. Intervals are at `level` (α split over the campaign's looks).
+CREATE TABLE IF NOT EXISTS claim_verdicts (
+    campaign_id     INTEGER NOT NULL REFERENCES campaigns(id),
+    round           INTEGER NOT NULL,
+    claim_id        TEXT NOT NULL,
+    statement       TEXT NOT NULL,
+    paper           TEXT NOT NULL,     -- where the paper says it
+    paper_value     TEXT NOT NULL,     -- the paper's number, as text
+    test            TEXT NOT NULL,     -- 'compare', 'trend', 'minimum_inside', 'fit'
+    what            TEXT NOT NULL,     -- what the value is ("q ratio", "janda d_min_m")
+    verdict         TEXT NOT NULL CHECK (verdict IN ('supported', 'contradicted', 'undecided')),
+    value           REAL,              -- at the pooled means; NULL: not computable yet
+    lo              REAL,              -- interval at `level`; NULL: unknown
+    hi              REAL,
+    level           REAL NOT NULL,     -- two-sided confidence of [lo, hi] at this look
+    bound           TEXT NOT NULL,     -- what supports the claim: '< 1', '> 0', 'in [a, b]'
+    points          TEXT NOT NULL,     -- the points read, '; '-separated labels
+    note            TEXT NOT NULL,     -- why undecided without an interval; a reversed step
+    particle_steps  REAL NOT NULL,     -- spent on the points read, fills included
+    wall_s          REAL NOT NULL,     -- their jobs' wall time
+    forecast_particle_steps REAL,      -- still needed to decide (undecided only; NULL: unknown)
+    forecast_wall_s REAL,
+    created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    PRIMARY KEY (campaign_id, round, claim_id)
 );

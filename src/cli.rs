@@ -3,6 +3,7 @@
 mod bench;
 mod bench_batch;
 mod cancel;
+mod claims;
 mod collect;
 mod export;
 mod fields;

@@ -287,6 +287,9 @@ mod tests {
             max_replicas: 3,
             max_time_s: Some(20.0),
             max_rounds: 8,
+            claims: None,
+            max_core_hours: None,
+            allocation: Default::default(),
         }
     }
 

@@ -505,7 +505,15 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
     if let Some(t) = &c.target {
         let own = jobs.iter().map(JobSpec::own_time_s).fold(0.0, f64::max);
         problems.extend(t.problems(c.scene, c.replicas, own));
+        if t.decides_claims() && c.claims.is_empty() {
+            problems.push(FieldProblem {
+                path: "target.claims".into(),
+                message: "\"decided\" needs claims: expected a non-empty top-level `claims` list"
+                    .into(),
+            });
+        }
     }
+    problems.extend(super::claims::problems(c, &jobs));
     if !problems.is_empty() {
         return Err(CampaignError::Invalid {
             file: file.into(),

@@ -154,6 +154,12 @@ pub struct CampaignFile {
     /// until it does or a cap is reached. Absent: the jobs run as written.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<super::target::Target>,
+    /// The paper's statements this campaign decides, each with one test on pooled results
+    /// (`compare`, `trend`, `minimum_inside`, `fit`). Part of the file's version, not of any
+    /// job's identity. With `"target": {"claims": "decided"}` sweep adds work until each is
+    /// supported or contradicted.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub claims: Vec<crate::observe::claims::Claim>,
 }
 
 impl CampaignFile {

@@ -2,6 +2,7 @@
 //! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
 
 pub mod adaptive;
+pub mod claims;
 mod diff;
 mod duplicates;
 mod error;
@@ -18,10 +19,10 @@ pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::{expand, key_with, JobSpec};
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
-pub use point::point_key;
+pub use point::{label_without_replica, point_key, point_params};
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};
 pub use schema::campaign_schema;
-pub use target::Target;
+pub use target::{Allocation, ClaimsGoal, Target};
 
 /// Reads, parses, validates and expands a campaign file.
 ///

@@ -17,6 +17,34 @@ pub fn point_key(params_json: &str) -> String {
     v.to_string()
 }
 
+/// A job label without its `replica=K` part: "a=1,b=2,replica=3" → "a=1,b=2".
+pub fn label_without_replica(label: &str) -> String {
+    label
+        .split(',')
+        .filter(|part| !part.trim_start().starts_with("replica="))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// The numeric scene parameters of a job's stored parameters (`jobs.params_json`), by name,
+/// without the replica index: what a claim's `at` picks points by.
+pub fn point_params(params_json: &str) -> std::collections::BTreeMap<String, f64> {
+    let mut out = std::collections::BTreeMap::new();
+    let Ok(v) = serde_json::from_str::<Value>(params_json) else {
+        return out;
+    };
+    for scene in ["silo", "chute"] {
+        if let Some(Value::Object(p)) = v.get(scene) {
+            for (k, x) in p {
+                if let (false, Some(x)) = (k == "replica", x.as_f64()) {
+                    out.insert(k.clone(), x);
+                }
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

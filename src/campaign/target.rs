@@ -35,6 +35,42 @@ pub struct Target {
     /// piece of work, then evaluates again).
     #[serde(default = "default_max_rounds")]
     pub max_rounds: u32,
+    /// "decided": instead of an interval per point, run until every claim of the file is
+    /// supported or contradicted, adding work where a claim is least decided.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub claims: Option<ClaimsGoal>,
+    /// The most core-hours (jobs' wall time × their threads) the campaign may spend in all,
+    /// its first runs included; absent: no cap but the rounds'.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_core_hours: Option<f64>,
+    /// How a claims target spreads its work: "adaptive" (default: the points whose uncertainty
+    /// most keeps a claim undecided, cheapest decision first) or "uniform" (every point run on
+    /// equally each round: the design to measure the adaptive one against).
+    #[serde(default, skip_serializing_if = "Allocation::is_adaptive")]
+    pub allocation: Allocation,
+}
+
+/// What a claims target runs until.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ClaimsGoal {
+    /// Every claim supported or contradicted (or the budget spent).
+    Decided,
+}
+
+/// How a claims target spreads its work over the points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Allocation {
+    #[default]
+    Adaptive,
+    Uniform,
+}
+
+impl Allocation {
+    pub fn is_adaptive(&self) -> bool {
+        *self == Allocation::Adaptive
+    }
 }
 
 fn default_max_replicas() -> u32 {
@@ -46,6 +82,32 @@ fn default_max_rounds() -> u32 {
 }
 
 impl Target {
+    /// A campaign with claims and no target: its claims are looked at once, at 95 %, and no
+    /// work is added.
+    pub fn claims_looked_at_once() -> Target {
+        Target {
+            q_ci95_rel: None,
+            d_ci95_rel: None,
+            max_replicas: 1,
+            max_time_s: None,
+            max_rounds: 0,
+            claims: None,
+            max_core_hours: None,
+            allocation: Allocation::Adaptive,
+        }
+    }
+
+    /// Whether the target runs until the file's claims are decided.
+    pub fn decides_claims(&self) -> bool {
+        self.claims == Some(ClaimsGoal::Decided)
+    }
+
+    /// How many times the claims are looked at in all: after the first runs and after each
+    /// round. The error rate is split over these looks.
+    pub fn looks(&self) -> u32 {
+        self.max_rounds + 1
+    }
+
     /// The relative half-width asked for the campaign's observable.
     pub fn ci95_rel(&self) -> f64 {
         self.q_ci95_rel.or(self.d_ci95_rel).unwrap_or(f64::NAN)
@@ -70,7 +132,28 @@ impl Target {
                 message,
             })
         };
+        if let Some(h) = self.max_core_hours {
+            if !(h > 0.0 && h.is_finite()) {
+                bad(
+                    "max_core_hours",
+                    format!("expected core-hours > 0, got {h}"),
+                );
+            }
+        }
+        if self.decides_claims() {
+            for (field, v) in [
+                ("q_ci95_rel", self.q_ci95_rel),
+                ("d_ci95_rel", self.d_ci95_rel),
+            ] {
+                if v.is_some() {
+                    bad(field, "a target runs either until its claims are decided or until each point's interval is met; expected one of claims and this".into());
+                }
+            }
+        } else if self.max_core_hours.is_some() || !self.allocation.is_adaptive() {
+            bad("claims", "max_core_hours and allocation belong to a claims target; expected \"claims\": \"decided\"".into());
+        }
         match scene {
+            _ if self.decides_claims() => {}
             SceneKind::Silo => {
                 if self.q_ci95_rel.is_none() {
                     bad(

@@ -173,30 +173,32 @@ fn pursue_target(
                 print_points(&points);
                 return Ok(code);
             }
+            RoundOutcome::Claims(round) => {
+                super::claims::print_round(&round);
+                if round.work.is_empty() {
+                    return Ok(code);
+                }
+                print_work(&round.work);
+                let t = sweep::store::job_counts::campaign_done_count(&conn, cid)?;
+                let total = sweep::store::targets::campaign_jobs(&conn, cid)?.len();
+                drop(conn);
+                code = run_jobs(
+                    r,
+                    work.to_path_buf(),
+                    Some(cid),
+                    None,
+                    checkpoint_interval_s,
+                    total,
+                    t as usize,
+                )?;
+            }
             RoundOutcome::Work {
-                round,
+                round: _,
                 work: added,
                 points,
             } => {
                 print_points(&points);
-                println!("target: round {round}: {} piece(s) of work", added.len());
-                for w in &added {
-                    let what = if w.action == "extend" {
-                        format!(
-                            "job {} runs on {:.2} -> {:.2} s",
-                            w.job_id, w.from_s, w.to_s
-                        )
-                    } else {
-                        format!("new replica, job {}", w.job_id)
-                    };
-                    println!(
-                        "  {}: {what}  (CI {} -> expected {}, {:.2e} particle-steps)",
-                        w.point,
-                        pct(w.ci95_rel_before),
-                        pct(w.ci95_rel_expected),
-                        w.particle_steps_expected
-                    );
-                }
+                print_work(&added);
                 let t = sweep::store::job_counts::campaign_done_count(&conn, cid)?;
                 let total = sweep::store::targets::campaign_jobs(&conn, cid)?.len();
                 drop(conn);
@@ -211,6 +213,33 @@ fn pursue_target(
                 )?;
             }
         }
+    }
+}
+
+/// One line per piece of work a round added.
+fn print_work(added: &[sweep::store::targets::WorkRow]) {
+    let Some(first) = added.first() else { return };
+    println!(
+        "target: round {}: {} piece(s) of work",
+        first.round,
+        added.len()
+    );
+    for w in added {
+        let what = if w.action == "extend" {
+            format!(
+                "job {} runs on {:.2} -> {:.2} s",
+                w.job_id, w.from_s, w.to_s
+            )
+        } else {
+            format!("new replica, job {}", w.job_id)
+        };
+        println!(
+            "  {}: {what}  (CI {} -> expected {}, {:.2e} particle-steps)",
+            w.point,
+            pct(w.ci95_rel_before),
+            pct(w.ci95_rel_expected),
+            w.particle_steps_expected
+        );
     }
 }
 

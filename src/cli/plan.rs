@@ -213,6 +213,9 @@ fn target_forecast(
     bench_rate: Option<f64>,
 ) -> anyhow::Result<()> {
     use sweep::campaign::adaptive::forecast;
+    if t.decides_claims() {
+        return claims_forecast(conn, name, t);
+    }
     println!(
         "target: {} <= ±{:.1} % at every point (max_replicas {}, max_time_s {}, max_rounds {})",
         if t.q_ci95_rel.is_some() {
@@ -278,6 +281,66 @@ fn target_forecast(
             ", about {:.0} s of one job's throughput here (the jobs' own rate, measured; divide by the jobs run side by side)",
             w
         ))
+    );
+    Ok(())
+}
+
+/// A claims target's plan: the claims' verdicts on what has run (not stored), each undecided
+/// one with the particle-steps and wall time still forecast to decide it.
+fn claims_forecast(
+    conn: Option<&rusqlite::Connection>,
+    name: &str,
+    t: &sweep::campaign::Target,
+) -> anyhow::Result<()> {
+    println!(
+        "target: every claim decided (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {:?})",
+        t.max_rounds,
+        t.max_replicas,
+        t.max_time_s.map_or_else(|| "none".into(), |m| format!("{m} s")),
+        t.max_core_hours.map_or_else(|| "none".into(), |h| format!("{h}")),
+        t.allocation
+    );
+    let campaign = match conn {
+        Some(c) => sweep::store::campaign_reads::campaign_named(c, name, None)?,
+        None => None,
+    };
+    let (Some(conn), Some(campaign)) = (conn, campaign) else {
+        println!(
+            "  the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs"
+        );
+        return Ok(());
+    };
+    let ev = sweep::runner::adaptive::evaluate_for(conn, campaign.id, Some(t))?;
+    if ev.open > 0 {
+        println!(
+            "  ({} job(s) of the campaign not ended: the verdicts use the ended ones)",
+            ev.open
+        );
+    }
+    let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev)?;
+    let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
+    super::claims::print_verdicts(&rows);
+    let (steps, wall) =
+        rows.iter()
+            .filter(|r| r.verdict == "undecided")
+            .fold((0.0, Some(0.0)), |(s, w), r| {
+                (
+                    s + r.forecast_particle_steps.unwrap_or(f64::NAN),
+                    w.zip(r.forecast_wall_s).map(|(a, b)| a + b),
+                )
+            });
+    println!(
+        "  still to run for the undecided claims: {}{}",
+        if steps.is_nan() {
+            "unknown for some (no forecast)".to_string()
+        } else {
+            format!("{steps:.3e} particle-steps")
+        },
+        wall.filter(|w| *w > 0.0)
+            .map_or_else(String::new, |w| format!(
+                ", about {:.1} min of job wall time",
+                w / 60.0
+            ))
     );
     Ok(())
 }

@@ -1,4 +1,5 @@
-//! `sweep report --figure figN` (or `all`: every figure of the campaign and an index page).
+//! `sweep report --figure figN` (or `all`: every figure of the campaign and an index page), and
+//! `sweep report --claims` (the campaign's claims table).
 
 use std::path::PathBuf;
 
@@ -8,8 +9,12 @@ use super::DbArg;
 pub struct Arguments {
     /// A figure of the campaign's scene: silo fig2..fig11, chute fig2..fig7, accuracy (or
     /// scene:figN); `all` draws every figure of the scene and writes index.html beside them.
+    #[arg(long, required_unless_present = "claims")]
+    pub figure: Option<String>,
+    /// The campaign's claims table (claims.md, claims.csv in --out): each claim with the
+    /// paper's words, sweep's value and interval, the verdict, the scale and the cost.
     #[arg(long)]
-    pub figure: String,
+    pub claims: bool,
     /// Campaign name (default: the most recent campaign; its scene picks the figure set).
     #[arg(long)]
     pub campaign: Option<String>,
@@ -42,10 +47,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         titles: !a.no_title,
         include_unsteady: a.include_unsteady,
     };
-    if a.figure == "all" {
+    if a.claims {
+        let code = super::claims::report(&conn, a.campaign.as_deref(), &a.out)?;
+        if code != 0 || a.figure.is_none() {
+            return Ok(code);
+        }
+    }
+    let figure = a.figure.as_deref().unwrap_or("all");
+    if figure == "all" {
         return run_all(&conn, a.campaign.as_deref(), &out);
     }
-    let r = sweep::report::render_figure_with(&conn, &a.figure, a.campaign.as_deref(), &out)?;
+    let r = sweep::report::render_figure_with(&conn, figure, a.campaign.as_deref(), &out)?;
     println!("{}", r.table);
     if !r.missing.is_empty() {
         println!(

@@ -37,7 +37,7 @@ pub fn register(
         } => Ok(Ok((campaign_id, version, added))),
         jobs::Registration::Changed { version, changes } => {
             eprintln!(
-                "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs; this file changes:",
+                "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs or claims; this file changes:",
                 file.name
             );
             for c in &changes {

@@ -143,13 +143,30 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
 fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result<()> {
     use sweep::store::targets;
     // A stored file this sweep cannot read (another version's) has no target to show.
-    let Some(t) = targets::campaign_file(conn, campaign_id)
-        .ok()
-        .flatten()
-        .and_then(|f| f.target)
-    else {
+    let file = targets::campaign_file(conn, campaign_id).ok().flatten();
+    let verdicts = sweep::store::claims::latest_verdicts(conn, campaign_id)?;
+    if file.as_ref().is_some_and(|f| !f.claims.is_empty()) {
+        if verdicts.is_empty() {
+            println!("claims: not looked at yet: they are, once the campaign's jobs have ended");
+        }
+        super::claims::print_verdicts(&verdicts);
+    }
+    let Some(t) = file.and_then(|f| f.target) else {
         return Ok(());
     };
+    if t.decides_claims() {
+        let work = targets::work(conn, campaign_id)?;
+        let (steps, wall, core_hours) = sweep::store::claims::spent(conn, campaign_id)?;
+        println!(
+            "target: every claim decided — {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e} particle-steps, {:.1} min of job wall time, {core_hours:.3} core-hours{}",
+            work.iter().map(|w| w.round).max().unwrap_or(0),
+            work.iter().filter(|w| w.action == "extend").count(),
+            work.iter().filter(|w| w.action == "replica").count(),
+            wall / 60.0,
+            t.max_core_hours.map_or(String::new(), |h| format!(" of {h}"))
+        );
+        return Ok(());
+    }
     let points = targets::points(conn, campaign_id)?;
     let work = targets::work(conn, campaign_id)?;
     let met = points.iter().filter(|p| p.met).count();

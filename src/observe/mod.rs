@@ -3,6 +3,7 @@
 
 pub mod chute;
 pub mod chute_stats;
+pub mod claims;
 pub mod coarse_grain;
 pub mod discharge;
 pub mod energy;

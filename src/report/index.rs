@@ -42,9 +42,11 @@ pub fn render_all(conn: &Connection, campaign: Option<&str>, out: &Output) -> Re
             render_figure_with(conn, &qualified, Some(&c.name), out).map_err(|e| format!("{e:#}"));
         drawn.push((name.to_string(), r));
     }
+    let claims = super::claims::stored_claims(conn, c.id, &c.scene)?
+        .map(|(scale, rows, _)| super::claims::claims_html(&scale, &rows));
     let index = out.dir.join("index.html");
-    std::fs::write(&index, index_html(&c.name, &c.scene, figures, &drawn))
-        .with_context(|| format!("writing {}", index.display()))?;
+    let page = index_html(&c.name, &c.scene, figures, &drawn, claims.as_deref());
+    std::fs::write(&index, page).with_context(|| format!("writing {}", index.display()))?;
     Ok(AllFigures {
         campaign: c.name,
         figures: drawn,
@@ -70,6 +72,7 @@ fn index_html(
     scene: &str,
     figures: &[(&str, &str)],
     drawn: &[(String, Result<FigureReport, String>)],
+    claims: Option<&str>,
 ) -> String {
     let mut h = String::new();
     let _ = write!(
@@ -91,7 +94,15 @@ fn index_html(
             w = escape(what)
         );
     }
+    if claims.is_some() {
+        h.push_str(
+            "<li><a href=\"#claims\">claims</a>: the paper's statements and their verdicts</li>\n",
+        );
+    }
     h.push_str("</ul>\n");
+    if let Some(c) = claims {
+        h.push_str(c);
+    }
     for ((name, what), (_, result)) in figures.iter().zip(drawn) {
         let _ = writeln!(
             h,

@@ -6,6 +6,7 @@ mod accuracy;
 pub mod accuracy_shift;
 mod campaign;
 mod chute;
+pub mod claims;
 mod drawn;
 mod field_map;
 mod index;
@@ -33,5 +34,7 @@ pub use table::Table;
 /// The silo's replicas combined into points, as fig3–fig5 combine them (campaign targets use
 /// the same statistic).
 pub mod silo_points {
-    pub use super::silo::data::{combine_replicas, CiSource, DischargeRow, FlowPoint};
+    pub use super::silo::data::{
+        combine_replicas, gravity_m_per_s2, CiSource, DischargeRow, FlowPoint,
+    };
 }

@@ -31,6 +31,9 @@ pub enum RoundOutcome {
         work: Vec<WorkRow>,
         points: Vec<PointRow>,
     },
+    /// A claims target's look: the verdicts, the work added for the undecided claims (none:
+    /// finished), and why it stopped when it did.
+    Claims(super::claim_rounds::ClaimsRound),
 }
 
 /// A point of the campaign: its key, its jobs (by id), and its label without a replica.
@@ -340,10 +343,12 @@ pub fn evaluate_for(
 ) -> Result<Evaluation> {
     let file: CampaignFile = targets::campaign_file(conn, campaign_id)?
         .with_context(|| format!("no campaign with id {campaign_id}"))?;
-    let target: Target = target
-        .or(file.target.as_ref())
-        .cloned()
-        .with_context(|| format!("campaign '{}' has no target", file.name))?;
+    let target: Target = match target.or(file.target.as_ref()) {
+        Some(t) => t.clone(),
+        // Claims are looked at once when no target adds work for them.
+        None if !file.claims.is_empty() => Target::claims_looked_at_once(),
+        None => anyhow::bail!("campaign '{}' has no target", file.name),
+    };
     let jobs = targets::campaign_jobs(conn, campaign_id)?;
     let open = jobs
         .iter()
@@ -368,8 +373,8 @@ pub fn evaluate_for(
     };
     for p in &points_of(&jobs) {
         let (state, mut row, spec) = match file.scene {
-            SceneKind::Silo => silo_point(p, &by_job, &filled, target.observable())?,
-            SceneKind::Chute => chute_point(p, &chute, target.observable())?,
+            SceneKind::Silo => silo_point(p, &by_job, &filled, "q")?,
+            SceneKind::Chute => chute_point(p, &chute, "d")?,
         };
         row.rounds = rounds_done;
         let (steps, wall) = p
@@ -404,6 +409,9 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
     let ev = evaluate(conn, campaign_id)?;
     if ev.open > 0 {
         return Ok(RoundOutcome::Unsettled(ev.open));
+    }
+    if ev.target.decides_claims() {
+        return super::claim_rounds::next_claims_round(conn, campaign_id, ev);
     }
     let (file, target, rounds_done) = (ev.file, ev.target, ev.rounds_done);
     let out_of_rounds = rounds_done >= target.max_rounds;
@@ -444,8 +452,37 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
     let round = rounds_done + 1;
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     targets::save_points(&tx, campaign_id, &rows_out)?;
+    let planned = planned
+        .into_iter()
+        .map(|(_, _, decision, next, label)| (decision, next, label))
+        .collect();
+    let work = register_work(&tx, campaign_id, &file, round, planned)?;
+    tx.commit()?;
+    Ok(if work.is_empty() {
+        RoundOutcome::Finished(rows_out)
+    } else {
+        RoundOutcome::Work {
+            round,
+            work,
+            points: rows_out,
+        }
+    })
+}
+
+/// Registers round `round`'s work (each a decision for the point labelled so, with the replica
+/// it would add) and records it in `target_work`; returns what was recorded.
+///
+/// # Errors
+/// Database errors, or a job to run on that is no longer done.
+pub(crate) fn register_work(
+    tx: &rusqlite::Transaction,
+    campaign_id: i64,
+    file: &CampaignFile,
+    round: u32,
+    planned: Vec<(Decision, JobSpec, String)>,
+) -> Result<Vec<WorkRow>> {
     let mut work = Vec::new();
-    for (_, _, decision, next, label) in planned {
+    for (decision, next, label) in planned {
         let Decision::Work {
             work: w,
             ci_rel_before,
@@ -467,18 +504,14 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
                     None => to_s,
                 };
                 anyhow::ensure!(
-                    targets::extend(&tx, job_id, to_s, end_s)?,
+                    targets::extend(tx, job_id, to_s, end_s)?,
                     "job {job_id} is not done: it cannot be run on"
                 );
                 (job_id, "extend", from_s, to_s)
             }
             Work::Replica => {
-                let id = targets::add_replica(
-                    &tx,
-                    campaign_id,
-                    &next,
-                    i64::from(file.run.max_attempts),
-                )?;
+                let id =
+                    targets::add_replica(tx, campaign_id, &next, i64::from(file.run.max_attempts))?;
                 (id, "replica", 0.0, next.own_time_s())
             }
         };
@@ -493,17 +526,8 @@ pub fn next_round(conn: &mut Connection, campaign_id: i64) -> Result<RoundOutcom
             ci95_rel_expected: ci_rel_expected,
             particle_steps_expected: cost,
         };
-        targets::record_work(&tx, campaign_id, &row)?;
+        targets::record_work(tx, campaign_id, &row)?;
         work.push(row);
     }
-    tx.commit()?;
-    Ok(if work.is_empty() {
-        RoundOutcome::Finished(rows_out)
-    } else {
-        RoundOutcome::Work {
-            round,
-            work,
-            points: rows_out,
-        }
-    })
+    Ok(work)
 }

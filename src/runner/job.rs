@@ -282,6 +282,7 @@ pub fn run<S: Study>(
         &info.adapter,
         &info.precision,
         note.as_deref(),
+        ctx.threads,
     )?;
     jobs::set_stage(conn, job.id, lease, study.stage(&prog))?;
 

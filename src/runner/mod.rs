@@ -8,6 +8,8 @@
 pub mod adaptive;
 pub mod backend;
 pub mod chute_job;
+pub mod claim_points;
+pub mod claim_rounds;
 pub mod gpu_batch;
 pub mod job;
 pub mod job_lock;

@@ -101,7 +101,7 @@ pub enum Registration {
 
 /// Registers a campaign and its jobs. Launching the same file twice adds nothing (replicas its
 /// target added are the campaign's own, not the file's, and do not count as a change). A file whose
-/// jobs differ from the latest version launched under its name is refused (`Changed`, with the
+/// jobs or claims differ from the latest version launched under its name is refused (`Changed`, with the
 /// fields that differ) unless `new_version`, which registers it as the next version with its
 /// own jobs; jobs are shared between versions only where their resolved parameters are equal.
 ///
@@ -136,7 +136,15 @@ pub fn register(
             let mut wanted: Vec<(String, String)> =
                 jobs.iter().map(|j| (j.hash(), j.label.clone())).collect();
             wanted.sort();
-            if stored == wanted {
+            // Claims are part of the file's version: a claim edited after its data were seen is
+            // another study, kept apart (its jobs are shared: they are not part of identity).
+            let claims_of = |s: &str| {
+                serde_json::from_str::<serde_json::Value>(s)
+                    .ok()
+                    .and_then(|v| v.get("claims").cloned())
+            };
+            let claims_changed = claims_of(&old_spec) != claims_of(&spec);
+            if stored == wanted && !claims_changed {
                 // Same jobs: settings that change no result (checkpoint interval, executor,
                 // description) follow the file.
                 tx.execute(
@@ -307,7 +315,7 @@ pub fn heartbeat(
     Ok(())
 }
 
-/// Records the backend a job runs on, with what was said about the choice (`backend_note`: why
+/// Records the backend a job runs on (and its engine threads), with what was said about the choice (`backend_note`: why
 /// `--backend auto` took the CPU, a software adapter allowed). (`particles` stays the job's own
 /// count, set at registration, whatever the checkpoint it resumes from holds.)
 ///
@@ -320,8 +328,9 @@ pub fn set_backend(
     adapter: &str,
     precision: &str,
     note: Option<&str>,
+    threads: usize,
 ) -> anyhow::Result<()> {
-    conn.execute("UPDATE jobs SET backend = ?2, adapter = ?3, precision = ?4, program_version = ?5, backend_note = ?6 WHERE id = ?1", params![id, backend, adapter, precision, env!("CARGO_PKG_VERSION"), note])?;
+    conn.execute("UPDATE jobs SET backend = ?2, adapter = ?3, precision = ?4, program_version = ?5, backend_note = ?6, threads = ?7 WHERE id = ?1", params![id, backend, adapter, precision, env!("CARGO_PKG_VERSION"), note, threads as i64])?;
     Ok(())
 }
 

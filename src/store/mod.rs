@@ -5,7 +5,8 @@
 //! `chute_reads`; `fields` for coarse-grained fields), jobs handed to Slurm (`slurm_tasks`,
 //! `pending`) and their results ingested (`slurm_ingest`), job counts (`job_counts`), a finished
 //! silo job's headline (`silo_done`), what the accuracy map reads (`accuracy_reads`), benchmark
-//! runs (`bench_runs`), campaigns as reports find them (`campaign_reads`), a campaign target's work and points
+//! runs (`bench_runs`), campaigns as reports find them (`campaign_reads`), claim verdicts
+//! (`claims`), a campaign target's work and points
 //! (`targets`). Every write that marks
 //! progress is one transaction.
 
@@ -14,6 +15,7 @@ pub mod bench_runs;
 pub mod campaign_reads;
 pub mod chute_reads;
 mod chute_results;
+pub mod claims;
 pub mod fields;
 pub mod forget;
 pub mod job_counts;

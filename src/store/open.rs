@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 9;
+pub const SCHEMA_VERSION: i64 = 10;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -133,6 +133,9 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             ("campaign_jobs", "origin", "TEXT"),
             // 8 → 9: what was said about a job's backend (why `--backend auto` took the CPU).
             ("jobs", "backend_note", "TEXT"),
+            // 9 → 10: the threads a job ran with (a claims target's core-hours); the
+            // claims' verdicts are a new table.
+            ("jobs", "threads", "INTEGER"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

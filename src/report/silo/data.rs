@@ -4,7 +4,7 @@
 
 pub use crate::store::silo_reads::{done_discharge_rows, mass_series, DischargeRow};
 
-use crate::observe::fits::{mean_ci95, pool};
+use crate::observe::fits::{mean_ci95, pool, t_975};
 
 /// Where a combined point's confidence interval comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,6 +48,10 @@ pub struct FlowPoint {
     pub replicas: usize,
     /// How `ci` was obtained.
     pub ci_source: CiSource,
+    /// Standard error of `q` behind `ci`, kg/s, and its degrees of freedom (infinite for a
+    /// single job that does not say its block count: its CI is taken as normal); None with `ci`.
+    pub se: Option<f64>,
+    pub dof: f64,
     /// Replicas of this point that have no Q (clogged): not in `q`, named in the tables.
     pub clogged_replicas: usize,
     /// The Q of each replica with one, kg/s (what a bootstrap over replicas redraws).
@@ -137,10 +141,34 @@ fn combine_group(group: &[&DischargeRow]) -> Option<FlowPoint> {
     let qs: Vec<f64> = with_q.iter().filter_map(|r| r.q_kg_per_s).collect();
     let estimates: Option<Vec<_>> = with_q.iter().map(|r| r.q_estimate()).collect();
     let pooled = estimates.as_deref().and_then(pool);
-    let (q, ci, ci_source) = match (pooled, mean_ci95(&qs)) {
-        (Some(p), _) => (p.mean, Some(p.ci95), CiSource::Pooled(p.from)),
-        (None, Some((mean, hw))) => (mean, Some(hw), CiSource::ReplicaSpread),
-        (None, None) => (qs[0], first.q_ci95_kg_per_s, CiSource::SingleJob),
+    let (q, ci, ci_source, se, dof) = match (pooled, mean_ci95(&qs)) {
+        (Some(p), _) => (
+            p.mean,
+            Some(p.ci95),
+            CiSource::Pooled(p.from),
+            Some(p.se),
+            p.dof,
+        ),
+        (None, Some((mean, hw))) => {
+            let dof = (qs.len() - 1) as f64;
+            (
+                mean,
+                Some(hw),
+                CiSource::ReplicaSpread,
+                Some(hw / t_975(dof)),
+                dof,
+            )
+        }
+        (None, None) => {
+            let ci = first.q_ci95_kg_per_s;
+            (
+                qs[0],
+                ci,
+                CiSource::SingleJob,
+                ci.map(|c| c / 1.959_964),
+                f64::INFINITY,
+            )
+        }
     };
     Some(FlowPoint {
         d_m: first.orifice_diameter_m,
@@ -151,6 +179,8 @@ fn combine_group(group: &[&DischargeRow]) -> Option<FlowPoint> {
         ci,
         replicas: qs.len(),
         ci_source,
+        se,
+        dof,
         clogged_replicas: group.len() - qs.len(),
         replica_q: qs,
     })
@@ -187,14 +217,7 @@ pub fn pooled_q_points(
         .collect())
 }
 
-/// A job label without its `replica=K` part: "a=1,b=2,replica=3" → "a=1,b=2".
-pub fn label_without_replica(label: &str) -> String {
-    label
-        .split(',')
-        .filter(|part| !part.trim_start().starts_with("replica="))
-        .collect::<Vec<_>>()
-        .join(",")
-}
+pub use crate::campaign::label_without_replica;
 
 /// The text a figure writes beside a point that combines `replicas` runs: "n=3"; None for one.
 pub fn replica_label(replicas: usize) -> Option<String> {

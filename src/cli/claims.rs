@@ -1,0 +1,128 @@
+//! What the CLI says about claims: a look's verdicts (launch, resume, status, plan) and the
+//! claims table of `sweep report --claims`.
+
+use std::path::Path;
+
+use sweep::runner::claim_rounds::ClaimsRound;
+use sweep::store::claims::VerdictRow;
+
+fn value(r: &VerdictRow) -> String {
+    let s = sweep::observe::claims::short;
+    match (r.value, r.lo, r.hi) {
+        (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", s(v), s(lo), s(hi)),
+        (Some(v), _, _) => s(v),
+        _ => "n/a".into(),
+    }
+}
+
+/// One line per claim: verdict, value and interval against its bound, and what deciding an
+/// undecided one would still cost.
+pub fn print_verdicts(rows: &[VerdictRow]) {
+    let Some(first) = rows.first() else { return };
+    let decided = rows.iter().filter(|r| r.verdict != "undecided").count();
+    println!(
+        "claims: {decided} of {} decided at look {} (intervals at {:.2} % per look, 95 % over all looks)",
+        rows.len(),
+        first.round,
+        100.0 * first.level
+    );
+    for r in rows {
+        let mut line = format!(
+            "  {:<24} {:<12} {} = {} {}",
+            r.claim_id,
+            r.verdict,
+            r.what,
+            value(r),
+            r.bound
+        );
+        if !r.note.is_empty() {
+            line.push_str(&format!("  ({})", r.note));
+        }
+        if r.verdict == "undecided" {
+            match (r.forecast_particle_steps, r.forecast_wall_s) {
+                (Some(s), Some(w)) => line.push_str(&format!(
+                    "  still needs ≈ {s:.2e} particle-steps, {:.1} min",
+                    w / 60.0
+                )),
+                (Some(s), None) => {
+                    line.push_str(&format!("  still needs ≈ {s:.2e} particle-steps"))
+                }
+                _ => line.push_str("  cost cannot be forecast"),
+            }
+        }
+        println!("{line}");
+    }
+}
+
+/// A claims target's look: its verdicts, what was spent, and why it stops if it does.
+pub fn print_round(r: &ClaimsRound) {
+    print_verdicts(&r.verdicts);
+    println!(
+        "claims: spent {:.3e} particle-steps, {:.1} min of job wall time, {:.3} core-hours{}",
+        r.spent.particle_steps,
+        r.spent.wall_s / 60.0,
+        r.spent.core_hours,
+        r.max_core_hours
+            .map_or(String::new(), |h| format!(" of {h}"))
+    );
+    if let Some(why) = &r.stop {
+        println!("claims: stopped: {why}");
+        let open: Vec<&VerdictRow> = r
+            .verdicts
+            .iter()
+            .filter(|v| v.verdict == "undecided")
+            .collect();
+        for v in open {
+            println!(
+                "  undecided: {} would still cost {}",
+                v.claim_id,
+                v.forecast_particle_steps.map_or_else(
+                    || "an unknown amount (no forecast)".into(),
+                    |s| format!("≈ {s:.2e} particle-steps")
+                )
+            );
+        }
+    }
+}
+
+/// `sweep report --claims`: the campaign's claims table (its latest stored look, or a look
+/// taken now when none was stored) as claims.md and claims.csv in `out`, printed too.
+pub fn report(
+    conn: &rusqlite::Connection,
+    campaign: Option<&str>,
+    out: &Path,
+) -> anyhow::Result<i32> {
+    let c = sweep::report::find_campaign(conn, campaign, None)?;
+    let (scale, rows, spent) = match sweep::report::claims::stored_claims(conn, c.id, &c.scene)? {
+        Some(x) => x,
+        None => {
+            let ev = match sweep::runner::adaptive::evaluate(conn, c.id) {
+                Ok(ev) if !ev.file.claims.is_empty() => ev,
+                _ => {
+                    eprintln!(
+                        "sweep: campaign '{}' has no claims: add a `claims` list to its file",
+                        c.name
+                    );
+                    return Ok(2);
+                }
+            };
+            let look = sweep::runner::claim_rounds::look(conn, c.id, &ev)?;
+            (
+                sweep::report::claims::campaign_scale(conn, c.id, &c.scene)?,
+                look.claims.into_iter().map(|x| x.2).collect(),
+                sweep::report::claims::spending(conn, c.id)?,
+            )
+        }
+    };
+    std::fs::create_dir_all(out)?;
+    let md = sweep::report::claims::claims_markdown(&c.name, &scale, &rows, spent);
+    let csv = sweep::report::claims::claims_csv(&scale, &rows);
+    let md_path = out.join("claims.md");
+    let csv_path = out.join("claims.csv");
+    std::fs::write(&md_path, &md)?;
+    std::fs::write(&csv_path, &csv)?;
+    println!("{md}");
+    println!("wrote {}", md_path.display());
+    println!("wrote {}", csv_path.display());
+    Ok(0)
+}

@@ -1,0 +1,79 @@
+//! What a claim is evaluated on: the campaign's points, each with its swept parameters and its
+//! pooled results (mean, standard error, degrees of freedom), and the results each scene gives.
+
+use std::collections::BTreeMap;
+
+use super::spec::At;
+
+/// A pooled result at one point: its mean, the standard error of the mean and the degrees of
+/// freedom of that error (blocks and replicas pooled as the figures pool them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub mean: f64,
+    pub se: f64,
+    pub dof: f64,
+}
+
+/// One point of a campaign: the parameters that tell it from the others, its results by key
+/// ([`result_key`]) and what it cost so far.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointData {
+    /// Its label without `replica=K`.
+    pub label: String,
+    /// Every numeric parameter of its jobs (scene parameters by name).
+    pub params: BTreeMap<String, f64>,
+    pub results: BTreeMap<String, Estimate>,
+    /// Why it has no results yet (every run clogged; fewer than 3 steady chute replicas), if so.
+    pub missing: Option<String>,
+    /// Particle-steps its jobs ran.
+    pub particle_steps: f64,
+}
+
+/// Scene constants some tests need (Beverloo's ρ_b, √g; D_min over d).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneConstants {
+    pub particle_diameter_m: f64,
+    pub bulk_density_kg_per_m3: f64,
+    pub gravity_m_per_s2: f64,
+}
+
+/// Results a silo point gives: Q (kg/s).
+pub const SILO_RESULTS: &[&str] = &["q"];
+
+/// Results a chute point gives, each over the bulk (0.2 H < z < 0.8 H) or in a block: D
+/// (m²/s), γ̇ (1/s), D/γ̇ (m²), V_x (m/s), φ, d⊥² (m²) and γ̇ d⊥² (m²/s).
+pub const CHUTE_RESULTS: &[&str] = &[
+    "D",
+    "shear_rate",
+    "D_over_shear_rate",
+    "V_x",
+    "phi",
+    "d_perp2",
+    "shear_rate_d_perp2",
+];
+
+/// The key of `result` in [`PointData::results`]: the name, or "name@k" in block k.
+pub fn result_key(result: &str, block: Option<i64>) -> String {
+    match block {
+        Some(k) => format!("{result}@{k}"),
+        None => result.to_string(),
+    }
+}
+
+/// Whether two parameter values are one setting (a text round trip's tolerance).
+pub fn same_value(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-12)
+}
+
+/// Whether `p` has every parameter of `at` at its value.
+pub fn matches(p: &PointData, at: &At) -> bool {
+    at.iter()
+        .all(|(k, v)| p.params.get(k).is_some_and(|x| same_value(*x, *v)))
+}
+
+/// Indices of the points matching `at`.
+pub fn select(points: &[PointData], at: &At) -> Vec<usize> {
+    (0..points.len())
+        .filter(|&i| matches(&points[i], at))
+        .collect()
+}

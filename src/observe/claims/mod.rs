@@ -1,0 +1,21 @@
+//! Claims: a paper's statement as one test on a campaign's pooled results (`spec`), resolved
+//! against its points into a statistic (`statistic`), and decided by that statistic's interval
+//! (`verdict`): supported, contradicted or undecided. Pure: the runner and the reports read the
+//! store, build [`PointData`], and call this.
+
+mod data;
+mod spec;
+mod statistic;
+#[cfg(test)]
+mod tests;
+mod verdict;
+
+pub use data::{
+    matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_RESULTS,
+    SILO_RESULTS,
+};
+pub use spec::{
+    At, Bound, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, TestKind, Trend,
+};
+pub use statistic::{at_text, short, Side, Statistic, Unresolved};
+pub use verdict::{decide, look_level, seed_of, Decision, Verdict, ALPHA, DRAWS};

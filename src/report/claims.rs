@@ -1,0 +1,304 @@
+//! The claims table (`sweep report --claims`, and a section of `--figure all`'s index): each
+//! claim with the paper's words and number, sweep's value and interval, the verdict, the scale
+//! the jobs ran at and what deciding it cost, as markdown, CSV and HTML. Read-only: the
+//! verdicts are the ones stored at the campaign's latest look.
+
+use std::fmt::Write as _;
+
+use serde_json::Value;
+
+use crate::observe::claims::short;
+use crate::store::claims::VerdictRow;
+
+/// What the campaign spent in all.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spending {
+    pub particle_steps: f64,
+    pub wall_s: f64,
+    pub core_hours: f64,
+}
+
+/// The scale a campaign's jobs ran at, in one line: N, container, stiffness, time step,
+/// precision and duration, from a job's stored parameters (the paper's in brackets where the
+/// scene's default is the paper's).
+pub fn scale_of(scene: &str, params_json: &str, precision: &str) -> String {
+    let v: Value = serde_json::from_str(params_json).unwrap_or(Value::Null);
+    let p = &v[scene];
+    let num = |k: &str| p.get(k).and_then(Value::as_f64);
+    let mut parts = Vec::new();
+    match scene {
+        "silo" => {
+            if let Some(n) = num("particle_count") {
+                parts.push(format!("N = {n} (paper 30 144)"));
+            }
+            if let (Some(r), Some(h)) = (num("cylinder_radius_m"), num("cylinder_height_m")) {
+                parts.push(format!(
+                    "R_c = {} cm, h = {} cm (paper 9.5, 40)",
+                    short(100.0 * r),
+                    short(100.0 * h)
+                ));
+            }
+            if let Some(y) = num("youngs_modulus_pa") {
+                parts.push(format!("Y = {} Pa (paper 3e9)", short(y)));
+            }
+            match (num("contact_steps"), num("dt_s")) {
+                (Some(nc), _) => parts.push(format!("n_c = {} (paper ≈ 50)", short(nc))),
+                (None, Some(dt)) => parts.push(format!("dt = {} s (paper 1e-6)", short(dt))),
+                _ => {}
+            }
+            if let Some(t) = num("discharge_time_s") {
+                parts.push(format!("{} s per job", short(t)));
+            }
+            match p.get("reinsert").and_then(Value::as_bool) {
+                Some(true) => parts.push("refilled (exits re-inserted)".into()),
+                Some(false) => parts.push("draining".into()),
+                None => {}
+            }
+        }
+        _ => {
+            if let Some(n) = num("particle_count") {
+                parts.push(format!("N = {n}"));
+            }
+            if let (Some(x), Some(y), Some(h)) = (
+                num("box_x_lengths"),
+                num("box_y_lengths"),
+                num("bed_height_lengths"),
+            ) {
+                parts.push(format!(
+                    "box {}L × {}L, bed {}L (paper 16 × 16, ≈ 20)",
+                    short(x),
+                    short(y),
+                    short(h)
+                ));
+            }
+            if let Some(k) = num("stiffness_factor") {
+                parts.push(format!("k_n = {} m g / l (paper 2e5)", short(k)));
+            }
+            if let Some(nc) = num("contact_steps") {
+                parts.push(format!("n_c = {} (paper 50)", short(nc)));
+            }
+            if let Some(t) = num("measure_time_s") {
+                parts.push(format!("{} s measured per job", short(t)));
+            }
+        }
+    }
+    parts.push(precision.to_string());
+    parts.join(", ")
+}
+
+fn value_text(r: &VerdictRow) -> String {
+    match (r.value, r.lo, r.hi) {
+        (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", short(v), short(lo), short(hi)),
+        (Some(v), _, _) => format!("{} (no interval)", short(v)),
+        _ => "n/a".into(),
+    }
+}
+
+fn hours(s: f64) -> String {
+    if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 7200.0 {
+        format!("{:.1} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}
+
+fn forecast_text(r: &VerdictRow) -> String {
+    if r.verdict != "undecided" {
+        return String::new();
+    }
+    match (r.forecast_particle_steps, r.forecast_wall_s) {
+        (Some(s), Some(w)) => format!("{s:.2e} particle-steps, ≈ {}", hours(w)),
+        (Some(s), None) => format!("{s:.2e} particle-steps"),
+        _ => "cannot be forecast (value on the bound, or no estimate)".into(),
+    }
+}
+
+/// The claims table as markdown: a header with the campaign, its scale, the look and level,
+/// then one row per claim.
+pub fn claims_markdown(
+    campaign: &str,
+    scale: &str,
+    rows: &[VerdictRow],
+    spent: Spending,
+) -> String {
+    let mut m = String::new();
+    let look = rows.first().map_or(0, |r| r.round);
+    let level = rows.first().map_or(0.95, |r| r.level);
+    let _ = writeln!(m, "## Claims of `{campaign}`\n");
+    let _ = writeln!(m, "Scale: {scale}.\n");
+    let _ = writeln!(
+        m,
+        "Look {look}: intervals at {:.2} % per look, so that the verdicts of all looks together hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
+        100.0 * level,
+        spent.particle_steps,
+        hours(spent.wall_s),
+        spent.core_hours
+    );
+    m.push_str("| claim | paper | paper's value | test | sweep's value [interval] | bound | verdict | points | particle-steps | wall | still needed |\n");
+    m.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in rows {
+        let cell = |s: &str| s.replace('|', "\\|").replace('\n', " ");
+        let note = if r.note.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", r.note)
+        };
+        let _ = writeln!(
+            m,
+            "| **{}**: {} | {} | {} | {}: {} | {} | {} | **{}**{} | {} | {:.2e} | {} | {} |",
+            cell(&r.claim_id),
+            cell(&r.statement),
+            cell(&r.paper),
+            cell(&r.paper_value),
+            r.test,
+            cell(&r.what),
+            value_text(r),
+            r.bound,
+            r.verdict,
+            cell(&note),
+            cell(&r.points),
+            r.particle_steps,
+            hours(r.wall_s),
+            forecast_text(r)
+        );
+    }
+    m
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn csv_num(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or(String::new(), |x| format!("{x:e}"))
+}
+
+/// The claims table as CSV, every number in full.
+pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
+    let mut c = String::from(
+        "claim_id,statement,paper,paper_value,test,what,value,lo,hi,level,bound,verdict,note,points,scale,particle_steps,wall_s,forecast_particle_steps,forecast_wall_s,look\n",
+    );
+    for r in rows {
+        let fields = [
+            csv_field(&r.claim_id),
+            csv_field(&r.statement),
+            csv_field(&r.paper),
+            csv_field(&r.paper_value),
+            r.test.clone(),
+            csv_field(&r.what),
+            csv_num(r.value),
+            csv_num(r.lo),
+            csv_num(r.hi),
+            format!("{}", r.level),
+            csv_field(&r.bound),
+            r.verdict.clone(),
+            csv_field(&r.note),
+            csv_field(&r.points),
+            csv_field(scale),
+            format!("{:e}", r.particle_steps),
+            format!("{}", r.wall_s),
+            csv_num(r.forecast_particle_steps),
+            csv_num(r.forecast_wall_s),
+            r.round.to_string(),
+        ];
+        c.push_str(&fields.join(","));
+        c.push('\n');
+    }
+    c
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The claims table as an HTML section (for the index of `--figure all`).
+pub fn claims_html(scale: &str, rows: &[VerdictRow]) -> String {
+    let mut h = String::new();
+    let level = rows.first().map_or(0.95, |r| r.level);
+    let _ = writeln!(
+        h,
+        "<h2 id=\"claims\">Claims</h2>\n<p>Scale: {}. Intervals at {:.2} % per look (95 % over all looks).</p>\n<table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\n<tr><th>claim</th><th>paper</th><th>paper's value</th><th>sweep's value [interval]</th><th>bound</th><th>verdict</th><th>particle-steps</th><th>wall</th><th>still needed</th></tr>",
+        escape(scale),
+        100.0 * level
+    );
+    for r in rows {
+        let _ = writeln!(
+            h,
+            "<tr><td><b>{}</b>: {}</td><td>{}</td><td>{}</td><td>{}: {}</td><td>{}</td><td><b>{}</b> {}</td><td>{:.2e}</td><td>{}</td><td>{}</td></tr>",
+            escape(&r.claim_id),
+            escape(&r.statement),
+            escape(&r.paper),
+            escape(&r.paper_value),
+            escape(&r.what),
+            escape(&value_text(r)),
+            escape(&r.bound),
+            escape(&r.verdict),
+            escape(&r.note),
+            r.particle_steps,
+            escape(&hours(r.wall_s)),
+            escape(&forecast_text(r))
+        );
+    }
+    h.push_str("</table>\n");
+    h
+}
+
+/// A campaign's stored claims: its scale, the verdicts of its latest look and what it spent;
+/// None when no look was stored.
+///
+/// # Errors
+/// Database errors.
+pub fn stored_claims(
+    conn: &rusqlite::Connection,
+    campaign_id: i64,
+    scene: &str,
+) -> anyhow::Result<Option<(String, Vec<VerdictRow>, Spending)>> {
+    let rows = crate::store::claims::latest_verdicts(conn, campaign_id)?;
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some((
+        campaign_scale(conn, campaign_id, scene)?,
+        rows,
+        spending(conn, campaign_id)?,
+    )))
+}
+
+/// The scale line of a campaign (from its first job).
+///
+/// # Errors
+/// Database errors.
+pub fn campaign_scale(
+    conn: &rusqlite::Connection,
+    campaign_id: i64,
+    scene: &str,
+) -> anyhow::Result<String> {
+    let jobs = crate::store::targets::campaign_jobs(conn, campaign_id)?;
+    Ok(jobs.first().map_or_else(String::new, |j| {
+        let v: Value = serde_json::from_str(&j.params_json).unwrap_or(Value::Null);
+        let precision = v["precision"].as_str().unwrap_or("f64").to_string();
+        scale_of(scene, &j.params_json, &precision)
+    }))
+}
+
+/// What a campaign's jobs spent.
+///
+/// # Errors
+/// Database errors.
+pub fn spending(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result<Spending> {
+    let (particle_steps, wall_s, core_hours) = crate::store::claims::spent(conn, campaign_id)?;
+    Ok(Spending {
+        particle_steps,
+        wall_s,
+        core_hours,
+    })
+}

@@ -1,0 +1,383 @@
+//! A claims target, one look at a time: once every job of the campaign has ended, each claim is
+//! decided on the pooled results (`observe::claims`) at the look's level (α split over the
+//! campaign's looks), the verdicts are stored, and for the undecided claims the next round of
+//! work is registered: on the points whose uncertainty most keeps a claim undecided, per
+//! particle-step, cheapest decision first ("adaptive"), or every point run on equally
+//! ("uniform", the design the adaptive rounds are measured against). Decisions read only
+//! finished results and seeded draws, so a killed and resumed campaign takes the same rounds.
+
+use std::collections::BTreeSet;
+
+use anyhow::Result;
+use rusqlite::{Connection, TransactionBehavior};
+
+use crate::campaign::adaptive::{decide as decide_work, Decision, PointState, Work};
+use crate::campaign::claims::scene_results;
+use crate::campaign::{Allocation, JobSpec, Target};
+use crate::observe::claims::{
+    decide, look_level, seed_of, Claim, Decision as Verdictum, PointData, Statistic, Verdict,
+};
+use crate::observe::fits::{Pooled, PooledFrom};
+use crate::store::claims::{self, VerdictRow};
+use crate::store::targets::WorkRow;
+
+use super::adaptive::{register_work, Evaluation, RoundOutcome};
+use super::claim_points::claim_points;
+
+/// What the campaign has spent so far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spent {
+    pub particle_steps: f64,
+    pub wall_s: f64,
+    pub core_hours: f64,
+}
+
+/// One look of a claims target and what followed it.
+#[derive(Clone, Debug)]
+pub struct ClaimsRound {
+    /// The look (0: after the campaign's own jobs; k: after round k).
+    pub look: u32,
+    pub verdicts: Vec<VerdictRow>,
+    /// The work added as round `look + 1` (empty: the campaign stops here).
+    pub work: Vec<WorkRow>,
+    /// Why no more work is added (None while working).
+    pub stop: Option<String>,
+    pub spent: Spent,
+    pub max_core_hours: Option<f64>,
+}
+
+/// The claims of a campaign decided at one look.
+pub struct Look {
+    pub look: u32,
+    pub level: f64,
+    pub points: Vec<PointData>,
+    pub claims: Vec<(Claim, Verdict, VerdictRow)>,
+    pub spent: Spent,
+    /// The campaign's throughput so far (particle-steps per wall second of its jobs).
+    pub rate: Option<f64>,
+}
+
+/// Decides every claim of `ev`'s campaign on its finished results, without storing anything.
+///
+/// # Errors
+/// Database errors.
+pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look> {
+    let (points, constants) = claim_points(conn, campaign_id, ev)?;
+    let look = ev.rounds_done;
+    let level = look_level(ev.target.looks());
+    let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
+    let rate = (wall > 0.0).then_some(steps / wall);
+    let results = scene_results(ev.file.scene);
+    let mut out = Vec::new();
+    for (k, claim) in ev.file.claims.iter().enumerate() {
+        let path = format!("claims[{k}]");
+        let test = claim.tests().first().map_or("none", |t| t.name());
+        let v = match Statistic::resolve(claim, &path, &points, results, constants) {
+            Ok(stat) => decide(
+                &stat,
+                &points,
+                level,
+                seed_of(&ev.file.name, &claim.id, look),
+            ),
+            Err(e) => Verdict {
+                decision: Verdictum::Undecided,
+                value: f64::NAN,
+                lo: f64::NAN,
+                hi: f64::NAN,
+                level,
+                side: crate::observe::claims::Side::Below(f64::NAN),
+                what: test.into(),
+                points: Vec::new(),
+                note: format!("{}: {}", e.field, e.message),
+                variance_by_point: Vec::new(),
+            },
+        };
+        let used_steps: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
+        let used_wall: f64 = v
+            .points
+            .iter()
+            .map(|&i| {
+                ev.points[i]
+                    .rate
+                    .map_or(0.0, |r| points[i].particle_steps / r)
+            })
+            .sum();
+        let forecast = (v.decision == Verdictum::Undecided)
+            .then(|| forecast_steps(&v, &points, ev))
+            .flatten();
+        let row = VerdictRow {
+            round: look,
+            claim_id: claim.id.clone(),
+            statement: claim.statement.clone(),
+            paper: claim.paper.clone(),
+            paper_value: claim.paper_value.clone(),
+            test: test.into(),
+            what: v.what.clone(),
+            verdict: v.decision.name().into(),
+            value: Some(v.value),
+            lo: Some(v.lo),
+            hi: Some(v.hi),
+            level,
+            bound: v.side.text(),
+            points: v
+                .points
+                .iter()
+                .map(|&i| points[i].label.clone())
+                .collect::<Vec<_>>()
+                .join("; "),
+            note: v.note.clone(),
+            particle_steps: used_steps,
+            wall_s: used_wall,
+            forecast_particle_steps: forecast,
+            forecast_wall_s: forecast.and_then(|s| rate.map(|r| s / r)),
+        };
+        out.push((claim.clone(), v, row));
+    }
+    Ok(Look {
+        look,
+        level,
+        points,
+        claims: out,
+        spent: Spent {
+            particle_steps: steps,
+            wall_s: wall,
+            core_hours,
+        },
+        rate,
+    })
+}
+
+/// Particle-steps still needed to decide an undecided claim, if it can be said: its interval's
+/// half-width falls as 1/√(work) on its points, and must shrink to the value's distance from
+/// the bound; a point without a result first needs a replica. None on the bound (no amount of
+/// work decides a value that sits on it) or without any estimate.
+fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<f64> {
+    let used: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
+    if !(v.lo.is_finite() && v.hi.is_finite()) {
+        let missing: Vec<usize> = v
+            .points
+            .iter()
+            .copied()
+            .filter(|&i| points[i].missing.is_some() || points[i].results.is_empty())
+            .collect();
+        if missing.is_empty() {
+            return None;
+        }
+        return Some(
+            missing
+                .iter()
+                .map(|&i| ev.points[i].state.replica_cost)
+                .sum(),
+        );
+    }
+    let (gap, half) = (v.gap(), v.half_width());
+    if !(gap > 0.0 && half > 0.0) {
+        return None;
+    }
+    let factor = (half / gap).powi(2).max(1.1);
+    Some((factor - 1.0) * used)
+}
+
+/// Work for one point: a target whose interval goal for the point is `goal` (relative), under
+/// the campaign target's caps.
+fn work_for(state: &PointState, target: &Target, goal: f64) -> Decision {
+    let t = Target {
+        q_ci95_rel: Some(goal),
+        d_ci95_rel: None,
+        ..target.clone()
+    };
+    decide_work(state, &t)
+}
+
+/// A chute point's claim results are replica means: only replicas shrink their intervals.
+fn as_claims_see_it(state: &PointState, chute: bool) -> PointState {
+    let mut s = state.clone();
+    if chute {
+        s.estimate = s.estimate.map(|e| Pooled {
+            from: PooledFrom::ReplicaSpread,
+            ..e
+        });
+    }
+    s
+}
+
+/// The adaptive round: for each undecided claim, cheapest forecast first, the points whose
+/// share of the claim's variance per particle-step is largest get work sized so the claim's
+/// interval is expected to clear its bound.
+fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
+    let chute = ev.file.scene == crate::campaign::SceneKind::Chute;
+    let mut order: Vec<usize> = (0..l.claims.len())
+        .filter(|&k| l.claims[k].1.decision == Verdictum::Undecided)
+        .collect();
+    let cost = |k: usize| {
+        l.claims[k]
+            .2
+            .forecast_particle_steps
+            .unwrap_or(f64::INFINITY)
+    };
+    order.sort_by(|a, b| cost(*a).total_cmp(&cost(*b)).then(a.cmp(b)));
+    let mut taken = BTreeSet::new();
+    let mut planned = Vec::new();
+    let mut capped = Vec::new();
+    for k in order {
+        let (claim, v, _) = &l.claims[k];
+        let mut chosen: Vec<(usize, f64)> = Vec::new();
+        if v.lo.is_finite() && v.hi.is_finite() {
+            let total: f64 = v.variance_by_point.iter().map(|p| p.1).sum();
+            let (gap, half) = (v.gap(), v.half_width());
+            // On the bound: more work cannot be sized; give the noisiest point one doubling.
+            let reduce = if gap > 0.0 && half > 0.0 {
+                total * (1.0 - (gap / half).powi(2).min(1.0))
+            } else {
+                0.5 * total
+            };
+            let per_step = |&(i, var): &(usize, f64)| {
+                let s = &ev.points[i].state;
+                var / (s.steps_per_s / s.weight_per_s.max(1e-300))
+            };
+            let mut by_value = v.variance_by_point.clone();
+            by_value.sort_by(|a, b| per_step(b).total_cmp(&per_step(a)).then(a.0.cmp(&b.0)));
+            let mut acc = 0.0;
+            for (i, var) in by_value {
+                if var <= 0.0 {
+                    continue;
+                }
+                chosen.push((i, var));
+                acc += var;
+                if acc >= reduce {
+                    break;
+                }
+            }
+            let sum: f64 = chosen.iter().map(|c| c.1).sum();
+            let keep = (1.0 - reduce / sum.max(1e-300)).max(0.05);
+            chosen = chosen.into_iter().map(|(i, _)| (i, keep)).collect();
+        } else {
+            for &i in &v.points {
+                if l.points[i].results.is_empty() || l.points[i].missing.is_some() {
+                    chosen.push((i, 0.5));
+                }
+            }
+        }
+        for (i, keep) in chosen {
+            if !taken.insert(i) {
+                continue;
+            }
+            let p = &ev.points[i];
+            let state = as_claims_see_it(&p.state, chute);
+            let ci = state.estimate.map_or(1.0, |e| e.ci95_rel());
+            match work_for(&state, &ev.target, ci * keep.sqrt()) {
+                d @ Decision::Work { .. } => {
+                    planned.push((d, p.next.clone(), p.state.label.clone()))
+                }
+                Decision::Capped(why) => {
+                    capped.push(format!("{} ({}): {why}", claim.id, p.state.label))
+                }
+                Decision::Met => {}
+            }
+        }
+    }
+    (planned, capped)
+}
+
+/// The uniform round: every point's shortest run goes on by the campaign's own time (a point
+/// that cannot run on gets a replica).
+fn uniform_work(ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
+    let mut planned = Vec::new();
+    let mut capped = Vec::new();
+    for p in &ev.points {
+        let s = &p.state;
+        let run = s
+            .runs
+            .iter()
+            .filter(|r| r.not_extendable.is_none())
+            .min_by(|a, b| a.end_s.total_cmp(&b.end_s).then(a.job_id.cmp(&b.job_id)));
+        let to = run.map(|r| (r.end_s + s.replica_end_s).min(ev.target.max_time_s.unwrap_or(0.0)));
+        let d = match (run, to) {
+            (Some(r), Some(to_s)) if to_s > r.end_s + 1e-9 => Decision::Work {
+                work: Work::Extend {
+                    job_id: r.job_id,
+                    from_s: r.end_s,
+                    to_s,
+                },
+                ci_rel_before: s.estimate.map(|e| e.ci95_rel()),
+                ci_rel_expected: None,
+                cost: (to_s - r.end_s) * s.steps_per_s,
+            },
+            _ if (s.runs.len() as u32) < ev.target.max_replicas => Decision::Work {
+                work: Work::Replica,
+                ci_rel_before: s.estimate.map(|e| e.ci95_rel()),
+                ci_rel_expected: None,
+                cost: s.replica_cost,
+            },
+            _ => Decision::Capped("max_time_s and max_replicas reached".into()),
+        };
+        match d {
+            Decision::Capped(why) => capped.push(format!("{}: {why}", s.label)),
+            d => planned.push((d, p.next.clone(), s.label.clone())),
+        }
+    }
+    (planned, capped)
+}
+
+/// Looks at the claims of a campaign whose jobs have all ended, stores the verdicts, and adds
+/// the next round of work unless every claim is decided or a cap is reached.
+///
+/// # Errors
+/// Database errors.
+pub fn next_claims_round(
+    conn: &mut Connection,
+    campaign_id: i64,
+    ev: Evaluation,
+) -> Result<RoundOutcome> {
+    let l = look(conn, campaign_id, &ev)?;
+    let undecided = l
+        .claims
+        .iter()
+        .filter(|c| c.1.decision == Verdictum::Undecided)
+        .count();
+    let t = &ev.target;
+    let mut stop = if undecided == 0 {
+        Some("every claim is decided".to_string())
+    } else if ev.rounds_done >= t.max_rounds {
+        Some(format!(
+            "max_rounds = {} reached with {undecided} claim(s) undecided",
+            t.max_rounds
+        ))
+    } else if t.max_core_hours.is_some_and(|h| l.spent.core_hours >= h) {
+        Some(format!(
+            "the budget is spent ({:.3} of {} core-hours) with {undecided} claim(s) undecided",
+            l.spent.core_hours,
+            t.max_core_hours.unwrap_or(0.0)
+        ))
+    } else {
+        None
+    };
+    let planned = if stop.is_none() {
+        let (planned, capped) = match t.allocation {
+            Allocation::Adaptive => adaptive_work(&l, &ev),
+            Allocation::Uniform => uniform_work(&ev),
+        };
+        if planned.is_empty() {
+            stop = Some(format!(
+                "no work can be added for the {undecided} undecided claim(s): {}",
+                capped.join("; ")
+            ));
+        }
+        planned
+    } else {
+        Vec::new()
+    };
+    let rows: Vec<VerdictRow> = l.claims.iter().map(|c| c.2.clone()).collect();
+    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+    claims::save_verdicts(&tx, campaign_id, &rows)?;
+    let work = register_work(&tx, campaign_id, &ev.file, ev.rounds_done + 1, planned)?;
+    tx.commit()?;
+    Ok(RoundOutcome::Claims(ClaimsRound {
+        look: l.look,
+        verdicts: rows,
+        work,
+        stop,
+        spent: l.spent,
+        max_core_hours: t.max_core_hours,
+    }))
+}

@@ -1,0 +1,270 @@
+//! Claims end to end (`"claims"` in a campaign file, `"target": {"claims": "decided"}`): a tiny
+//! refilled silo whose compare claim is undecided after its first runs and decided after rounds
+//! of added work; the rounds and verdicts are the same bits after a kill and `sweep resume`;
+//! bad claims are refused by field with nothing registered; claims are part of the file's
+//! version but not of any job's identity; `sweep report --claims` writes the table.
+
+mod common;
+
+use std::path::Path;
+
+use common::cli::*;
+use serde_json::{json, Value};
+use tempfile::TempDir;
+
+/// Four points (D = 3.4 d and 4.1 d × f = 0 and 1 Hz), 600 particles, 1 s each to start with,
+/// and one claim on two of them, at f = 1 Hz: Q(4.1 d) / Q(3.4 d) > 2.5 (Beverloo's law with
+/// k = 2 gives 2.6; D^{5/2} alone 1.58). Its first look straddles 2.5; two rounds contradict it
+/// (the tiny silo gives about 2.1: its empty annulus is narrower than 2 d).
+fn tiny_claims(allocation: &str) -> Value {
+    let mut c = campaign("tiny_claims", &[0.02, 0.024], &[0.0, 1.0], 0.2);
+    let base = c["base"].as_object_mut().unwrap();
+    base.insert("particle_count".into(), json!(600));
+    base.insert("discharge_time_s".into(), json!(1.0));
+    base.insert("reinsert".into(), json!(true));
+    c["target"] = json!({
+        "claims": "decided", "max_replicas": 3, "max_time_s": 6.0, "max_rounds": 6,
+        "allocation": allocation
+    });
+    c["claims"] = json!([{
+        "id": "q_faster_than_d", "paper": "PRE 102, 042902, Fig. 3",
+        "statement": "Q(4.1 d) / Q(3.4 d) exceeds 2.5 (Beverloo, k = 2)",
+        "compare": {
+            "result": "q",
+            "at": { "orifice_diameter_m": 0.024, "rotation_frequency_hz": 1.0 },
+            "against": { "orifice_diameter_m": 0.02, "rotation_frequency_hz": 1.0 },
+            "above": 2.5
+        }
+    }]);
+    c
+}
+
+/// Every look's verdicts, bit for bit (wall times left out: they are the machine's).
+fn verdicts(db: &Path) -> Vec<Vec<String>> {
+    rows(
+        db,
+        "SELECT round, claim_id, verdict, value, lo, hi, level, bound, points, note, particle_steps,
+                forecast_particle_steps
+         FROM claim_verdicts ORDER BY round, claim_id",
+    )
+}
+
+fn work(db: &Path) -> Vec<Vec<String>> {
+    rows(
+        db,
+        "SELECT w.round, w.point, j.hash, w.action, w.from_s, w.to_s FROM target_work w
+         JOIN jobs j ON j.id = w.job_id ORDER BY w.id",
+    )
+}
+
+fn launch_claims(dir: &Path, allocation: &str) -> (std::path::PathBuf, String) {
+    let file = write_campaign(dir, "c.json", &tiny_claims(allocation));
+    let db = dir.join("sweep.db");
+    let o = launch_ok(dir, &file, &db);
+    (db, stdout(&o))
+}
+
+#[test]
+fn a_claim_is_decided_over_rounds_and_the_same_after_a_kill() {
+    let a = TempDir::new().unwrap();
+    let (db_a, out) = launch_claims(a.path(), "adaptive");
+    let looks = verdicts(&db_a);
+    assert!(
+        looks.len() >= 2,
+        "decided at the first look: no round was needed\n{out}"
+    );
+    assert_eq!(looks[0][2], "text undecided", "{looks:?}\n{out}");
+    let last = looks.last().unwrap();
+    assert_eq!(last[2], "text contradicted", "{looks:?}\n{out}");
+    assert!(
+        out.contains("claims: stopped: every claim is decided"),
+        "{out}"
+    );
+    // Only the claim's points got work; the two at f = 0 Hz never did.
+    for w in work(&db_a) {
+        assert!(w[1].contains("rotation_frequency_hz=1"), "{w:?}");
+    }
+    // `sweep status` and `sweep report --claims` show the verdict.
+    let st = sweep_cmd(a.path())
+        .args(["status", "--db", db_a.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(stdout(&st).contains("q_faster_than_d"), "{}", stdout(&st));
+    let rep = sweep_cmd(a.path())
+        .args([
+            "report",
+            "--claims",
+            "--db",
+            db_a.to_str().unwrap(),
+            "--out",
+            "figs",
+        ])
+        .output()
+        .unwrap();
+    assert!(rep.status.success(), "{}", stderr(&rep));
+    let md = std::fs::read_to_string(a.path().join("figs/claims.md")).unwrap();
+    assert!(
+        md.contains("**contradicted**") && md.contains("N = 600"),
+        "{md}"
+    );
+    let csv = std::fs::read_to_string(a.path().join("figs/claims.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
+
+    // Killed once a round's work is running, then resumed: the same rounds and verdicts.
+    let b = TempDir::new().unwrap();
+    let file = write_campaign(b.path(), "c.json", &tiny_claims("adaptive"));
+    let db_b = b.path().join("sweep.db");
+    let mut child = spawn(
+        b.path(),
+        &[
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db_b.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ],
+        "launch.log",
+    );
+    let seen = wait_for(&mut child, "a round's work running", || {
+        db_b.exists()
+            && read_db(&db_b)
+                .query_row(
+                    "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
+                     WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
+                    [],
+                    |r| r.get::<_, i64>(0),
+                )
+                .unwrap_or(0)
+                > 0
+    });
+    assert!(seen, "the campaign ended before its first round ran");
+    kill(&mut child);
+    let o = resume(b.path(), &db_b);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert_eq!(work(&db_a), work(&db_b), "other rounds after the kill");
+    assert_eq!(
+        verdicts(&db_a),
+        verdicts(&db_b),
+        "other verdicts after the kill"
+    );
+    assert_same_results(&results(&db_a), &results(&db_b));
+}
+
+#[test]
+fn bad_claims_are_refused_by_field_and_nothing_is_registered() {
+    let dir = TempDir::new().unwrap();
+    let mut c = tiny_claims("adaptive");
+    c["claims"][0]["compare"]["at"]["orifice_diameter_m"] = json!(0.03);
+    c["claims"].as_array_mut().unwrap().push(json!({
+        "id": "q_faster_than_d", "statement": "twice",
+        "trend": { "result": "D", "along": "rotation_frequency_hz", "at": { "orifice_diameter_m": 0.02 }, "direction": "rising" }
+    }));
+    let file = write_campaign(dir.path(), "bad.json", &c);
+    let db = dir.path().join("sweep.db");
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    let e = stderr(&o);
+    for expected in [
+        "bad.json",
+        "claims[0].compare.at",
+        "no point of the campaign has orifice_diameter_m=0.03",
+        "claims[1].id",
+        "claims[1].trend.result",
+        "'D' is not a result of this scene; expected one of q",
+    ] {
+        assert!(e.contains(expected), "missing {expected:?} in:\n{e}");
+    }
+    assert!(!db.exists() || count(&db, "SELECT COUNT(*) FROM jobs") == 0);
+    // A claims target without claims, and a chute claim without 3 replicas.
+    let mut c = tiny_claims("adaptive");
+    c.as_object_mut().unwrap().remove("claims");
+    let file = write_campaign(dir.path(), "none.json", &c);
+    let o = sweep_cmd(dir.path())
+        .args(["plan", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("target.claims"), "{}", stderr(&o));
+    let mut chute = tiny_chute("tiny_chute_claims", "f32", 0.5);
+    chute["claims"] = json!([{ "id": "d", "statement": "D > 0",
+        "compare": { "result": "D", "at": {}, "value": 0.0, "as": "difference", "above": 0.0 } }]);
+    let file = write_campaign(dir.path(), "chute.json", &chute);
+    let o = sweep_cmd(dir.path())
+        .args(["plan", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("replicas") && stderr(&o).contains("at least 3"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn claims_are_part_of_the_version_not_of_job_identity() {
+    let dir = TempDir::new().unwrap();
+    let mut plain = tiny_claims("adaptive");
+    plain.as_object_mut().unwrap().remove("claims");
+    plain.as_object_mut().unwrap().remove("target");
+    plain["base"]["discharge_time_s"] = json!(0.3);
+    let file = write_campaign(dir.path(), "c.json", &plain);
+    let db = dir.path().join("sweep.db");
+    launch_ok(dir.path(), &file, &db);
+    let hashes = rows(&db, "SELECT hash FROM jobs ORDER BY hash");
+    // The same study with a claim: the file changed (refused without --new-version) ...
+    let mut claimed = plain.clone();
+    claimed["claims"] = tiny_claims("adaptive")["claims"].clone();
+    let file = write_campaign(dir.path(), "c.json", &claimed);
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("claims: (absent) ->"), "{}", stderr(&o));
+    // ... and as version 2 it shares every job: nothing new is run.
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--new-version",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("0 new"), "{}", stdout(&o));
+    assert_eq!(rows(&db, "SELECT hash FROM jobs ORDER BY hash"), hashes);
+    // Without a target its claim is looked at once, by the report, at 95 %.
+    let rep = sweep_cmd(dir.path())
+        .args([
+            "report",
+            "--claims",
+            "--db",
+            db.to_str().unwrap(),
+            "--out",
+            "figs",
+        ])
+        .output()
+        .unwrap();
+    assert!(rep.status.success(), "{}", stderr(&rep));
+    assert!(stdout(&rep).contains("q_faster_than_d"), "{}", stdout(&rep));
+    assert!(stdout(&rep).contains("95.00 %"), "{}", stdout(&rep));
+}
