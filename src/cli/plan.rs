@@ -190,6 +190,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         // The first round is the jobs above; what follows depends on the measured scatter.
         let bench_rate = rates.values().flatten().next().copied();
         target_forecast(conn.as_ref(), &file.name, t, bench_rate)?;
+    } else if !file.claims.is_empty() {
+        claims_forecast(
+            conn.as_ref(),
+            &file.name,
+            &sweep::campaign::Target::claims_looked_at_once(),
+        )?;
     }
     for ((backend, precision), r) in &rates {
         if r.is_none() {
@@ -292,7 +298,12 @@ fn claims_forecast(
     name: &str,
     t: &sweep::campaign::Target,
 ) -> anyhow::Result<()> {
-    println!(
+    if !t.decides_claims() {
+        println!(
+            "claims: looked at once, at 95 %, when the campaign's jobs have ended (no target adds work for them)"
+        );
+    } else {
+        println!(
         "target: every claim decided (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {:?})",
         t.max_rounds,
         t.max_replicas,
@@ -300,6 +311,7 @@ fn claims_forecast(
         t.max_core_hours.map_or_else(|| "none".into(), |h| format!("{h}")),
         t.allocation
     );
+    }
     let campaign = match conn {
         Some(c) => sweep::store::campaign_reads::campaign_named(c, name, None)?,
         None => None,

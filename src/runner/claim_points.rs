@@ -168,3 +168,44 @@ fn chute_values(rows: &[BlockRow], bed_height_m: f64, d_perp_m: f64) -> BTreeMap
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(block: i64, z_m: f64, d: f64, shear: f64) -> BlockRow {
+        BlockRow {
+            block,
+            z_m,
+            diffusion_m2_per_s: Some(d),
+            diffusion_stderr_m2_per_s: None,
+            msd_fit_r: None,
+            shear_rate_per_s: shear,
+            velocity_x_m_per_s: 2.0 * z_m,
+            solid_fraction: 0.55,
+            vz_std_m_per_s: None,
+            vz_skewness: None,
+            correlation_length_m: None,
+        }
+    }
+
+    #[test]
+    fn a_replica_gives_bulk_means_and_block_values() {
+        // H = 1 m: blocks centred at 0.1 and 0.9 m are outside the bulk (0.2 H, 0.8 H).
+        let rows = [
+            row(0, 0.1, 9.0, 9.0),
+            row(1, 0.3, 1.0, 2.0),
+            row(2, 0.5, 3.0, 2.0),
+            row(3, 0.9, 9.0, 9.0),
+        ];
+        let v = chute_values(&rows, 1.0, 0.1);
+        assert_eq!(v["D"], 2.0);
+        assert_eq!(v["shear_rate"], 2.0);
+        assert_eq!(v["D_over_shear_rate"], 1.0);
+        assert!((v["V_x"] - 0.8).abs() < 1e-12);
+        assert!((v["d_perp2"] - 0.01).abs() < 1e-15);
+        assert!((v["shear_rate_d_perp2"] - 0.02).abs() < 1e-15);
+        assert_eq!(v["D@0"], 9.0);
+        assert_eq!(v["D_over_shear_rate@2"], 1.5);
+    }
+}

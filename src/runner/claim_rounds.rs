@@ -24,6 +24,10 @@ use crate::store::targets::WorkRow;
 use super::adaptive::{register_work, Evaluation, RoundOutcome};
 use super::claim_points::claim_points;
 
+/// The smallest fraction of a point's variance one round aims to keep (a round at most
+/// quadruples the point's measurement).
+const MIN_KEEP: f64 = 0.25;
+
 /// What the campaign has spent so far.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spent {
@@ -249,7 +253,9 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                 }
             }
             let sum: f64 = chosen.iter().map(|c| c.1).sum();
-            let keep = (1.0 - reduce / sum.max(1e-300)).max(0.05);
+            // At most 4× a point's measurement per round: the value moves as data come in,
+            // and a claim near its bound is settled for less by steps than by one leap.
+            let keep = (1.0 - reduce / sum.max(1e-300)).max(MIN_KEEP);
             chosen = chosen.into_iter().map(|(i, _)| (i, keep)).collect();
         } else {
             for &i in &v.points {

@@ -1,9 +1,11 @@
 //! Claims: a paper's statement as one test on a campaign's pooled results (`spec`), resolved
-//! against its points into a statistic (`statistic`), and decided by that statistic's interval
+//! against its points (`resolve`) into a statistic (`statistic`, fits in `fit_value`), and decided by that statistic's interval
 //! (`verdict`): supported, contradicted or undecided. Pure: the runner and the reports read the
 //! store, build [`PointData`], and call this.
 
 mod data;
+mod fit_value;
+mod resolve;
 mod spec;
 mod statistic;
 #[cfg(test)]
@@ -14,8 +16,9 @@ pub use data::{
     matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_RESULTS,
     SILO_RESULTS,
 };
+pub use resolve::{at_text, Unresolved};
 pub use spec::{
     At, Bound, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, TestKind, Trend,
 };
-pub use statistic::{at_text, short, Side, Statistic, Unresolved};
+pub use statistic::{short, Side, Statistic};
 pub use verdict::{decide, look_level, seed_of, Decision, Verdict, ALPHA, DRAWS};

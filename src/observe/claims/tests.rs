@@ -29,10 +29,6 @@ fn point(d: f64, f: f64, q: f64, se: f64) -> PointData {
     }
 }
 
-fn at(pairs: &[(&str, f64)]) -> At {
-    pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
-}
-
 fn claim(json: serde_json::Value) -> Claim {
     serde_json::from_value(json).expect("claim parses")
 }
@@ -111,6 +107,9 @@ fn trend_is_decided_by_its_slope_and_refuted_by_a_reversed_step() {
     let v = verdict(&c, &series([1.0, 1.6, 1.4], 0.01));
     assert_eq!(v.decision, Decision::Contradicted, "{v:?}");
     assert!(v.note.contains("2→3"), "{}", v.note);
+    // On the bound: flat, however precise.
+    let v = verdict(&c, &series([1.0, 1.0, 1.0], 1e-6));
+    assert_eq!(v.decision, Decision::Undecided, "{v:?}");
 }
 
 fn dip() -> Claim {
@@ -174,6 +173,16 @@ fn fit_recovers_janda_d_min_and_decides_against_a_range() {
         "id": "dmin", "statement": "D_min", "fit": { "model": "janda", "parameter": "d_min_m", "at": { F: 0.0 }, "within": [0.008, 0.01] }
     }));
     assert_eq!(verdict(&off, &pts).decision, Decision::Contradicted);
+    // On the bound: the fitted D_min is the range's end.
+    let exact: Vec<PointData> = ds
+        .iter()
+        .map(|&d| point(d, 0.0, janda(d), 1e-7 * janda(d)))
+        .collect();
+    let d_min = verdict(&inside, &exact).value;
+    let edge = claim(serde_json::json!({
+        "id": "dmin", "statement": "D_min", "fit": { "model": "janda", "parameter": "d_min_m", "at": { F: 0.0 }, "within": [d_min, 0.01] }
+    }));
+    assert_eq!(verdict(&edge, &exact).decision, Decision::Undecided);
 }
 
 #[test]
@@ -306,5 +315,8 @@ fn repeated_looks_keep_false_verdicts_at_five_percent() {
     );
     // The rule matters: 95 % at every look decides far more often on no effect.
     let naive = false_verdicts(200, looks, 0.95);
+    println!(
+        "false verdicts in 200 campaigns of {looks} looks: α split {split}, 95 % per look {naive}"
+    );
     assert!(naive > split && naive > 10, "naive {naive}, split {split}");
 }
