@@ -68,6 +68,13 @@ pub enum Allocation {
 }
 
 impl Allocation {
+    pub fn name(self) -> &'static str {
+        match self {
+            Allocation::Adaptive => "adaptive",
+            Allocation::Uniform => "uniform",
+        }
+    }
+
     pub fn is_adaptive(&self) -> bool {
         *self == Allocation::Adaptive
     }

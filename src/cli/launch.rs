@@ -140,9 +140,21 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         done as usize,
     )?;
     if file.target.is_none() {
+        if !file.claims.is_empty() && code == 0 {
+            look_once(&a.run.db.db, cid)?;
+        }
         return Ok(code);
     }
     pursue_target(&a.run, &work, cid, file.run.checkpoint_interval_s, code)
+}
+
+/// The claims of a campaign without a target, looked at once its jobs have ended.
+fn look_once(db: &Path, cid: i64) -> anyhow::Result<()> {
+    let mut conn = sweep::store::open(db)?;
+    if let Some(rows) = sweep::runner::claim_rounds::look_once(&mut conn, cid)? {
+        super::claims::print_verdicts(&rows);
+    }
+    Ok(())
 }
 
 /// Rounds of a campaign's target: evaluate, add the work, run it, until nothing is added or a
@@ -317,10 +329,17 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     )?;
     let marked_failed = decisions.iter().any(|d| d.action == "failed");
     let mut code = if code == 0 && marked_failed { 1 } else { code };
-    // Campaigns with a target go on with their rounds where they stopped.
+    // Campaigns with a target go on with their rounds where they stopped; claims without one
+    // are looked at once their jobs have ended.
     let conn = sweep::store::open(db)?;
     let with_target = sweep::store::targets::campaigns_with_target(&conn)?;
+    let with_claims = sweep::store::targets::campaigns_with_claims_only(&conn)?;
     drop(conn);
+    if code == 0 {
+        for cid in with_claims {
+            look_once(db, cid)?;
+        }
+    }
     for cid in with_target {
         let conn = sweep::store::open(db)?;
         let interval = sweep::store::targets::campaign_file(&conn, cid)?.map_or(

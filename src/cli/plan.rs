@@ -304,12 +304,12 @@ fn claims_forecast(
         );
     } else {
         println!(
-        "target: every claim decided (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {:?})",
+        "target: every claim decided (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {})",
         t.max_rounds,
         t.max_replicas,
         t.max_time_s.map_or_else(|| "none".into(), |m| format!("{m} s")),
         t.max_core_hours.map_or_else(|| "none".into(), |h| format!("{h}")),
-        t.allocation
+        t.allocation.name()
     );
     }
     let campaign = match conn {

@@ -387,3 +387,21 @@ pub fn next_claims_round(
         max_core_hours: t.max_core_hours,
     }))
 }
+
+/// A campaign with claims and no target: once its jobs have ended, its claims are looked at
+/// once (at 95 %) and the verdicts stored as look 0. None while jobs are open.
+///
+/// # Errors
+/// Database errors.
+pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<VerdictRow>>> {
+    let ev = super::adaptive::evaluate(conn, campaign_id)?;
+    if ev.open > 0 || ev.file.claims.is_empty() {
+        return Ok(None);
+    }
+    let l = look(conn, campaign_id, &ev)?;
+    let rows: Vec<VerdictRow> = l.claims.into_iter().map(|c| c.2).collect();
+    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+    claims::save_verdicts(&tx, campaign_id, &rows)?;
+    tx.commit()?;
+    Ok(Some(rows))
+}

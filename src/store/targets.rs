@@ -303,3 +303,22 @@ pub fn campaigns_with_target(conn: &Connection) -> Result<Vec<i64>> {
         .map(|(id, _)| id)
         .collect())
 }
+
+/// Every campaign whose stored file has claims but no target, by id.
+///
+/// # Errors
+/// Database errors.
+pub fn campaigns_with_claims_only(conn: &Connection) -> Result<Vec<i64>> {
+    let mut q = conn.prepare("SELECT id, spec_json FROM campaigns ORDER BY id")?;
+    let rows = q
+        .query_map([], |r| Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?)))?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows
+        .into_iter()
+        .filter(|(_, s)| {
+            serde_json::from_str::<crate::campaign::CampaignFile>(s)
+                .is_ok_and(|f| f.target.is_none() && !f.claims.is_empty())
+        })
+        .map(|(id, _)| id)
+        .collect())
+}

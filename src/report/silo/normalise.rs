@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use crate::report::silo::data::{distinct, same_value, FlowPoint};
+use crate::report::silo::data::{distinct, same_value, CloggedPoint, FlowPoint};
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
 /// Q/Q_ref vs f for one orifice.
@@ -113,7 +113,13 @@ impl Normalised {
     }
 
     /// The text table and the CSV of `curves`.
-    pub fn tables<'a>(&self, curves: impl Iterator<Item = &'a NormalisedCurve>) -> (Table, Table) {
+    /// The text table and the CSV of `curves`, and of the `clogged` points (every run clogged:
+    /// no Q), which the CSV lists with empty values and their runs, as the figures mark them.
+    pub fn tables<'a>(
+        &self,
+        curves: impl Iterator<Item = &'a NormalisedCurve>,
+        clogged: &[&CloggedPoint],
+    ) -> (Table, Table) {
         let mut text = Table::new(&[
             "D_mm",
             "D/d",
@@ -136,6 +142,7 @@ impl Normalised {
             "q_over_q_ref_ci95",
             "replicas",
             "q_ci95_source",
+            "clogged_runs",
         ]);
         for c in curves {
             for (p, ratio, err) in &c.points {
@@ -161,8 +168,24 @@ impl Normalised {
                     csv_num(*err),
                     p.replicas.to_string(),
                     p.ci_source.name().into(),
+                    p.clogged_replicas.to_string(),
                 ]);
             }
+        }
+        for c in clogged {
+            csv.push(vec![
+                csv_num(Some(c.d_m)),
+                csv_num(Some(c.particle_d_m)),
+                csv_num(Some(c.f_hz)),
+                String::new(),
+                String::new(),
+                csv_num(Some(self.f_ref)),
+                String::new(),
+                String::new(),
+                "0".into(),
+                String::new(),
+                c.runs.to_string(),
+            ]);
         }
         (text, csv)
     }

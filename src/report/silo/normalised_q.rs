@@ -148,7 +148,8 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         columns: 1,
         panel_size: (1000, 700),
     };
-    let (table, csv) = norm.tables(norm.curves.iter());
+    let all_clogged: Vec<&CloggedPoint> = clogged.iter().collect();
+    let (table, csv) = norm.tables(norm.curves.iter(), &all_clogged);
     let text = format!(
         "{}{}{}{}",
         norm.note(),
@@ -219,7 +220,11 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         panels,
         panel_size: (700, 520),
     };
-    let (table, csv) = norm.tables(shown.iter().copied());
+    let shown_clogged: Vec<&CloggedPoint> = clogged
+        .iter()
+        .filter(|c| shown.iter().any(|s| same_value(s.d_m, c.d_m)))
+        .collect();
+    let (table, csv) = norm.tables(shown.iter().copied(), &shown_clogged);
     let mut text = norm.note();
     text.push_str(&clogged_note(&clogged));
     let _ = writeln!(

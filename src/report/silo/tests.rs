@@ -444,6 +444,16 @@ fn clogged_runs_are_marked_not_dropped_and_never_values() {
         "{}",
         fig4.table
     );
+    // fig4.csv lists the clogged point the figure marks: empty values, its runs.
+    let csv = std::fs::read_to_string(dir.path().join("fig4.csv")).expect("csv");
+    let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+    assert_eq!(header.last(), Some(&"clogged_runs"), "{csv}");
+    let row = csv
+        .lines()
+        .find(|l| l.starts_with("0.01,"))
+        .expect("a fig4 row for the clogged (D, f)");
+    let v: Vec<&str> = row.split(',').collect();
+    assert!(v[3].is_empty() && v[6].is_empty() && v[10] == "1", "{row}");
 }
 
 #[test]
@@ -655,7 +665,7 @@ fn three_pooled_replicas_show_their_count_and_a_narrower_interval() {
             .lines()
             .find(|l| l.split(',').nth(8) == Some("3"))
             .unwrap_or_else(|| panic!("{figure}: no row with 3 replicas\n{csv}"));
-        assert!(row.ends_with(",3,pooled blocks"), "{row}");
+        assert!(row.ends_with(",3,pooled blocks,0"), "{row}");
         let svg = std::fs::read_to_string(dir.path().join(format!("{figure}.svg"))).expect("svg");
         assert!(svg_text(&svg).contains("n=3"), "{figure}");
         assert!(drawn.table.contains("replicas"), "{}", drawn.table);
