@@ -140,34 +140,7 @@ fn the_rounds_take_the_same_work_in_the_same_order_twice_and_after_a_kill() {
     let b = TempDir::new().unwrap();
     let file = write_campaign(b.path(), "t.json", &tiny_target());
     let db_b = b.path().join("sweep.db");
-    let mut child = spawn(
-        b.path(),
-        &[
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db_b.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--threads",
-            "1",
-        ],
-        "launch.log",
-    );
-    let seen = wait_for(&mut child, "a round's work running", || {
-        db_b.exists()
-            && read_db(&db_b)
-                .query_row(
-                    "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
-                     WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
-                    [],
-                    |r| r.get::<_, i64>(0),
-                )
-                .unwrap_or(0)
-                > 0
-    });
-    assert!(seen, "the campaign ended before its first round ran");
-    kill(&mut child);
+    launch_killed_in_a_round(b.path(), &file, &db_b);
     let o = resume(b.path(), &db_b);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
     assert_eq!(work(&db_a), work(&db_b), "the target chose other work");

@@ -191,18 +191,7 @@ fn pursue_target(
                     return Ok(code);
                 }
                 print_work(&round.work);
-                let t = sweep::store::job_counts::campaign_done_count(&conn, cid)?;
-                let total = sweep::store::targets::campaign_jobs(&conn, cid)?.len();
-                drop(conn);
-                code = run_jobs(
-                    r,
-                    work.to_path_buf(),
-                    Some(cid),
-                    None,
-                    checkpoint_interval_s,
-                    total,
-                    t as usize,
-                )?;
+                code = run_round(r, work, &conn, cid, checkpoint_interval_s)?;
             }
             RoundOutcome::Work {
                 round: _,
@@ -211,21 +200,31 @@ fn pursue_target(
             } => {
                 print_points(&points);
                 print_work(&added);
-                let t = sweep::store::job_counts::campaign_done_count(&conn, cid)?;
-                let total = sweep::store::targets::campaign_jobs(&conn, cid)?.len();
-                drop(conn);
-                code = run_jobs(
-                    r,
-                    work.to_path_buf(),
-                    Some(cid),
-                    None,
-                    checkpoint_interval_s,
-                    total,
-                    t as usize,
-                )?;
+                code = run_round(r, work, &conn, cid, checkpoint_interval_s)?;
             }
         }
     }
+}
+
+/// Runs the work a round added to campaign `cid`; returns the exit code.
+fn run_round(
+    r: &RunArgs,
+    work: &Path,
+    conn: &rusqlite::Connection,
+    cid: i64,
+    checkpoint_interval_s: f64,
+) -> anyhow::Result<i32> {
+    let done = sweep::store::job_counts::campaign_done_count(conn, cid)?;
+    let total = sweep::store::targets::campaign_jobs(conn, cid)?.len();
+    run_jobs(
+        r,
+        work.to_path_buf(),
+        Some(cid),
+        None,
+        checkpoint_interval_s,
+        total,
+        done as usize,
+    )
 }
 
 /// One line per piece of work a round added.

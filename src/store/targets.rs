@@ -285,21 +285,26 @@ pub fn campaign_file(
     spec.map(|s| Ok(serde_json::from_str(&s)?)).transpose()
 }
 
-/// The ids of campaigns whose file has a target.
-///
-/// # Errors
-/// Database errors.
-pub fn campaigns_with_target(conn: &Connection) -> Result<Vec<i64>> {
+/// Every campaign whose stored file this sweep can read, with that file, by id.
+fn campaign_files(conn: &Connection) -> Result<Vec<(i64, crate::campaign::CampaignFile)>> {
     let mut q = conn.prepare("SELECT id, spec_json FROM campaigns ORDER BY id")?;
     let rows = q
         .query_map([], |r| Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?)))?
         .collect::<rusqlite::Result<Vec<_>>>()?;
     Ok(rows
         .into_iter()
-        .filter(|(_, s)| {
-            serde_json::from_str::<crate::campaign::CampaignFile>(s)
-                .is_ok_and(|f| f.target.is_some())
-        })
+        .filter_map(|(id, s)| Some((id, serde_json::from_str(&s).ok()?)))
+        .collect())
+}
+
+/// The ids of campaigns whose file has a target.
+///
+/// # Errors
+/// Database errors.
+pub fn campaigns_with_target(conn: &Connection) -> Result<Vec<i64>> {
+    Ok(campaign_files(conn)?
+        .into_iter()
+        .filter(|(_, f)| f.target.is_some())
         .map(|(id, _)| id)
         .collect())
 }
@@ -309,16 +314,9 @@ pub fn campaigns_with_target(conn: &Connection) -> Result<Vec<i64>> {
 /// # Errors
 /// Database errors.
 pub fn campaigns_with_claims_only(conn: &Connection) -> Result<Vec<i64>> {
-    let mut q = conn.prepare("SELECT id, spec_json FROM campaigns ORDER BY id")?;
-    let rows = q
-        .query_map([], |r| Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?)))?
-        .collect::<rusqlite::Result<Vec<_>>>()?;
-    Ok(rows
+    Ok(campaign_files(conn)?
         .into_iter()
-        .filter(|(_, s)| {
-            serde_json::from_str::<crate::campaign::CampaignFile>(s)
-                .is_ok_and(|f| f.target.is_none() && !f.claims.is_empty())
-        })
+        .filter(|(_, f)| f.target.is_none() && !f.claims.is_empty())
         .map(|(id, _)| id)
         .collect())
 }

@@ -334,3 +334,37 @@ pub fn resume(dir: &Path, db: &Path) -> Output {
         .output()
         .unwrap()
 }
+
+/// Launches campaign `file` into `db` (CPU, 1 thread) and kills it once work a round added is
+/// running past where it started (`target_work`), for resume tests of targets and claims.
+/// Panics if the campaign ends before.
+pub fn launch_killed_in_a_round(dir: &Path, file: &Path, db: &Path) {
+    let mut child = spawn(
+        dir,
+        &[
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ],
+        "launch.log",
+    );
+    let seen = wait_for(&mut child, "a round's work running", || {
+        db.exists()
+            && read_db(db)
+                .query_row(
+                    "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
+                     WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
+                    [],
+                    |r| r.get::<_, i64>(0),
+                )
+                .unwrap_or(0)
+                > 0
+    });
+    assert!(seen, "the campaign ended before its first round ran");
+    kill(&mut child);
+}
