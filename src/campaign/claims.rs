@@ -40,6 +40,7 @@ pub fn points_of(jobs: &[JobSpec]) -> Vec<(String, PointData)> {
                 params: point_params(&j.resolved_json()),
                 results: BTreeMap::new(),
                 missing: None,
+                clogged: false,
                 particle_steps: 0.0,
             },
         ));

@@ -38,6 +38,7 @@ pub fn claim_points(
             params: point_params(&p.next.resolved_json()),
             results: BTreeMap::new(),
             missing: None,
+            clogged: false,
             particle_steps: p.row.particle_steps as f64,
         })
         .collect();
@@ -75,7 +76,8 @@ pub fn claim_points(
                         _ => p.missing = Some("Q has no interval (one block)".into()),
                     },
                     None if found.is_some() => {
-                        p.missing = Some("every run clogged before Q could be measured".into())
+                        p.missing = Some("every run clogged before Q could be measured".into());
+                        p.clogged = true;
                     }
                     None => p.missing = Some("not run yet".into()),
                 }

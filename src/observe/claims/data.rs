@@ -25,6 +25,9 @@ pub struct PointData {
     pub results: BTreeMap<String, Estimate>,
     /// Why it has no results yet (every run clogged; fewer than 3 steady chute replicas), if so.
     pub missing: Option<String>,
+    /// Every run of the point clogged for good: it has no flow to measure. Fits and series
+    /// leave it out, as the figures do; a `compare` that names it stays undecided.
+    pub clogged: bool,
     /// Particle-steps its jobs ran.
     pub particle_steps: f64,
 }

@@ -65,7 +65,10 @@ fn along_groups(
     field: &str,
 ) -> Result<(Vec<f64>, Vec<Vec<usize>>), Unresolved> {
     let mut chosen: Vec<(f64, usize)> = Vec::new();
-    for i in select(points, at) {
+    for i in select(points, at)
+        .into_iter()
+        .filter(|&i| !points[i].clogged)
+    {
         let Some(&x) = points[i].params.get(along) else {
             return Err(unresolved(
                 &format!("{field}.along"),
@@ -345,7 +348,10 @@ fn fit(t: &Fit, cx: &Scope) -> Result<Statistic, Unresolved> {
     check_param(t.model, &t.parameter, &format!("{f}.parameter"))?;
     let side = Side::of(&t.bound())
         .ok_or_else(|| unresolved(&f, "expected exactly one of below, above, within".into()))?;
-    let chosen = select(points, &t.at);
+    let chosen: Vec<usize> = select(points, &t.at)
+        .into_iter()
+        .filter(|&i| !points[i].clogged)
+        .collect();
     let mut cells = Vec::new();
     let mut x = Vec::new();
     let mut ys = Vec::new();

@@ -25,6 +25,7 @@ fn point(d: f64, f: f64, q: f64, se: f64) -> PointData {
             },
         )]),
         missing: None,
+        clogged: false,
         particle_steps: 1e6,
     }
 }
@@ -107,6 +108,14 @@ fn trend_is_decided_by_its_slope_and_refuted_by_a_reversed_step() {
     let v = verdict(&c, &series([1.0, 1.6, 1.4], 0.01));
     assert_eq!(v.decision, Decision::Contradicted, "{v:?}");
     assert!(v.note.contains("2→3"), "{}", v.note);
+    // A point whose runs all clogged for good is left out, as the figures leave it out.
+    let mut with_clog = series([1.0, 1.2, 1.4], 0.02);
+    with_clog.insert(0, point(0.015, -0.5, f64::NAN, f64::NAN));
+    with_clog[0].results.clear();
+    with_clog[0].clogged = true;
+    let v = verdict(&c, &with_clog);
+    assert_eq!(v.decision, Decision::Supported, "{v:?}");
+    assert_eq!(v.points, vec![1, 2, 3]);
     // On the bound: flat, however precise.
     let v = verdict(&c, &series([1.0, 1.0, 1.0], 1e-6));
     assert_eq!(v.decision, Decision::Undecided, "{v:?}");
@@ -213,6 +222,7 @@ fn fit_line_through_results() {
                 ),
             ]),
             missing: None,
+            clogged: false,
             particle_steps: 1.0,
         });
     }
