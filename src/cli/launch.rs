@@ -17,17 +17,25 @@ use super::run_args::{Arguments, ResumeArguments, RunArgs};
 use super::shared::{print_report, register, work_dir, EXIT_PAUSED};
 
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
+/// One flag for the whole process: a signal handler can be set only once, and a target's
+/// rounds run their jobs in later pools that must see the same interrupt.
 fn interrupt_flag() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let f = flag.clone();
-    let _ = ctrlc::set_handler(move || {
-        if f.swap(true, Ordering::SeqCst) {
-            eprintln!("sweep: second interrupt, exiting without checkpoint");
-            std::process::exit(130);
-        }
-        eprintln!("sweep: interrupt: writing checkpoints, then stopping (again to exit at once)");
-    });
-    flag
+    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        let _ = ctrlc::set_handler(move || {
+            if f.swap(true, Ordering::SeqCst) {
+                eprintln!("sweep: second interrupt, exiting without checkpoint");
+                std::process::exit(130);
+            }
+            eprintln!(
+                "sweep: interrupt: writing checkpoints, then stopping (again to exit at once)"
+            );
+        });
+        flag
+    })
+    .clone()
 }
 
 /// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
