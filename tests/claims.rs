@@ -241,3 +241,24 @@ fn claims_are_part_of_the_version_not_of_job_identity() {
     assert!(stdout(&rep).contains("q_faster_than_d"), "{}", stdout(&rep));
     assert!(stdout(&rep).contains("95.00 %"), "{}", stdout(&rep));
 }
+
+#[test]
+fn a_sigterm_during_a_round_pauses_its_job() {
+    let dir = TempDir::new().unwrap();
+    let file = write_campaign(dir.path(), "c.json", &tiny_claims("adaptive"));
+    let db = dir.path().join("sweep.db");
+    let mut child = launch_until_a_round_runs(dir.path(), &file, &db);
+    let ok = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    // The round's pool sees the signal: its job checkpoints and the launch ends paused (75).
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(75), "{status:?}");
+    let paused = count(
+        &db,
+        "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id WHERE j.status = 'paused'",
+    );
+    assert!(paused >= 1, "no round job paused");
+}

@@ -335,10 +335,9 @@ pub fn resume(dir: &Path, db: &Path) -> Output {
         .unwrap()
 }
 
-/// Launches campaign `file` into `db` (CPU, 1 thread) and kills it once work a round added is
-/// running past where it started (`target_work`), for resume tests of targets and claims.
-/// Panics if the campaign ends before.
-pub fn launch_killed_in_a_round(dir: &Path, file: &Path, db: &Path) {
+/// Launches campaign `file` into `db` (CPU, 1 thread) and returns it once work a round added
+/// is running past where it started (`target_work`). Panics if the campaign ends before.
+pub fn launch_until_a_round_runs(dir: &Path, file: &Path, db: &Path) -> Child {
     let mut child = spawn(
         dir,
         &[
@@ -366,5 +365,11 @@ pub fn launch_killed_in_a_round(dir: &Path, file: &Path, db: &Path) {
                 > 0
     });
     assert!(seen, "the campaign ended before its first round ran");
+    child
+}
+
+/// As [`launch_until_a_round_runs`], then SIGKILLed: for resume tests of targets and claims.
+pub fn launch_killed_in_a_round(dir: &Path, file: &Path, db: &Path) {
+    let mut child = launch_until_a_round_runs(dir, file, db);
     kill(&mut child);
 }
