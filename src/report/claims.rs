@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 
 use serde_json::Value;
 
+use super::index::escape;
+use super::table::csv_num;
 use crate::observe::claims::short;
 use crate::store::claims::VerdictRow;
 
@@ -175,11 +177,6 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-fn csv_num(v: Option<f64>) -> String {
-    v.filter(|x| x.is_finite())
-        .map_or(String::new(), |x| format!("{x:e}"))
-}
-
 /// The claims table as CSV, every number in full.
 pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
     let mut c = String::from(
@@ -212,12 +209,6 @@ pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
         c.push('\n');
     }
     c
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 /// The claims table as an HTML section (for the index of `--figure all`).

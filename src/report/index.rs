@@ -54,7 +54,7 @@ pub fn render_all(conn: &Connection, campaign: Option<&str>, out: &Output) -> Re
     })
 }
 
-fn escape(s: &str) -> String {
+pub(super) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")

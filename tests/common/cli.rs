@@ -278,12 +278,9 @@ pub fn kill(child: &mut Child) {
     child.wait().unwrap();
 }
 
-/// Starts the single-job campaign in `dir` and SIGKILLs it once a checkpoint of the discharge
-/// (not just the shared fill stage) exists. Returns the database path.
-pub fn launch_and_kill(dir: &Path, checkpoint_interval_s: f64) -> PathBuf {
-    let file = write_campaign(dir, "tiny.json", &one_job(checkpoint_interval_s));
-    let db = dir.join("sweep.db");
-    let mut child = spawn(
+/// Starts `sweep launch FILE --db DB` on the CPU with 1 thread (its output in launch.log).
+pub fn spawn_launch(dir: &Path, file: &Path, db: &Path) -> Child {
+    spawn(
         dir,
         &[
             "launch",
@@ -296,7 +293,15 @@ pub fn launch_and_kill(dir: &Path, checkpoint_interval_s: f64) -> PathBuf {
             "1",
         ],
         "launch.log",
-    );
+    )
+}
+
+/// Starts the single-job campaign in `dir` and SIGKILLs it once a checkpoint of the discharge
+/// (not just the shared fill stage) exists. Returns the database path.
+pub fn launch_and_kill(dir: &Path, checkpoint_interval_s: f64) -> PathBuf {
+    let file = write_campaign(dir, "tiny.json", &one_job(checkpoint_interval_s));
+    let db = dir.join("sweep.db");
+    let mut child = spawn_launch(dir, &file, &db);
     let seen = wait_for(&mut child, "a discharge checkpoint", || {
         !job_checkpoints(dir).is_empty()
     });
@@ -338,20 +343,7 @@ pub fn resume(dir: &Path, db: &Path) -> Output {
 /// Launches campaign `file` into `db` (CPU, 1 thread) and returns it once work a round added
 /// is running past where it started (`target_work`). Panics if the campaign ends before.
 pub fn launch_until_a_round_runs(dir: &Path, file: &Path, db: &Path) -> Child {
-    let mut child = spawn(
-        dir,
-        &[
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--threads",
-            "1",
-        ],
-        "launch.log",
-    );
+    let mut child = spawn_launch(dir, file, db);
     let seen = wait_for(&mut child, "a round's work running", || {
         db.exists()
             && read_db(db)
