@@ -12,6 +12,7 @@ CREATE TABLE IF NOT EXISTS campaigns (
     file          TEXT NOT NULL,
     scene         TEXT NOT NULL,
     spec_json     TEXT NOT NULL,          -- the campaign file as parsed (normalised JSON)
+    registered    INTEGER NOT NULL DEFAULT 1,  -- 0 while its jobs are being registered (chunk by chunk)
     created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     UNIQUE (name, version)
 );
@@ -55,6 +56,11 @@ CREATE TABLE IF NOT EXISTS campaign_jobs (
     origin      TEXT,                      -- NULL: the campaign file; 'target': added by its target
     PRIMARY KEY (campaign_id, job_id)
 );
+-- A job's label and first campaign are looked up per job (claims, resume, Slurm submission):
+-- without this index each lookup reads the whole table, and a launch of N jobs costs N².
+CREATE INDEX IF NOT EXISTS campaign_jobs_job ON campaign_jobs (job_id);
+-- The next pending job, and the jobs in one state, without reading every job.
+CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status, id);
 
 -- Silo discharge: M(t) sampled at a fixed interval after the orifice opens.
 CREATE TABLE IF NOT EXISTS discharge_series (

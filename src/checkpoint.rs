@@ -320,12 +320,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     fs::create_dir_all(dir)?;
     // The temp name carries the process id: two writers never share one.
     let tmp = path.with_extension(format!("tmp.{}", std::process::id()));
-    {
-        let mut f = fs::File::create(&tmp)?;
+    let written = fs::File::create(&tmp).and_then(|mut f| {
         f.write_all(bytes)?;
-        f.sync_all()?;
+        f.sync_all()
+    });
+    if let Err(e) = written.and_then(|()| fs::rename(&tmp, path)) {
+        // A full disk must not also keep the half-written file.
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
     }
-    fs::rename(&tmp, path)?;
     if let Ok(d) = fs::File::open(dir) {
         let _ = d.sync_all();
     }
@@ -359,6 +362,7 @@ pub fn list(dir: &Path) -> Vec<PathBuf> {
 pub fn save(dir: &Path, h: &Header, s: &State<f64>, extra: &str) -> std::io::Result<PathBuf> {
     let path = dir.join(format!("ckpt-{:012}.bin", h.step));
     write_atomic(&path, &encode(h, s, extra))?;
+    remove_leftovers(dir);
     let all = list(dir);
     if all.len() > 2 {
         for old in &all[..all.len() - 2] {
@@ -366,6 +370,18 @@ pub fn save(dir: &Path, h: &Header, s: &State<f64>, extra: &str) -> std::io::Res
         }
     }
     Ok(path)
+}
+
+/// Removes the temp files of checkpoint writes that never finished (a kill -9 between write and
+/// rename). Only the holder of a directory's lock writes checkpoints in it, so any temp file
+/// there but its own finished write is a leftover.
+pub fn remove_leftovers(dir: &Path) {
+    for e in fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with("ckpt-") && name.contains(".tmp.") {
+            let _ = fs::remove_file(e.path());
+        }
+    }
 }
 
 /// A checkpoint read back: its path, header, state and the job's `extra` JSON.

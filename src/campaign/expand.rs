@@ -12,6 +12,65 @@ use super::error::{CampaignError, FieldProblem};
 use super::file::{CampaignFile, JobBackend, Observers, Precision, SceneKind};
 use crate::scene::{ChuteParams, SiloParams};
 
+/// A job's identity: its resolved parameters as canonical JSON, their SHA-256 (hex) and the
+/// seed of its random choices.
+#[derive(Clone, Debug)]
+pub struct Identity {
+    pub resolved_json: String,
+    pub hash: String,
+    pub seed: u64,
+}
+
+/// The seed from a job's canonical parameters without its observers and its place.
+fn seed_of(mut v: Value) -> u64 {
+    if let Value::Object(m) = &mut v {
+        m.remove("observers");
+        // Where the scene sits is not physics: a moved scene starts from the same packing.
+        for scene in ["silo", "chute"] {
+            if let Some(Value::Object(p)) = m.get_mut(scene) {
+                p.remove("origin_m");
+            }
+        }
+    }
+    let h = Sha256::digest(serde_json::to_string(&v).expect("serializable").as_bytes());
+    u64::from_le_bytes(h[..8].try_into().expect("8 bytes"))
+}
+
+/// −0.0 written as 0.0: they are the same physics (a frequency of −0 Hz is a bottom at rest),
+/// so they must be the same job.
+fn canonical_zeros(v: &mut Value) {
+    match v {
+        Value::Number(n)
+            if n.as_f64() == Some(0.0) && n.as_f64().is_some_and(f64::is_sign_negative) =>
+        {
+            *v = Value::from(0.0);
+        }
+        Value::Array(a) => a.iter_mut().for_each(canonical_zeros),
+        Value::Object(m) => m.values_mut().for_each(canonical_zeros),
+        _ => {}
+    }
+}
+
+/// Why a campaign name is unusable, if it is: it names the campaign in the store, in reports
+/// (`--campaign NAME`) and in work-directory paths.
+fn name_problem(name: &str) -> Option<String> {
+    if name.trim().is_empty() {
+        return Some("expected a name (it names the campaign in the database and in `--campaign NAME`), got an empty one".into());
+    }
+    if let Some(c) = name.chars().find(|c| c.is_control()) {
+        return Some(format!(
+            "expected printable characters, got the control character {:?} in {name:?}",
+            c
+        ));
+    }
+    if name.contains('@') || name.contains('/') {
+        return Some(format!(
+            "expected no '@' (it separates a version: NAME@v2) and no '/', got {name:?}"
+        ));
+    }
+    None
+}
+
 /// A fully resolved job.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct JobSpec {
@@ -51,9 +110,7 @@ impl JobSpec {
 
     /// Canonical JSON of everything that determines the job's results.
     pub fn resolved_json(&self) -> String {
-        // serde_json maps are sorted (no preserve_order feature), so this is canonical.
-        let v = serde_json::to_value(self).expect("serializable");
-        serde_json::to_string(&v).expect("serializable")
+        serde_json::to_string(&self.canonical_value()).expect("serializable")
     }
 
     /// SHA-256 of the resolved parameters, hex.
@@ -64,18 +121,27 @@ impl JobSpec {
     /// Seed of the job's random choices (packing, re-insertion), from its parameters without
     /// the observers: observing differently must not change what is observed.
     pub fn seed(&self) -> u64 {
-        let mut v = serde_json::to_value(self).expect("serializable");
-        if let Value::Object(m) = &mut v {
-            m.remove("observers");
-            // Where the scene sits is not physics: a moved scene starts from the same packing.
-            for scene in ["silo", "chute"] {
-                if let Some(Value::Object(p)) = m.get_mut(scene) {
-                    p.remove("origin_m");
-                }
-            }
+        seed_of(self.canonical_value())
+    }
+
+    /// The resolved JSON, its hash and the seed at once (one serialisation: registering 10⁶
+    /// jobs spends most of its time here).
+    pub fn identity(&self) -> Identity {
+        let v = self.canonical_value();
+        let resolved_json = serde_json::to_string(&v).expect("serializable");
+        Identity {
+            hash: hex(&Sha256::digest(resolved_json.as_bytes())),
+            resolved_json,
+            seed: seed_of(v),
         }
-        let h = Sha256::digest(serde_json::to_string(&v).expect("serializable").as_bytes());
-        u64::from_le_bytes(h[..8].try_into().expect("8 bytes"))
+    }
+
+    /// Every parameter as JSON, −0.0 written as 0.0; serde_json maps are sorted (no
+    /// preserve_order feature), so its text is canonical.
+    fn canonical_value(&self) -> Value {
+        let mut v = serde_json::to_value(self).expect("serializable");
+        canonical_zeros(&mut v);
+        v
     }
 
     /// Where the job's scene sits in the lab frame (`origin_m` of its scene).
@@ -164,7 +230,15 @@ pub fn key_with(key: &str, what: &str) -> String {
 }
 
 fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
+    const DIGITS: &[u8; 16] = b"0123456789abcdef";
+    b.iter()
+        .flat_map(|x| {
+            [
+                DIGITS[(x >> 4) as usize] as char,
+                DIGITS[(x & 15) as usize] as char,
+            ]
+        })
+        .collect()
 }
 
 /// Expands a parsed campaign into its jobs (in a fixed order), collecting every problem.
@@ -263,6 +337,20 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Vec<JobSpec>, CampaignErro
         problems.push(FieldProblem {
             path: "replicas".into(),
             message: "expected at least 1 replica, got 0".into(),
+        });
+    }
+    if let Some(message) = name_problem(&c.name) {
+        problems.push(FieldProblem {
+            path: "name".into(),
+            message,
+        });
+    }
+    if c.run.max_attempts == 0 {
+        problems.push(FieldProblem {
+            path: "run.max_attempts".into(),
+            message:
+                "expected at least 1 attempt per job (0 would register jobs that never run), got 0"
+                    .into(),
         });
     }
     if !(c.run.checkpoint_interval_s > 0.0) {

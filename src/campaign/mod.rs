@@ -17,7 +17,7 @@ mod target;
 pub use diff::diff_fields;
 pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
-pub use expand::{expand, key_with, JobSpec};
+pub use expand::{expand, key_with, Identity, JobSpec};
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
 pub use point::{label_without_replica, point_key, point_params};
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};

@@ -1,6 +1,7 @@
 //! What a job needs of the machine, checked before anything runs: its memory, estimated from
 //! its particle count (`engine::memory`) plus the observers that keep per-particle state, against
-//! this machine's memory (`MemTotal` of /proc/meminfo, or `SWEEP_MEMORY_LIMIT_BYTES`).
+//! the memory this process may take (the least of `MemTotal`, its cgroup's limit and `ulimit
+//! -v`; or `SWEEP_MEMORY_LIMIT_BYTES`).
 
 use super::expand::JobSpec;
 use super::file::{Precision, SceneKind};
@@ -16,8 +17,9 @@ pub struct MemoryLimit {
     pub source: String,
 }
 
-/// The limit: `SWEEP_MEMORY_LIMIT_BYTES` when set, else this machine's `MemTotal`; None when
-/// neither can be read (no check then).
+/// The limit: `SWEEP_MEMORY_LIMIT_BYTES` when set, else the least of this machine's `MemTotal`,
+/// the process's cgroup limit and its address-space limit; None when none can be read (no check
+/// then).
 ///
 /// # Errors
 /// `SWEEP_MEMORY_LIMIT_BYTES` set to something other than a whole number of bytes.
@@ -33,13 +35,57 @@ pub fn memory_limit() -> Result<Option<MemoryLimit>, String> {
             )),
         };
     }
-    let Ok(text) = std::fs::read_to_string("/proc/meminfo") else {
-        return Ok(None);
+    // The tightest of the machine's memory and the process's own limits: a job under a cgroup
+    // limit or `ulimit -v` is killed (or fails to allocate) long before MemTotal.
+    let mut limits: Vec<MemoryLimit> = Vec::new();
+    if let Some(bytes) = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| mem_total(&t))
+    {
+        limits.push(MemoryLimit {
+            bytes,
+            source: "this machine's memory (MemTotal in /proc/meminfo)".into(),
+        });
+    }
+    for (path, what) in [
+        (
+            "/sys/fs/cgroup/memory.max",
+            "this process's cgroup (memory.max)",
+        ),
+        (
+            "/sys/fs/cgroup/memory/memory.limit_in_bytes",
+            "this process's cgroup (memory.limit_in_bytes)",
+        ),
+    ] {
+        // "max" (cgroup v2) or a huge number (v1) means no limit.
+        if let Some(bytes) = std::fs::read_to_string(path)
+            .ok()
+            .and_then(|t| t.trim().parse::<u64>().ok())
+        {
+            limits.push(MemoryLimit {
+                bytes,
+                source: format!("{what}, {path}"),
+            });
+        }
+    }
+    if let Some(bytes) = address_space_limit() {
+        limits.push(MemoryLimit {
+            bytes,
+            source: "this process's address-space limit (ulimit -v)".into(),
+        });
+    }
+    Ok(limits.into_iter().min_by_key(|l| l.bytes))
+}
+
+/// `RLIMIT_AS` (`ulimit -v`), when set.
+fn address_space_limit() -> Option<u64> {
+    let mut r = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
     };
-    Ok(mem_total(&text).map(|bytes| MemoryLimit {
-        bytes,
-        source: "this machine's memory (MemTotal in /proc/meminfo)".into(),
-    }))
+    // SAFETY: getrlimit writes the struct it is given and nothing else.
+    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
+    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
 }
 
 /// `MemTotal` of /proc/meminfo's text, in bytes.

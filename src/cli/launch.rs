@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use anyhow::Context;
 use sweep::campaign::ExecutorKind;
 use sweep::runner::backend::{announce_auto, BackendChoice};
 use sweep::runner::slurm;
@@ -19,7 +18,7 @@ use super::shared::{print_report, register, work_dir, EXIT_PAUSED};
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
 /// One flag for the whole process: a signal handler can be set only once, and a target's
 /// rounds run their jobs in later pools that must see the same interrupt.
-fn interrupt_flag() -> Arc<AtomicBool> {
+pub fn interrupt_flag() -> Arc<AtomicBool> {
     static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
@@ -65,7 +64,18 @@ fn run_jobs(
         interrupt: interrupt_flag(),
         bars: std::io::stderr().is_terminal(),
     };
-    let s = run_pending(&opts, total, done).context("running jobs")?;
+    // A failure of the machinery (the disk full, the store unwritable) is a failed run, not bad
+    // input: the jobs it held are resumed by `sweep resume` (their locks end with this process).
+    let s = match run_pending(&opts, total, done) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!(
+                "sweep: error: running jobs: {e:#}\nsweep: the jobs this run held stay resumable: free what is missing, then `sweep resume --db {}`",
+                r.db.db.display()
+            );
+            return Ok(1);
+        }
+    };
     let interrupted = opts.interrupt.load(Ordering::SeqCst);
     Ok(finish(s, interrupted, &r.db.db))
 }
@@ -117,7 +127,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let db = &a.run.db.db;
-    let mut conn = sweep::store::open(db)?;
+    let mut conn = sweep::store::open_checked(db)?;
     let (cid, version, added) = match register(&mut conn, &a, &file, &jobs)? {
         Ok(x) => x,
         Err(code) => return Ok(code),
@@ -293,7 +303,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let db = &a.run.db.db;
-    let mut conn = sweep::store::open(db)?;
+    let mut conn = sweep::store::open_checked(db)?;
     let work = work_dir(&conn, db)?;
     let slurm_used = slurm_tasks::any(&conn)?;
     if slurm_used {
@@ -355,6 +365,14 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         );
         drop(conn);
         code = pursue_target(&a.run, &work, cid, interval, code)?;
+    }
+    // Failed jobs left alone (no attempts left) are still failures of the store's campaigns.
+    let failed = job_counts::failed_count(&sweep::store::open(db)?)?;
+    if code == 0 && failed > 0 {
+        println!(
+            "{failed} job(s) failed with no attempts left: `sweep status` says why; `sweep resume --max-attempts N` tries them again"
+        );
+        code = 1;
     }
     Ok(code)
 }

@@ -1,7 +1,7 @@
 //! `sweep plan FILE`: each job's effects and estimated cost, without running anything. Wall
 //! times come from this machine's `sweep bench` results in the database.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
@@ -29,7 +29,15 @@ pub struct Arguments {
     /// time; `scripts/compare-lammps-chute.sh` runs both codes from it.
     #[arg(long, value_name = "DIR")]
     pub lammps: Option<std::path::PathBuf>,
+    /// A line for every job, however many (by default the first 20 of a campaign of more than
+    /// 200 jobs).
+    #[arg(long)]
+    pub all_jobs: bool,
 }
+
+/// Up to this many jobs, the plan has a line per job; above, the first `FIRST_LINES`.
+const LINE_PER_JOB_UP_TO: usize = 200;
+const FIRST_LINES: usize = 20;
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let (file, jobs) = match sweep::campaign::load(&a.file) {
@@ -108,9 +116,33 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         "{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  parameters",
         "job", "dt_s", "N", "steps", "particle-st", "wall_s"
     );
+    // A campaign of many jobs gets the first lines only; replicas of one point share its scene.
+    let lines = if jobs.len() <= LINE_PER_JOB_UP_TO || a.all_jobs {
+        jobs.len()
+    } else {
+        FIRST_LINES
+    };
+    let mut chute_scenes: HashMap<String, std::rc::Rc<ChuteScene>> = HashMap::new();
+    let mut silo_dts: HashMap<String, f64> = HashMap::new();
     for (k, j) in jobs.iter().enumerate() {
+        if k == lines {
+            println!(
+                "      … and {} more job(s), counted in the total: `--all-jobs` lists every one",
+                jobs.len() - lines
+            );
+        }
+        let point = sweep::campaign::label_without_replica(&j.label);
         if j.scene == SceneKind::Chute {
-            let scene = ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?;
+            let scene = match chute_scenes.get(&point) {
+                Some(s) => s.clone(),
+                None => {
+                    let s = std::rc::Rc::new(
+                        ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?,
+                    );
+                    chute_scenes.insert(point.clone(), s.clone());
+                    s
+                }
+            };
             // At most: the longest wait for the steady state plus the measurement.
             let steps = (j.chute().max_time_s() / scene.dt).ceil();
             let n = j.chute().count() as f64;
@@ -119,16 +151,18 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             let rate = rate_of(j);
             total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
             let wall = rate.map_or("?".to_string(), |r| format!("≤{:.0}", ps / r));
-            println!(
-                "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
-                k + 1,
-                scene.dt,
-                j.chute().count(),
-                steps,
-                ps,
-                wall,
-                j.label
-            );
+            if k < lines {
+                println!(
+                    "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
+                    k + 1,
+                    scene.dt,
+                    j.chute().count(),
+                    steps,
+                    ps,
+                    wall,
+                    j.label
+                );
+            }
             if k == 0 {
                 let effects = Effects::of(&scene.engine_config(), true, !j.chute().spheres());
                 println!("      effects: {}", serde_json::to_string(&effects)?);
@@ -141,11 +175,20 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             }
             continue;
         }
-        let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
-        let steps_discharge = (j.silo().discharge_time_s / scene.dt).ceil();
+        let dt = match silo_dts.get(&point) {
+            Some(&dt) => dt,
+            None => {
+                let dt = SiloScene::new(j.silo().clone())
+                    .map_err(|e| anyhow::anyhow!(e))?
+                    .dt;
+                silo_dts.insert(point.clone(), dt);
+                dt
+            }
+        };
+        let steps_discharge = (j.silo().discharge_time_s / dt).ceil();
         // The fill stage is shared by jobs with the same fill parameters: count it once.
         let fill = if fills.insert(j.fill_key().0) {
-            (j.silo().settle_max_time_s.min(1.0) / scene.dt).ceil()
+            (j.silo().settle_max_time_s.min(1.0) / dt).ceil()
         } else {
             0.0
         };
@@ -162,10 +205,13 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         let rate = rate_of(j);
         total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
         let wall = rate.map_or("?".to_string(), |r| format!("{:.0}", ps / r));
+        if k >= lines {
+            continue;
+        }
         println!(
             "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
             k + 1,
-            scene.dt,
+            dt,
             j.silo().particle_count,
             fill + steps_discharge,
             ps,
@@ -173,6 +219,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             j.label
         );
         if k == 0 {
+            let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
             let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false, false);
             println!("      effects: {}", serde_json::to_string(&effects)?);
         }

@@ -29,7 +29,16 @@ pub fn register(
     jobs: &[sweep::campaign::JobSpec],
 ) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
     let path = a.file.display().to_string();
-    match jobs::register(conn, &path, file, jobs, a.new_version)? {
+    let stop = super::launch::interrupt_flag();
+    let stop = || stop.load(std::sync::atomic::Ordering::SeqCst);
+    match jobs::register_until(conn, &path, file, jobs, a.new_version, &stop)? {
+        jobs::Registration::Interrupted { added, .. } => {
+            println!(
+                "interrupted while registering: {added} of {} job(s) registered; launch the same file again to register the rest",
+                jobs.len()
+            );
+            Ok(Err(EXIT_PAUSED))
+        }
         jobs::Registration::Registered {
             campaign_id,
             version,

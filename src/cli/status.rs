@@ -21,7 +21,16 @@ pub struct Arguments {
     /// gone (jobs of this machine are judged by their OS lock).
     #[arg(long, default_value_t = 30.0)]
     pub stale_after: f64,
+    /// A line for every job, however many (by default a campaign of more than 200 jobs is
+    /// summarised: its totals, and a line only for the jobs running, paused or failed).
+    #[arg(long)]
+    pub all_jobs: bool,
 }
+
+/// Up to this many jobs, a campaign's status has a line per job.
+const LINE_PER_JOB_UP_TO: i64 = 200;
+/// At most this many lines of jobs needing a look in a summarised campaign.
+const SUMMARY_LINES: i64 = 50;
 
 pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if !Path::new(&a.db.db).exists() {
@@ -46,9 +55,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(0);
     }
     for c in camps {
-        let rows = jobs::campaign_jobs(&conn, c.id)?;
+        let totals = jobs::state_totals(&conn, c.id)?;
+        let count = |s: &str| totals.iter().find(|t| t.status == s).map_or(0, |t| t.jobs);
+        let all: i64 = totals.iter().map(|t| t.jobs).sum();
         let verdicts = sweep::store::chute_reads::flow_verdicts(&conn, c.id)?;
-        let count = |s: &str| rows.iter().filter(|r| r.status == s).count();
         println!(
             "campaign {}{} ({}): {} jobs — {} done, {} running, {} pending, {} paused, {} failed",
             c.name,
@@ -58,13 +68,29 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 String::new()
             },
             c.file,
-            rows.len(),
+            all,
             count("done"),
             count("running"),
             count("pending"),
             count("paused"),
             count("failed")
         );
+        let rows = if all <= LINE_PER_JOB_UP_TO || a.all_jobs {
+            jobs::campaign_jobs(&conn, c.id)?
+        } else {
+            print_totals(&totals);
+            let needing_a_look = ["running", "paused", "failed"];
+            let shown = count("running") + count("paused") + count("failed");
+            println!(
+                "         {all} jobs: a line for each job running, paused or failed{}; `--all-jobs` lists every one",
+                if shown > SUMMARY_LINES {
+                    format!(" (the first {SUMMARY_LINES} of {shown})")
+                } else {
+                    String::new()
+                }
+            );
+            jobs::campaign_jobs_in(&conn, c.id, Some(&needing_a_look), SUMMARY_LINES)?
+        };
         println!(
             "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>5}  parameters",
             "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try"
@@ -137,6 +163,19 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         print_target(&conn, c.id)?;
     }
     Ok(0)
+}
+
+/// A large campaign's totals: simulated time done of its target, work and throughput.
+fn print_totals(totals: &[jobs::StateTotal]) {
+    let sum = |f: fn(&jobs::StateTotal) -> f64| totals.iter().map(f).sum::<f64>();
+    let (sim, target) = (sum(|t| t.sim_time_s), sum(|t| t.target_time_s));
+    let (steps, wall) = (sum(|t| t.particle_steps), sum(|t| t.wall_time_s));
+    println!(
+        "         simulated {sim:.1} of {target:.1} s ({:.1} %), {steps:.3e} particle-steps in {:.1} h of job wall time ({:.3e} particle-steps/s)",
+        if target > 0.0 { 100.0 * sim / target } else { 0.0 },
+        wall / 3600.0,
+        if wall > 0.0 { steps / wall } else { 0.0 }
+    );
 }
 
 /// A campaign target's points after its latest round, and the work it added.

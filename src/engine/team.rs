@@ -49,8 +49,12 @@ pub struct Team {
 }
 
 impl Team {
-    /// A team of `threads` (≥ 1) threads: this one and `threads − 1` helpers.
-    pub fn new(threads: usize) -> Self {
+    /// A team of `threads` (≥ 1) threads: this one and `threads − 1` helpers; or the system's refusal of a helper thread (a
+    /// process limit, `ulimit -u`); the helpers already started are stopped.
+    ///
+    /// # Errors
+    /// A helper thread cannot be spawned.
+    pub fn try_new(threads: usize) -> std::io::Result<Self> {
         let shared = Arc::new(Shared {
             claim: (0..threads.max(1))
                 .map(|_| Padded(AtomicU64::new(0)))
@@ -60,20 +64,20 @@ impl Team {
             panic: Mutex::new(None),
             stop: AtomicBool::new(false),
         });
-        let helpers = (1..threads.max(1))
-            .map(|k| {
-                let sh = shared.clone();
-                std::thread::Builder::new()
-                    .name(format!("sweep-team-{k}"))
-                    .spawn(move || helper(&sh, k))
-                    .expect("spawning a team thread")
-            })
-            .collect();
-        Self {
+        let mut team = Self {
             shared,
-            helpers,
+            helpers: Vec::new(),
             epoch: 0,
+        };
+        for k in 1..threads.max(1) {
+            let sh = team.shared.clone();
+            let helper = std::thread::Builder::new()
+                .name(format!("sweep-team-{k}"))
+                .spawn(move || helper(&sh, k))?;
+            // Dropping `team` on an error stops the helpers started so far.
+            team.helpers.push(helper);
         }
+        Ok(team)
     }
 
     /// f(b, block b) for each of `blocks` (each a disjoint piece of the arrays a pass writes)
@@ -218,7 +222,7 @@ mod tests {
     #[test]
     fn every_task_runs_once_and_results_come_in_task_order() {
         for threads in [1, 2, 3] {
-            let mut team = Team::new(threads);
+            let mut team = Team::try_new(threads).unwrap();
             for round in 0..200 {
                 let counts: Vec<AtomicUsize> = (0..37).map(|_| AtomicUsize::new(0)).collect();
                 let out = team.run(37, |k| {
@@ -233,7 +237,7 @@ mod tests {
 
     #[test]
     fn a_panicking_task_is_reraised_after_the_others_finish() {
-        let mut team = Team::new(2);
+        let mut team = Team::try_new(2).unwrap();
         let finished = AtomicUsize::new(0);
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             team.run(16, |k| {

@@ -298,11 +298,11 @@ fn cpu(
     config: EngineConfig,
     state: &State<f64>,
     threads: usize,
-) -> Box<dyn Backend> {
-    match precision {
-        Precision::F64 => Box::new(CpuEngine::<f64>::new(config, state.convert(), threads)),
-        Precision::F32 => Box::new(CpuEngine::<f32>::new(config, state.convert(), threads)),
-    }
+) -> anyhow::Result<Box<dyn Backend>> {
+    Ok(match precision {
+        Precision::F64 => Box::new(CpuEngine::<f64>::try_new(config, state.convert(), threads)?),
+        Precision::F32 => Box::new(CpuEngine::<f32>::try_new(config, state.convert(), threads)?),
+    })
 }
 
 fn gpu(
@@ -531,7 +531,7 @@ pub fn build_shared(
             note,
         },
         Placement::Cpu(note) => Built {
-            engine: cpu(precision, config, state, threads),
+            engine: cpu(precision, config, state, threads)?,
             note,
         },
     })

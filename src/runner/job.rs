@@ -190,6 +190,8 @@ pub fn run<S: Study>(
 ) -> anyhow::Result<Outcome> {
     let dir = job_dir(&ctx.work_dir, &job.hash);
     let started = Instant::now();
+    // This process holds the job's lock: temp files of a killed writer are leftovers.
+    checkpoint::remove_leftovers(&dir);
     // A checkpoint past the job's end (left by a longer run of the same job, its database
     // since deleted) would end the job at once with a longer run's results: skip it.
     let (found, refused) = checkpoint::load_latest_where(&dir, &job.hash, |(_, _, _, extra)| {

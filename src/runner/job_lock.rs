@@ -14,6 +14,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use super::job::job_dir;
+use super::owner_process::{owner_process, OwnerProcess};
 use crate::store::jobs::{owner_place, Liveness, OpenJob, OwnerPlace};
 
 /// The lock file of a job's (or a stage's) directory.
@@ -124,8 +125,10 @@ impl Drop for Heartbeat {
 }
 
 /// Whether the owner of a running job lives: a process of this machine by its OS lock in the
-/// job's directory under `work_dir`; one of another machine (or of an older sweep, which took
-/// no lock) by its heartbeat, taken as dead when older than `stale_after_s`.
+/// job's directory under `work_dir`, and where that lock is free or gone, by the process
+/// itself (`/proc`: the pid runs and started before it took the job); one of another machine
+/// (or of an older sweep, which took no lock) by its heartbeat, taken as dead when older than
+/// `stale_after_s`.
 pub fn liveness(work_dir: &Path, job: &OpenJob, stale_after_s: f64) -> Liveness {
     let beat = job.heartbeat_age_s.unwrap_or(f64::INFINITY);
     let by_heartbeat = |who: String| {
@@ -140,19 +143,28 @@ pub fn liveness(work_dir: &Path, job: &OpenJob, stale_after_s: f64) -> Liveness 
         }
     };
     match owner_place(job.lease_owner.as_deref()) {
-        OwnerPlace::ThisHost { pid } => match holder(&job_dir(work_dir, &job.hash)) {
-            Ok(Holder::Alive) => {
-                Liveness::Alive(format!("running in process {pid}, which holds its lock"))
+        OwnerPlace::ThisHost { pid, since } => {
+            let dir = job_dir(work_dir, &job.hash);
+            let free = match holder(&dir) {
+                Ok(Holder::Alive) => {
+                    return Liveness::Alive(format!(
+                        "running in process {pid}, which holds its lock"
+                    ))
+                }
+                Ok(Holder::Gone) => "its lock is free".to_string(),
+                Ok(Holder::NeverLocked) => format!("no lock in {}", dir.display()),
+                Err(e) => format!("its lock cannot be read: {e}"),
+            };
+            // A lock file can be deleted with its directory while its holder runs on: the
+            // process itself decides.
+            match owner_process(pid, since) {
+                OwnerProcess::Running => Liveness::Alive(format!(
+                    "running in process {pid} ({free}, but the process that took the job lives)"
+                )),
+                OwnerProcess::Gone => Liveness::Gone(format!("its process {pid} is gone ({free})")),
+                OwnerProcess::Unknown => by_heartbeat(format!("process {pid} ({free})")),
             }
-            Ok(Holder::Gone) => {
-                Liveness::Gone(format!("its process {pid} is gone (its lock is free)"))
-            }
-            Ok(Holder::NeverLocked) => Liveness::Gone(format!(
-                "its process {pid} left no lock in {}",
-                job_dir(work_dir, &job.hash).display()
-            )),
-            Err(e) => by_heartbeat(format!("process {pid} (its lock cannot be read: {e})")),
-        },
+        }
         OwnerPlace::OtherHost { host, pid } => by_heartbeat(format!("process {pid} on {host}")),
         OwnerPlace::Slurm | OwnerPlace::Unknown => {
             by_heartbeat("a process of an older sweep".into())

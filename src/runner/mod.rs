@@ -13,6 +13,7 @@ pub mod claim_rounds;
 pub mod gpu_batch;
 pub mod job;
 pub mod job_lock;
+pub mod owner_process;
 pub mod pool;
 pub mod silo_job;
 pub mod slurm;

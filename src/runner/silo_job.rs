@@ -113,7 +113,34 @@ fn fill_stage_run(
     seed: u64,
 ) -> anyhow::Result<(State<f64>, u64)> {
     let config = scene.engine_config(SiloPhase::Fill);
-    let init = scene.initial_state(seed);
+    let interrupted = || ctx.interrupt.load(Ordering::SeqCst);
+    let fill_backend = if dev.is_some() { "gpu" } else { "cpu" };
+    // The settling is checkpointed apart from the finished fill (which jobs reuse), so that a
+    // preempted fill goes on from where it stopped instead of starting again.
+    let settling = dir.join("settling");
+    let (found, refused) = checkpoint::load_latest(&settling, key);
+    for r in refused {
+        (ctx.log)(r);
+    }
+    let (init, mut steps) = match found {
+        Some((path, _, s, extra)) => {
+            (ctx.log)(format!(
+                "fill stage {}: settling goes on from {} (t = {:.3} s)",
+                &key[..16],
+                path.display(),
+                s.time
+            ));
+            let spent =
+                serde_json::from_str::<SettlingProgress>(&extra).map_or(0, |p| p.particle_steps);
+            (s, spent)
+        }
+        None => (
+            scene
+                .initial_state_until(seed, &interrupted)
+                .ok_or(Interrupted)?,
+            0,
+        ),
+    };
     let mut engine: Box<dyn Backend> = match dev {
         Some(d) => Box::new(crate::engine::gpu::GpuEngine::new(
             d,
@@ -129,17 +156,25 @@ fn fill_stage_run(
             ctx.threads,
         )?,
     };
-    let fill_backend = if dev.is_some() { "gpu" } else { "cpu" };
+    let mut next_checkpoint_s = init.time + ctx.checkpoint_interval_s;
     drop(init);
     let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
-    let mut steps = 0u64;
+    let save_settling = |s: &State<f64>, steps: u64| -> anyhow::Result<()> {
+        let h = Header {
+            job_hash: key.to_string(),
+            step: s.step,
+            time_s: s.time,
+            backend: fill_backend.into(),
+            precision: spec.precision.name().into(),
+        };
+        let extra = serde_json::to_string(&SettlingProgress {
+            particle_steps: steps,
+        })?;
+        checkpoint::save(&settling, &h, s, &extra)?;
+        Ok(())
+    };
     let mut s;
     loop {
-        // Every loop that runs the engine stops on an interrupt; a fill has no checkpoint of its
-        // own, so the job starts it again when resumed.
-        if ctx.interrupt.load(Ordering::SeqCst) {
-            return Err(Interrupted.into());
-        }
         let r = engine
             .advance(chunk)
             .map_err(|e| anyhow::anyhow!("fill stage: {e}"))?;
@@ -159,6 +194,15 @@ fn fill_stage_run(
             ));
             break;
         }
+        // Every loop that runs the engine stops on an interrupt, here after a checkpoint.
+        if interrupted() {
+            save_settling(&s, steps)?;
+            return Err(Interrupted.into());
+        }
+        if s.time >= next_checkpoint_s {
+            save_settling(&s, steps)?;
+            next_checkpoint_s = s.time + ctx.checkpoint_interval_s;
+        }
     }
     let bed = scene.bed_height(&s);
     if bed > scene.p.cylinder_height_m {
@@ -175,7 +219,16 @@ fn fill_stage_run(
         precision: spec.precision.name().into(),
     };
     checkpoint::save(dir, &h, &s, "{}")?;
+    // The finished fill is kept: its settling checkpoints are not needed again.
+    let _ = std::fs::remove_dir_all(&settling);
     Ok((s, steps))
+}
+
+/// What a settling checkpoint keeps besides the particles.
+#[derive(Serialize, Deserialize)]
+struct SettlingProgress {
+    /// Particle-steps the fill has cost so far.
+    particle_steps: u64,
 }
 
 /// Mass of the free (not fixed) particles of `s` (kg): the silo's charge at opening.

@@ -208,7 +208,6 @@ impl ChuteParams {
             self.particle_density_kg_per_m3,
             "kg/m³",
         );
-        pos("gravity_m_per_s2", self.gravity_m_per_s2, "m/s²");
         pos("stiffness_factor", self.stiffness_factor, "a number");
         pos(
             "tangential_stiffness_ratio",
@@ -224,6 +223,10 @@ impl ChuteParams {
         pos("steady_window_s", self.steady_window_s, "seconds");
         pos("measure_time_s", self.measure_time_s, "seconds");
         pos("skin_ratio", self.skin_ratio, "a fraction of d");
+        e.extend(super::placement_checks::origin_problem(self.origin_m));
+        e.extend(super::placement_checks::gravity_problem(
+            self.gravity_m_per_s2,
+        ));
         let mut err = |field: &str, message: String| {
             e.push(FieldError {
                 field: field.into(),

@@ -21,6 +21,23 @@ pub fn cylinder_random(
     phi: f64,
     seed: u64,
 ) -> Vec<([f64; 3], f64)> {
+    cylinder_random_until(count, cyl_radius, z0, d, poly, phi, seed, &|| false)
+        .expect("never stopped")
+}
+
+/// [`cylinder_random`], asking `stop` every few thousand tries: `None` when it says stop (a
+/// bed of millions takes a minute to place, and a SIGTERM must not wait for it).
+#[allow(clippy::too_many_arguments)]
+pub fn cylinder_random_until(
+    count: usize,
+    cyl_radius: f64,
+    z0: f64,
+    d: f64,
+    poly: f64,
+    phi: f64,
+    seed: u64,
+    stop: &dyn Fn() -> bool,
+) -> Option<Vec<([f64; 3], f64)>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let d_max = d * (1.0 + poly);
     let r_in = cyl_radius - 0.5 * d_max - 0.01 * d;
@@ -31,7 +48,12 @@ pub fn cylinder_random(
     let mut grid: HashMap<(i64, i64, i64), Vec<usize>> = HashMap::new();
     let mut out: Vec<([f64; 3], f64)> = Vec::with_capacity(count);
     let mut misses = 0usize;
+    let mut tries = 0u32;
     while out.len() < count {
+        tries = tries.wrapping_add(1);
+        if tries.is_multiple_of(4096) && stop() {
+            return None;
+        }
         let r = 0.5 * d * (1.0 + poly * (2.0 * rng.random::<f64>() - 1.0));
         let (rho, th) = (
             r_in * rng.random::<f64>().sqrt(),
@@ -75,7 +97,7 @@ pub fn cylinder_random(
             }
         }
     }
-    out
+    Some(out)
 }
 
 #[cfg(test)]

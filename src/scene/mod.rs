@@ -7,6 +7,7 @@ pub mod chute_warm_start;
 pub mod dense_bed;
 pub mod fill;
 pub mod fill_rods;
+pub mod placement_checks;
 pub mod silo;
 mod silo_checks;
 

@@ -290,6 +290,13 @@ impl SiloScene {
 
     /// The particles inserted without overlap, before settling.
     pub fn initial_state(&self, seed: u64) -> State<f64> {
+        self.initial_state_until(seed, &|| false)
+            .expect("never stopped")
+    }
+
+    /// [`SiloScene::initial_state`], or `None` as soon as `stop` says so (asked every few
+    /// thousand insertions).
+    pub fn initial_state_until(&self, seed: u64, stop: &dyn Fn() -> bool) -> Option<State<f64>> {
         let p = &self.p;
         let rotation = p.friction_particle > 0.0 || p.friction_wall > 0.0;
         let mut s = State::new(
@@ -300,7 +307,7 @@ impl SiloScene {
                 0
             },
         );
-        let spots = super::fill::cylinder_random(
+        let spots = super::fill::cylinder_random_until(
             p.particle_count,
             p.cylinder_radius_m,
             0.0,
@@ -308,7 +315,8 @@ impl SiloScene {
             p.diameter_polydispersity,
             INSERT_SOLID_FRACTION,
             seed,
-        );
+            stop,
+        )?;
         for (k, (x, r)) in spots.into_iter().enumerate() {
             s.push_sphere(
                 k as u32,
@@ -319,7 +327,7 @@ impl SiloScene {
                 false,
             );
         }
-        s
+        Some(s)
     }
 
     /// Whether the bed has settled (kinetic energy per particle below the threshold).

@@ -2,7 +2,11 @@
 //! the settled bed inside the cylinder) and a usable time step, each problem naming its field.
 
 use super::blame::{time_step_problems, Reset, TimeStepInputs};
+use super::placement_checks::{gravity_problem, origin_problem};
 use super::silo::{FieldError, SiloParams, RANDOM_CLOSE_PACKING};
+
+/// The widest size distribution accepted: diameters d (1 ± p).
+pub const MAX_POLYDISPERSITY: f64 = 0.5;
 
 /// A length rounded to the nanometre, for messages (0.0484, not 0.048400000000000006).
 fn metres(v: f64) -> f64 {
@@ -59,10 +63,13 @@ impl SiloParams {
                 "expected at least 1 particle, got 0".into(),
             );
         }
-        if !(0.0..1.0).contains(&self.diameter_polydispersity) {
+        if !(0.0..=MAX_POLYDISPERSITY).contains(&self.diameter_polydispersity) {
             err(
                 "diameter_polydispersity",
-                format!("expected 0 ≤ p < 1, got {}", self.diameter_polydispersity),
+                format!(
+                    "expected 0 ≤ p ≤ {MAX_POLYDISPERSITY} (diameters d (1 ± p); the smallest set the time step and the neighbour grid), got {}",
+                    self.diameter_polydispersity
+                ),
             );
         }
         if !(self.restitution > 0.0 && self.restitution <= 1.0) {
@@ -80,6 +87,28 @@ impl SiloParams {
                 err(f, format!("expected a value ≥ 0, got {v}"));
             }
         }
+        // The bottom drags particles at up to its rim speed: the time step resolves collisions
+        // at `impact_speed_m_per_s`, so a faster rim needs that raised with it.
+        let rim = 2.0 * std::f64::consts::PI * self.rotation_frequency_hz * self.cylinder_radius_m;
+        if self.rotation_frequency_hz.is_finite() && rim > self.impact_speed_m_per_s {
+            err(
+                "rotation_frequency_hz",
+                format!(
+                    "expected the bottom's rim speed 2π f R_c ≤ impact_speed_m_per_s = {} m/s (the collision speed the time step resolves), i.e. f ≤ {:.3} Hz; got f = {} Hz (raise impact_speed_m_per_s for a faster bottom)",
+                    self.impact_speed_m_per_s,
+                    self.impact_speed_m_per_s / (2.0 * std::f64::consts::PI * self.cylinder_radius_m),
+                    self.rotation_frequency_hz
+                ),
+            );
+        }
+        e.extend(origin_problem(self.origin_m));
+        e.extend(gravity_problem(self.gravity_m_per_s2));
+        let mut err = |field: &str, message: String| {
+            e.push(FieldError {
+                field: field.into(),
+                message,
+            })
+        };
         match (self.shear_modulus_pa, self.poisson_ratio) {
             (Some(_), Some(_)) => err(
                 "poisson_ratio",

@@ -41,6 +41,18 @@ pub fn pending_count(conn: &Connection) -> anyhow::Result<i64> {
     )?)
 }
 
+/// Failed jobs in the whole store (each with no attempts left once `resume` has looked).
+///
+/// # Errors
+/// Database errors.
+pub fn failed_count(conn: &Connection) -> anyhow::Result<i64> {
+    Ok(conn.query_row(
+        "SELECT COUNT(*) FROM jobs WHERE status = 'failed'",
+        [],
+        |r| r.get(0),
+    )?)
+}
+
 /// Jobs in the whole store, and how many of them are done.
 #[derive(Clone, Copy, Debug)]
 pub struct JobTotals {

@@ -2,10 +2,9 @@
 //! heartbeats, and the end states.
 
 use anyhow::Context;
-use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
+use rusqlite::{params, Connection, TransactionBehavior};
 
 use super::now;
-use crate::campaign::{CampaignFile, JobSpec};
 
 /// A job as stored.
 #[derive(Clone, Debug)]
@@ -50,10 +49,11 @@ pub fn this_host() -> String {
 }
 
 /// Where a lease's owner runs, as far as this machine can tell.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum OwnerPlace {
-    /// A process of this machine (`pid`): its OS lock says whether it lives.
-    ThisHost { pid: u32 },
+    /// A process of this machine (`pid`, which took the lease at unix time `since`): its OS
+    /// lock says whether it lives, or the process itself when the lock file is gone.
+    ThisHost { pid: u32, since: f64 },
     /// A process of another machine sharing the store: judged by its heartbeat.
     OtherHost { host: String, pid: u32 },
     /// A Slurm task: `sweep collect` decides when it ended.
@@ -72,8 +72,11 @@ pub fn owner_place(owner: Option<&str>) -> OwnerPlace {
     }
     let parts: Vec<&str> = o.split(':').collect();
     match parts.as_slice() {
-        ["local", host, pid, _] => match pid.parse() {
-            Ok(pid) if *host == this_host() => OwnerPlace::ThisHost { pid },
+        ["local", host, pid, since] => match pid.parse() {
+            Ok(pid) if *host == this_host() => OwnerPlace::ThisHost {
+                pid,
+                since: since.parse().unwrap_or(f64::NAN),
+            },
             Ok(pid) => OwnerPlace::OtherHost {
                 host: host.to_string(),
                 pid,
@@ -82,127 +85,6 @@ pub fn owner_place(owner: Option<&str>) -> OwnerPlace {
         },
         _ => OwnerPlace::Unknown,
     }
-}
-
-/// How a launch was registered.
-#[derive(Debug)]
-pub enum Registration {
-    /// The campaign's jobs are registered under `version` (a new one, or the latest when the
-    /// file still expands to the same jobs); `added` of them are new to the store.
-    Registered {
-        campaign_id: i64,
-        version: i64,
-        added: usize,
-    },
-    /// The file differs from the latest launched version `version` in the jobs it makes:
-    /// nothing was registered. `changes` lists the fields that differ ("path: old -> new").
-    Changed { version: i64, changes: Vec<String> },
-}
-
-/// Registers a campaign and its jobs. Launching the same file twice adds nothing (replicas its
-/// target added are the campaign's own, not the file's, and do not count as a change). A file whose
-/// jobs or claims differ from the latest version launched under its name is refused (`Changed`, with the
-/// fields that differ) unless `new_version`, which registers it as the next version with its
-/// own jobs; jobs are shared between versions only where their resolved parameters are equal.
-///
-/// # Errors
-/// Database errors.
-pub fn register(
-    conn: &mut Connection,
-    file: &str,
-    c: &CampaignFile,
-    jobs: &[JobSpec],
-    new_version: bool,
-) -> anyhow::Result<Registration> {
-    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    let spec = serde_json::to_string(c)?;
-    let latest: Option<(i64, i64, String)> = tx
-        .query_row(
-            "SELECT id, version, spec_json FROM campaigns WHERE name = ?1 ORDER BY version DESC LIMIT 1",
-            [&c.name],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
-        )
-        .optional()?;
-    let (cid, version) = match latest {
-        Some((cid, version, old_spec)) => {
-            let mut stored: Vec<(String, String)> = tx
-                .prepare(
-                    "SELECT j.hash, cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
-                     WHERE cj.campaign_id = ?1 AND cj.origin IS NULL",
-                )?
-                .query_map([cid], |r| Ok((r.get(0)?, r.get(1)?)))?
-                .collect::<Result<_, _>>()?;
-            stored.sort();
-            let mut wanted: Vec<(String, String)> =
-                jobs.iter().map(|j| (j.hash(), j.label.clone())).collect();
-            wanted.sort();
-            // Claims are part of the file's version: a claim edited after its data were seen is
-            // another study, kept apart (its jobs are shared: they are not part of identity).
-            let claims_of = |s: &str| {
-                serde_json::from_str::<serde_json::Value>(s)
-                    .ok()
-                    .and_then(|v| v.get("claims").cloned())
-            };
-            let claims_changed = claims_of(&old_spec) != claims_of(&spec);
-            if stored == wanted && !claims_changed {
-                // Same jobs: settings that change no result (checkpoint interval, executor,
-                // description) follow the file.
-                tx.execute(
-                    "UPDATE campaigns SET file = ?2, spec_json = ?3 WHERE id = ?1",
-                    params![cid, file, spec],
-                )?;
-                (cid, version)
-            } else if new_version {
-                tx.execute(
-                    "INSERT INTO campaigns (name, version, file, scene, spec_json) VALUES (?1, ?2, ?3, ?4, ?5)",
-                    params![c.name, version + 1, file, c.scene.name(), spec],
-                )?;
-                (tx.last_insert_rowid(), version + 1)
-            } else {
-                let old: serde_json::Value = serde_json::from_str(&old_spec)?;
-                let new: serde_json::Value = serde_json::from_str(&spec)?;
-                let mut changes = crate::campaign::diff_fields(&old, &new);
-                if changes.is_empty() {
-                    changes.push(format!(
-                        "(no field differs, but the jobs do: {} stored, {} in the file; this sweep resolves parameters differently from the one that launched it)",
-                        stored.len(),
-                        wanted.len()
-                    ));
-                }
-                return Ok(Registration::Changed { version, changes });
-            }
-        }
-        None => {
-            tx.execute(
-                "INSERT INTO campaigns (name, version, file, scene, spec_json) VALUES (?1, 1, ?2, ?3, ?4)",
-                params![c.name, file, c.scene.name(), spec],
-            )?;
-            (tx.last_insert_rowid(), 1)
-        }
-    };
-    let mut added = 0;
-    for j in jobs {
-        let target = j.target_time_s();
-        let n = tx.execute(
-            "INSERT OR IGNORE INTO jobs (hash, scene, params_json, seed, target_time_s, particles, precision, program_version, max_attempts)
-             VALUES (?1, ?8, ?2, ?3, ?4, ?5, ?6, ?7, ?9)",
-            params![j.hash(), j.resolved_json(), j.seed() as i64, target, j.particle_count() as i64, j.precision.name(), env!("CARGO_PKG_VERSION"), j.scene.name(), c.run.max_attempts],
-        )?;
-        added += n;
-        let jid: i64 = tx.query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| {
-            r.get(0)
-        })?;
-        tx.execute(
-            "INSERT OR IGNORE INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
-            params![cid, jid, j.label],
-        )?;
-    }
-    tx.commit()?;
-    Ok(Registration::Registered {
-        campaign_id: cid,
-        version,
-        added,
-    })
 }
 
 /// Claims the next pending job (of `campaign` if given) for `lease`, in one transaction, so two
@@ -222,44 +104,56 @@ pub fn claim<T>(
     mut hold: impl FnMut(&JobRow) -> anyhow::Result<Option<T>>,
 ) -> anyhow::Result<Option<(JobRow, T)>> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    let candidates: Vec<JobRow> = tx
-        .prepare(
-            "SELECT j.id, j.hash, j.params_json, j.status, j.attempts, j.sim_time_s, j.target_time_s,
-                    COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
-                    j.max_attempts
-             FROM jobs j
-             WHERE j.status = 'pending' AND j.attempts < COALESCE(?2, j.max_attempts)
-               AND (?1 IS NULL OR j.id IN (SELECT job_id FROM campaign_jobs WHERE campaign_id = ?1))
-             ORDER BY j.id",
-        )?
-        .query_map(params![campaign, max_attempts], |r| {
-            Ok(JobRow {
-                id: r.get(0)?,
-                hash: r.get(1)?,
-                params_json: r.get(2)?,
-                status: r.get(3)?,
-                attempts: r.get(4)?,
-                sim_time_s: r.get(5)?,
-                target_time_s: r.get(6)?,
-                label: r.get(7)?,
-                max_attempts: r.get(8)?,
-            })
-        })?
-        .collect::<Result<_, _>>()?;
-    for mut j in candidates {
-        let Some(held) = hold(&j)? else {
-            continue;
+    // Candidates are read a page at a time in id order: the first is nearly always held, and a
+    // store of 10⁶ pending jobs must not be read whole for each claim.
+    const PAGE: i64 = 16;
+    let mut after = i64::MIN;
+    loop {
+        let page: Vec<JobRow> = tx
+            .prepare_cached(
+                "SELECT j.id, j.hash, j.params_json, j.status, j.attempts, j.sim_time_s, j.target_time_s,
+                        COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
+                        j.max_attempts
+                 FROM jobs j
+                 WHERE j.status = 'pending' AND j.id > ?3
+                   AND j.attempts < COALESCE(?2, j.max_attempts)
+                   AND (?1 IS NULL OR EXISTS (SELECT 1 FROM campaign_jobs cj
+                                              WHERE cj.campaign_id = ?1 AND cj.job_id = j.id))
+                 ORDER BY j.id LIMIT ?4",
+            )?
+            .query_map(params![campaign, max_attempts, after, PAGE], |r| {
+                Ok(JobRow {
+                    id: r.get(0)?,
+                    hash: r.get(1)?,
+                    params_json: r.get(2)?,
+                    status: r.get(3)?,
+                    attempts: r.get(4)?,
+                    sim_time_s: r.get(5)?,
+                    target_time_s: r.get(6)?,
+                    label: r.get(7)?,
+                    max_attempts: r.get(8)?,
+                })
+            })?
+            .collect::<Result<_, _>>()?;
+        let Some(last) = page.last() else {
+            break;
         };
-        tx.execute(
-            "UPDATE jobs SET status = 'running', lease_owner = ?2, heartbeat_at = ?3, attempts = attempts + 1,
-                    stage = 'claimed'
-             WHERE id = ?1 AND status = 'pending'",
-            params![j.id, lease.owner, now()],
-        )?;
-        tx.commit()?;
-        j.attempts += 1;
-        j.status = "running".into();
-        return Ok(Some((j, held)));
+        after = last.id;
+        for mut j in page {
+            let Some(held) = hold(&j)? else {
+                continue;
+            };
+            tx.execute(
+                "UPDATE jobs SET status = 'running', lease_owner = ?2, heartbeat_at = ?3, attempts = attempts + 1,
+                        stage = 'claimed'
+                 WHERE id = ?1 AND status = 'pending'",
+                params![j.id, lease.owner, now()],
+            )?;
+            tx.commit()?;
+            j.attempts += 1;
+            j.status = "running".into();
+            return Ok(Some((j, held)));
+        }
     }
     tx.commit()?;
     Ok(None)
@@ -393,4 +287,5 @@ pub fn insert_running(conn: &Connection, job: &TaskJob) -> anyhow::Result<()> {
 }
 
 pub use super::lookup::*;
+pub use super::register::*;
 pub use super::requeue::*;

@@ -154,14 +154,31 @@ impl JobStatus {
 /// # Errors
 /// Database errors.
 pub fn campaign_jobs(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<JobStatus>> {
+    campaign_jobs_in(conn, campaign_id, None, i64::MAX)
+}
+
+/// At most `limit` jobs of campaign (version) `campaign_id` by id, only those in one of
+/// `statuses` when given.
+///
+/// # Errors
+/// Database errors.
+pub fn campaign_jobs_in(
+    conn: &Connection,
+    campaign_id: i64,
+    statuses: Option<&[&str]>,
+    limit: i64,
+) -> anyhow::Result<Vec<JobStatus>> {
+    let wanted = statuses.map(|s| s.join(","));
     let mut q = conn.prepare(
         "SELECT j.id, j.hash, j.status, j.progress, j.sim_time_s, j.target_time_s, j.particle_steps, j.wall_time_s,
                 j.attempts, j.max_attempts, j.last_error, cj.label, j.backend, j.precision, j.lease_owner,
                 ?2 - j.heartbeat_at, j.stage, j.backend_note
-         FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id WHERE cj.campaign_id = ?1 ORDER BY j.id",
+         FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
+         WHERE cj.campaign_id = ?1 AND (?3 IS NULL OR instr(',' || ?3 || ',', ',' || j.status || ',') > 0)
+         ORDER BY j.id LIMIT ?4",
     )?;
     let rows = q
-        .query_map(params![campaign_id, now()], |r| {
+        .query_map(params![campaign_id, now(), wanted, limit], |r| {
             Ok(JobStatus {
                 id: r.get(0)?,
                 hash: r.get(1)?,
@@ -181,6 +198,43 @@ pub fn campaign_jobs(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<
                 heartbeat_age_s: r.get(15)?,
                 stage: r.get(16)?,
                 backend_note: r.get(17)?,
+            })
+        })?
+        .collect::<Result<_, _>>()?;
+    Ok(rows)
+}
+
+/// The jobs of a campaign in one state, summed.
+#[derive(Clone, Debug, Default)]
+pub struct StateTotal {
+    pub status: String,
+    pub jobs: i64,
+    pub sim_time_s: f64,
+    pub target_time_s: f64,
+    pub particle_steps: f64,
+    pub wall_time_s: f64,
+}
+
+/// A campaign's jobs summed by state (one pass over its links, whatever its size).
+///
+/// # Errors
+/// Database errors.
+pub fn state_totals(conn: &Connection, campaign_id: i64) -> anyhow::Result<Vec<StateTotal>> {
+    let mut q = conn.prepare(
+        "SELECT j.status, COUNT(*), SUM(j.sim_time_s), SUM(j.target_time_s),
+                SUM(CAST(j.particle_steps AS REAL)), SUM(j.wall_time_s)
+         FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+         WHERE cj.campaign_id = ?1 GROUP BY j.status",
+    )?;
+    let rows = q
+        .query_map([campaign_id], |r| {
+            Ok(StateTotal {
+                status: r.get(0)?,
+                jobs: r.get(1)?,
+                sim_time_s: r.get(2)?,
+                target_time_s: r.get(3)?,
+                particle_steps: r.get(4)?,
+                wall_time_s: r.get(5)?,
             })
         })?
         .collect::<Result<_, _>>()?;

@@ -25,6 +25,7 @@ pub mod meta;
 pub mod numerics;
 mod open;
 pub mod pending;
+mod register;
 mod requeue;
 mod results;
 pub mod silo_done;
@@ -39,7 +40,7 @@ pub use chute_results::ChuteJobResults;
 pub use jobs::{JobRow, Lease};
 pub use meta::{default_work_dir, work_dir};
 pub use numerics::JobNumerics;
-pub use open::{copy_to, open, open_in_memory, SCHEMA_VERSION};
+pub use open::{copy_to, open, open_checked, open_in_memory, SCHEMA_VERSION};
 pub use results::SiloResults;
 
 /// The database's current UTC time as `YYYYMMDDTHHMMSS` (names a submission's scripts).

@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 10;
+pub const SCHEMA_VERSION: i64 = 11;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -39,8 +39,32 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
         }
     }
     conn.pragma_update(None, "synchronous", "NORMAL")?;
+    // The log is reset after each checkpoint of it; this also shrinks its file back, so a
+    // registration of 10⁶ jobs leaves no gigabyte of log behind.
+    conn.pragma_update(None, "journal_size_limit", 64 * 1024 * 1024)?;
     migrate(&mut conn, &path.display().to_string())?;
     conn.pragma_update(None, "foreign_keys", "ON")?;
+    Ok(conn)
+}
+
+/// [`open`] for a command that writes results (`launch`, `resume`): first SQLite's
+/// `quick_check` of every page, so that damage (a flipped byte on disk, a copy cut short) is
+/// found before results are added to it, with what to do about it.
+///
+/// # Errors
+/// As [`open`], or the check finds damage.
+pub fn open_checked(path: &Path) -> anyhow::Result<Connection> {
+    let conn = open(path)?;
+    let mut q = conn.prepare("PRAGMA quick_check(5)")?;
+    let found: Vec<String> = q.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
+    drop(q);
+    if found.len() != 1 || found[0] != "ok" {
+        let d = path.display();
+        anyhow::bail!(
+            "{d}: the database is damaged (SQLite's quick_check: {}); nothing was run or changed. Keep a copy of it, then recover what it holds: `sqlite3 {d} .recover | sqlite3 recovered.db`, and go on with `--db recovered.db` (jobs whose results were lost run again)",
+            found.join("; ")
+        );
+    }
     Ok(conn)
 }
 
@@ -136,6 +160,9 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             // 9 → 10: the threads a job ran with (a claims target's core-hours); the
             // claims' verdicts are a new table.
             ("jobs", "threads", "INTEGER"),
+            // 10 → 11: indexes for the job lookups of a campaign of 10⁶ jobs (schema.sql), and
+            // whether a campaign's registration (chunk by chunk) is complete.
+            ("campaigns", "registered", "INTEGER NOT NULL DEFAULT 1"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

@@ -127,16 +127,38 @@ pub struct CpuEngine<R: Real> {
 
 impl<R: Real> CpuEngine<R> {
     /// A new engine; `threads` = 0 uses all cores.
-    pub fn new(config: EngineConfig, mut state: State<R>, threads: usize) -> Self {
+    ///
+    /// # Panics
+    /// The system refuses the engine's threads (see [`CpuEngine::try_new`]).
+    pub fn new(config: EngineConfig, state: State<R>, threads: usize) -> Self {
+        Self::try_new(config, state, threads).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// A new engine, or why its `threads` threads cannot be started (a process or thread
+    /// limit: `ulimit -u`, a cgroup's pids.max).
+    ///
+    /// # Errors
+    /// The system refuses a thread.
+    pub fn try_new(
+        config: EngineConfig,
+        mut state: State<R>,
+        threads: usize,
+    ) -> anyhow::Result<Self> {
         // Every run keeps a rest per position (zero where positions are not split), so that the
         // integration loops zip the same arrays in every precision.
         state.pos_lo.resize(state.len(), V3::zero());
+        let refused = |e: &dyn std::fmt::Display| {
+            anyhow::anyhow!(
+                "cannot start {threads} CPU engine thread(s): {e} (a limit on processes or threads, `ulimit -u` or a cgroup's pids.max, or on memory for their stacks, `ulimit -v`; ask for fewer with --threads)"
+            )
+        };
         let pool: std::sync::Arc<rayon::ThreadPool> = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
-            .expect("thread pool")
+            .map_err(|e| refused(&e))?
             .into();
         let threads = pool.current_num_threads();
+        let team = Team::try_new(threads).map_err(|e| refused(&e))?;
         let periodic = Periodic {
             x: config
                 .periodic_x
@@ -145,7 +167,7 @@ impl<R: Real> CpuEngine<R> {
                 .periodic_y
                 .map(|[a, b]| (R::from_f64(a), R::from_f64(b))),
         };
-        Self {
+        Ok(Self {
             law_pp: config.particle_law.kernel(),
             law_pw: config.wall_law.kernel(),
             walls: config.walls.iter().map(|w| w.kernel()).collect(),
@@ -174,12 +196,12 @@ impl<R: Real> CpuEngine<R> {
             alive: Vec::new(),
             contacts: Vec::new(),
             pool,
-            team: Team::new(threads),
+            team,
             threads,
             watchdog: Watchdog::default(),
             state,
             config,
-        }
+        })
     }
 
     pub fn config(&self) -> &EngineConfig {

@@ -3,9 +3,9 @@
 //! plain f32 coordinates (before split positions) every test below fails: at 100 m f32 numbers
 //! are 7.6·10⁻⁶ m apart, so a step of 10⁻⁹ m is lost and an overlap of 10⁻⁷ m cannot be formed.
 
-mod common;
+use crate::common;
 
-use common::gpu::device;
+use crate::common::gpu::device;
 use sweep::engine::gpu::{GpuEngine, GpuOptions};
 use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};

@@ -5,11 +5,9 @@
 //! `sweep resume`; a job run on from its checkpoint gives the bits of the same job run longer
 //! from the start.
 
-mod common;
-
 use std::path::Path;
 
-use common::cli::*;
+use crate::common::cli::*;
 use rusqlite::params;
 use serde_json::{json, Value};
 use sweep::observe::fits::{pool, ReplicaEstimate};

@@ -6,12 +6,10 @@
 //!
 //! Without an adapter the tests print a message and pass, except under CI=true (common::gpu).
 
-mod common;
-
-use common::cli::{
+use crate::common::cli::{
     assert_same_results, campaign, results, stderr, stdout, sweep_cmd, write_campaign,
 };
-use common::gpu::{device, report_bits, state_bits};
+use crate::common::gpu::{device, report_bits, state_bits};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::walls::{WallRotation, WallShape};
 use sweep::engine::{Backend, EngineConfig, State};

@@ -3,12 +3,10 @@
 //! edited campaign never mixes into old results, bad command lines and read-only stores are
 //! refused by name, and exit codes and records say what happened.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Child, Output};
 
-use common::cli::*;
+use crate::common::cli::*;
 use serde_json::{json, Value};
 use tempfile::TempDir;
 

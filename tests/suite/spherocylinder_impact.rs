@@ -8,9 +8,8 @@
 //! With the reduced mass alone the damping would be 1.44 times too strong for this geometry: e
 //! would come out 0.36 and t_c 2.7 % longer, so both checks fail on that formula.
 
-mod common;
-use common::linear_law as law;
-use common::rods::{shape, stiffness, L, RHO};
+use crate::common::linear_law as law;
+use crate::common::rods::{shape, stiffness, L, RHO};
 
 use sweep::engine::contact::beta;
 use sweep::engine::cpu::HISTORY_SLOTS;

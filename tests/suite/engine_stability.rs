@@ -17,8 +17,7 @@
 //! A failure means the time step, the stiffness or the initial overlaps drive the integrator
 //! unstable, f32 cannot resolve the silo's contacts, or the result depends on the thread count.
 
-mod common;
-use common::Noise;
+use crate::common::Noise;
 
 use std::f64::consts::PI;
 

@@ -20,8 +20,8 @@
 //! A failure means the tangential spring, its Coulomb truncation, the torque lever arm, the wall
 //! surface velocity or the integration of rotation is wrong.
 
-mod common;
-use common::fit::{fit_circle, slope, unwrap};
+use crate::common;
+use crate::common::fit::{fit_circle, slope, unwrap};
 
 use std::f64::consts::PI;
 

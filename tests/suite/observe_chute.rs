@@ -18,8 +18,7 @@
 //! - a serde round trip of the observer mid-stream continues bit for bit;
 //! - the store commit replaces rather than duplicates.
 
-mod common;
-use common::Noise;
+use crate::common::Noise;
 
 use sweep::engine::contact::ContactRecord;
 use sweep::observe::chute::{ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot};

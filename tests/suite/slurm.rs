@@ -13,13 +13,11 @@
 //! root or without apt-get and Slurm, the test says so and skips, except under CI=true, where it
 //! fails. The cluster is stopped even when the test fails (a Drop guard).
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use common::cli::{count, read_db, rows, stderr, stdout, write_campaign};
+use crate::common::cli::{count, read_db, rows, stderr, stdout, write_campaign};
 use serde_json::{json, Value};
 use tempfile::TempDir;
 

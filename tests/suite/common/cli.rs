@@ -15,12 +15,18 @@ use tempfile::TempDir;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_sweep");
 
+/// The binary `sweep_cmd` and `spawn` run: this build's, or the one `SWEEP_TEST_BIN` names (to
+/// show that a new test fails on an older build).
+pub fn bin() -> String {
+    std::env::var("SWEEP_TEST_BIN").unwrap_or_else(|_| BIN.into())
+}
+
 /// Longest a test waits for a child process to reach some point.
 pub const PATIENCE: Duration = Duration::from_secs(120);
 
 /// A synchronous run of the binary (assert_cmd), without a `SWEEP_DB` from the environment.
 pub fn sweep_cmd(dir: &Path) -> assert_cmd::Command {
-    let mut c = assert_cmd::Command::new(BIN);
+    let mut c = assert_cmd::Command::new(bin());
     c.current_dir(dir)
         .env_remove("SWEEP_DB")
         .env_remove("SWEEP_ALLOW_SOFTWARE_GPU");
@@ -31,7 +37,7 @@ pub fn sweep_cmd(dir: &Path) -> assert_cmd::Command {
 pub fn spawn(dir: &Path, args: &[&str], log: &str) -> Child {
     let out = std::fs::File::create(dir.join(log)).unwrap();
     let err = std::fs::File::create(dir.join(format!("{log}.err"))).unwrap();
-    std::process::Command::new(BIN)
+    std::process::Command::new(bin())
         .args(args)
         .current_dir(dir)
         .env_remove("SWEEP_DB")

@@ -2,12 +2,10 @@
 //! kill -9 and resume, concurrent launchers and corrupt checkpoints. Every test works in its own
 //! temporary directory with tiny silo campaigns (a few hundred particles, 0.4 s of discharge).
 
-mod common;
-
 use std::path::Path;
 use std::time::Instant;
 
-use common::cli::*;
+use crate::common::cli::*;
 use serde_json::{json, Value};
 use sweep::checkpoint::{self, CheckpointError, Header};
 use sweep::engine::State;

@@ -43,7 +43,7 @@
 //! Without an adapter the tests print a message and pass, except under CI=true, where a missing
 //! adapter fails them.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 
@@ -55,9 +55,9 @@ use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
 use sweep::observe::discharge::DischargeSettings;
 use sweep::scene::silo::{SiloParams, SiloPhase, SiloScene};
 
-use common::fit::{fit_circle, slope, unwrap};
-use common::gpu::device;
-use common::Noise;
+use crate::common::fit::{fit_circle, slope, unwrap};
+use crate::common::gpu::device;
+use crate::common::Noise;
 
 const R: f64 = 0.0029;
 const D: f64 = 2.0 * R;

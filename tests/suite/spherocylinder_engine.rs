@@ -14,10 +14,9 @@
 //! - ξ = 1 through the oriented path follows the sphere path within 1e-9 relative (the two store
 //!   tangential springs differently, so they may differ by rounding only).
 
-mod common;
-use common::linear_law as law;
-use common::rods::{shape, stiffness, G, L, RHO};
-use common::Noise;
+use crate::common::linear_law as law;
+use crate::common::rods::{shape, stiffness, G, L, RHO};
+use crate::common::Noise;
 
 use sweep::checkpoint::{self, Header};
 use sweep::engine::cpu::HISTORY_SLOTS;

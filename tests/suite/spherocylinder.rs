@@ -14,8 +14,7 @@
 //!
 //! Units are arbitrary (segments of length O(1)) except where a test says otherwise.
 
-mod common;
-use common::Noise;
+use crate::common::Noise;
 
 use sweep::engine::shape::{
     angular_momentum, angular_velocity, closest_points, contact_plane, contact_sphere,

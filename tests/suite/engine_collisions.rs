@@ -6,7 +6,7 @@
 //!
 //! A failure means the force law, its damping or the integrator is wrong.
 
-mod common;
+use crate::common;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
 use sweep::engine::CpuEngine;

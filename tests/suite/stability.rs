@@ -21,10 +21,10 @@
 //! A failure means the engine diverged, tunnelled, created energy or momentum, or (for the
 //! watchdog tests) that the watchdog missed a blow-up or stopped a healthy accelerating flow.
 
-mod common;
-use common::gpu::device;
-use common::rods::{shape as rod, L as ROD_L, RHO as ROD_RHO};
-use common::Noise;
+use crate::common;
+use crate::common::gpu::device;
+use crate::common::rods::{shape as rod, L as ROD_L, RHO as ROD_RHO};
+use crate::common::Noise;
 
 use std::f64::consts::PI;
 use std::sync::OnceLock;

@@ -52,11 +52,10 @@
 //! adapter fails them. A failure of the one-step test means a kernel's formula departs from the
 //! CPU engine's; of the others, a wrong integration step, rotor or contact point.
 
-mod common;
-use common::gpu::device;
-use common::linear_law as law;
-use common::rods::{shape, stiffness, G, L, RHO};
-use common::Noise;
+use crate::common::gpu::device;
+use crate::common::linear_law as law;
+use crate::common::rods::{shape, stiffness, G, L, RHO};
+use crate::common::Noise;
 
 use std::collections::{BTreeSet, HashMap};
 

@@ -13,9 +13,7 @@ use rusqlite::Connection;
 use serde_json::json;
 use tempfile::TempDir;
 
-mod common;
-
-use common::cli::{tiny_chute, write_campaign};
+use crate::common::cli::{tiny_chute, write_campaign};
 
 const BIN: &str = env!("CARGO_BIN_EXE_sweep");
 

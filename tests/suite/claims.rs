@@ -4,11 +4,9 @@
 //! bad claims are refused by field with nothing registered; claims are part of the file's
 //! version but not of any job's identity; `sweep report --claims` writes the table.
 
-mod common;
-
 use std::path::Path;
 
-use common::cli::*;
+use crate::common::cli::*;
 use serde_json::{json, Value};
 use tempfile::TempDir;
 

@@ -12,9 +12,7 @@
 //!
 //! Without an adapter the tests print a message and pass, except under CI=true (common::gpu).
 
-mod common;
-
-use common::gpu::{device, report_bits, state_bits};
+use crate::common::gpu::{device, report_bits, state_bits};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::Backend;
 

@@ -36,9 +36,9 @@
 //! adapter fails them. A failure of the parity tests means a kernel's formula or order departs
 //! from the CPU engine's; of the trajectory tests, a missed contact or a wrong integration step.
 
-mod common;
-use common::gpu::device;
-use common::Noise;
+use crate::common;
+use crate::common::gpu::device;
+use crate::common::Noise;
 
 use std::collections::HashMap;
 use std::f64::consts::PI;

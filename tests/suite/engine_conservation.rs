@@ -12,8 +12,7 @@
 //! A failure means a force is not applied equally and oppositely, the minimum image or the wrap
 //! is wrong, or the integrator injects or removes energy.
 
-mod common;
-use common::Noise;
+use crate::common::Noise;
 
 use std::f64::consts::PI;
 

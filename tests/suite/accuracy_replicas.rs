@@ -17,9 +17,9 @@
 //! A failure of the first means the interval is too narrow (or the engine not repeatable); of
 //! the second, that the statistic cannot see a bias of the integrator.
 
-mod common;
+use crate::common;
 
-use common::Noise;
+use crate::common::Noise;
 use sweep::engine::contact::{ContactLaw, Elasticity, NormalModel};
 use sweep::engine::CpuEngine;
 use sweep::report::accuracy_shift::{bare_replica, shift_of_replicas};

@@ -9,12 +9,10 @@
 //! the silo stopped on an overlap of 0.24 d and the chute flowed at 0.74 m/s instead of 0.26.
 //! The slow-particle and resting-overlap tests that fail at 100 m are in `precision.rs`.
 
-mod common;
-
 use std::path::Path;
 
-use common::cli::{launch_on, read_db, tiny_chute, write_campaign};
-use common::gpu::device;
+use crate::common::cli::{launch_on, read_db, tiny_chute, write_campaign};
+use crate::common::gpu::device;
 use serde_json::{json, Value};
 use tempfile::TempDir;
 

@@ -3,9 +3,7 @@
 //! below in the same commit and says why in its message; any other change must keep them. They
 //! also pin that the CPU engine gives identical bits for 1 and 2 threads.
 
-mod common;
-
-use common::cli::{launch_ok, one_job, rows, tiny_chute, write_campaign};
+use crate::common::cli::{launch_ok, one_job, rows, tiny_chute, write_campaign};
 use sha2::{Digest, Sha256};
 use sweep::campaign::Precision;
 use sweep::runner::backend::{self, BackendChoice};

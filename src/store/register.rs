@@ -1,0 +1,227 @@
+//! Registering a campaign's jobs: a new campaign (or version) and its jobs, shared with other
+//! campaigns where their resolved parameters are equal. A campaign of 10⁶ jobs is registered in
+//! chunks, each its own transaction, so that the write-ahead log stays small and a SIGTERM
+//! stops between two chunks; the campaign is marked registered once every chunk is in, and a
+//! launch of the same file finishes a registration cut short.
+
+use rayon::prelude::*;
+use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
+
+use crate::campaign::{CampaignFile, Identity, JobSpec};
+
+/// Jobs registered per transaction: a few MB of log each.
+const CHUNK: usize = 20_000;
+
+/// How a launch was registered.
+#[derive(Debug)]
+pub enum Registration {
+    /// The campaign's jobs are registered under `version` (a new one, or the latest when the
+    /// file still expands to the same jobs); `added` of them are new to the store.
+    Registered {
+        campaign_id: i64,
+        version: i64,
+        added: usize,
+    },
+    /// The file differs from the latest launched version `version` in the jobs it makes:
+    /// nothing was registered. `changes` lists the fields that differ ("path: old -> new").
+    Changed { version: i64, changes: Vec<String> },
+    /// `stop` said stop between two chunks: `added` jobs are registered, the campaign is not
+    /// yet; the same launch again finishes it.
+    Interrupted { campaign_id: i64, added: usize },
+}
+
+/// Registers a campaign and its jobs. Launching the same file twice adds nothing (replicas its
+/// target added are the campaign's own, not the file's, and do not count as a change). A file whose
+/// jobs or claims differ from the latest version launched under its name is refused (`Changed`, with the
+/// fields that differ) unless `new_version`, which registers it as the next version with its
+/// own jobs; jobs are shared between versions only where their resolved parameters are equal.
+///
+/// # Errors
+/// Database errors.
+pub fn register(
+    conn: &mut Connection,
+    file: &str,
+    c: &CampaignFile,
+    jobs: &[JobSpec],
+    new_version: bool,
+) -> anyhow::Result<Registration> {
+    register_until(conn, file, c, jobs, new_version, &|| false)
+}
+
+/// [`register`], asking `stop` between chunks.
+///
+/// # Errors
+/// Database errors.
+pub fn register_until(
+    conn: &mut Connection,
+    file: &str,
+    c: &CampaignFile,
+    jobs: &[JobSpec],
+    new_version: bool,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> anyhow::Result<Registration> {
+    let spec = serde_json::to_string(c)?;
+    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+    let latest: Option<(i64, i64, String, bool)> = tx
+        .query_row(
+            "SELECT id, version, spec_json, registered FROM campaigns WHERE name = ?1
+             ORDER BY version DESC LIMIT 1",
+            [&c.name],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+        )
+        .optional()?;
+    let (cid, version) = match latest {
+        // A registration cut short of the same file: finish it.
+        Some((cid, version, old_spec, false)) if old_spec == spec => (cid, version),
+        Some((cid, version, old_spec, complete)) => {
+            let unchanged = complete && same_jobs(&tx, cid, jobs, &old_spec, &spec)?;
+            if unchanged {
+                // Same jobs: settings that change no result (checkpoint interval, executor,
+                // description) follow the file.
+                tx.execute(
+                    "UPDATE campaigns SET file = ?2, spec_json = ?3 WHERE id = ?1",
+                    params![cid, file, spec],
+                )?;
+                tx.commit()?;
+                return Ok(Registration::Registered {
+                    campaign_id: cid,
+                    version,
+                    added: 0,
+                });
+            } else if new_version {
+                tx.execute(
+                    "INSERT INTO campaigns (name, version, file, scene, spec_json, registered)
+                     VALUES (?1, ?2, ?3, ?4, ?5, 0)",
+                    params![c.name, version + 1, file, c.scene.name(), spec],
+                )?;
+                (tx.last_insert_rowid(), version + 1)
+            } else {
+                let old: serde_json::Value = serde_json::from_str(&old_spec)?;
+                let new: serde_json::Value = serde_json::from_str(&spec)?;
+                let mut changes = crate::campaign::diff_fields(&old, &new);
+                if !complete {
+                    changes.push(format!(
+                        "(version {version}'s registration was cut short; launching its own file again finishes it)"
+                    ));
+                }
+                if changes.is_empty() {
+                    changes.push(
+                        "(no field differs, but the jobs do: this sweep resolves parameters differently from the one that launched it)".into(),
+                    );
+                }
+                return Ok(Registration::Changed { version, changes });
+            }
+        }
+        None => {
+            tx.execute(
+                "INSERT INTO campaigns (name, version, file, scene, spec_json, registered)
+                 VALUES (?1, 1, ?2, ?3, ?4, 0)",
+                params![c.name, file, c.scene.name(), spec],
+            )?;
+            (tx.last_insert_rowid(), 1)
+        }
+    };
+    tx.commit()?;
+    let mut added = 0;
+    for (k, chunk) in jobs.chunks(CHUNK).enumerate() {
+        if k > 0 && stop() {
+            return Ok(Registration::Interrupted {
+                campaign_id: cid,
+                added,
+            });
+        }
+        // Identities (a serialisation and a hash each) are the costly part: on every core.
+        let ids: Vec<Identity> = chunk.par_iter().map(JobSpec::identity).collect();
+        added += insert_chunk(conn, cid, c, chunk, &ids)?;
+    }
+    conn.execute("UPDATE campaigns SET registered = 1 WHERE id = ?1", [cid])?;
+    Ok(Registration::Registered {
+        campaign_id: cid,
+        version,
+        added,
+    })
+}
+
+/// One transaction of jobs and their links to campaign `cid`; returns how many jobs were new.
+fn insert_chunk(
+    conn: &mut Connection,
+    cid: i64,
+    c: &CampaignFile,
+    jobs: &[JobSpec],
+    ids: &[Identity],
+) -> anyhow::Result<usize> {
+    let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+    let mut added = 0;
+    {
+        let mut insert_job = tx.prepare_cached(
+            "INSERT OR IGNORE INTO jobs (hash, scene, params_json, seed, target_time_s, particles, precision, program_version, max_attempts)
+             VALUES (?1, ?8, ?2, ?3, ?4, ?5, ?6, ?7, ?9)",
+        )?;
+        let mut job_id = tx.prepare_cached("SELECT id FROM jobs WHERE hash = ?1")?;
+        // Two points of one physics (0.0 and −0.0) are one job, linked under the first.
+        let mut link = tx.prepare_cached(
+            "INSERT OR IGNORE INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
+        )?;
+        for (j, id) in jobs.iter().zip(ids) {
+            let n = insert_job.execute(params![
+                id.hash,
+                id.resolved_json,
+                id.seed as i64,
+                j.target_time_s(),
+                j.particle_count() as i64,
+                j.precision.name(),
+                env!("CARGO_PKG_VERSION"),
+                j.scene.name(),
+                c.run.max_attempts
+            ])?;
+            added += n;
+            let jid: i64 = if n == 1 {
+                tx.last_insert_rowid()
+            } else {
+                job_id.query_row([&id.hash], |r| r.get(0))?
+            };
+            link.execute(params![cid, jid, j.label])?;
+        }
+    }
+    tx.commit()?;
+    Ok(added)
+}
+
+/// Whether the file's jobs and claims are those of the stored campaign `cid` (its own jobs, not
+/// those its target added).
+fn same_jobs(
+    tx: &Connection,
+    cid: i64,
+    jobs: &[JobSpec],
+    old_spec: &str,
+    spec: &str,
+) -> anyhow::Result<bool> {
+    // Claims are part of the file's version: a claim edited after its data were seen is
+    // another study, kept apart (its jobs are shared: they are not part of identity).
+    let claims_of = |s: &str| {
+        serde_json::from_str::<serde_json::Value>(s)
+            .ok()
+            .and_then(|v| v.get("claims").cloned())
+    };
+    if claims_of(old_spec) != claims_of(spec) {
+        return Ok(false);
+    }
+    let mut stored: Vec<(String, String)> = tx
+        .prepare(
+            "SELECT j.hash, cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+             WHERE cj.campaign_id = ?1 AND cj.origin IS NULL",
+        )?
+        .query_map([cid], |r| Ok((r.get(0)?, r.get(1)?)))?
+        .collect::<Result<_, _>>()?;
+    stored.sort_unstable();
+    let hashes: Vec<String> = jobs.par_iter().map(JobSpec::hash).collect();
+    let mut seen = std::collections::HashSet::new();
+    let mut wanted: Vec<(String, String)> = hashes
+        .into_iter()
+        .zip(jobs)
+        .filter(|(h, _)| seen.insert(h.clone()))
+        .map(|(h, j)| (h, j.label.clone()))
+        .collect();
+    wanted.sort_unstable();
+    Ok(stored == wanted)
+}

@@ -1,0 +1,478 @@
+//! Faults a cluster user meets, each with real processes: a running job whose directory is
+//! deleted is not run twice; a SIGTERM stops the placing of a large bed at once and a fill
+//! goes on from its own checkpoint; too many threads fail the job with the reason; exit codes
+//! say that failed jobs remain or that the disk is full; typos no experiment has are refused by
+//! field; temp files of killed writers are removed; a damaged store is refused before anything
+//! runs; and a large campaign's status is a summary.
+
+use std::path::Path;
+use std::process::Output;
+use std::time::{Duration, Instant};
+
+use crate::common::cli::*;
+use serde_json::{json, Value};
+use tempfile::TempDir;
+
+fn text(o: &Output) -> String {
+    format!("{}\n{}", stdout(o), stderr(o))
+}
+
+/// A job's column as text (NULL as "null"), read while other processes write (and before the
+/// store exists).
+fn job_field(db: &Path, id: i64, column: &str) -> String {
+    let flags = rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY;
+    let Ok(conn) = rusqlite::Connection::open_with_flags(db, flags) else {
+        return "null".into();
+    };
+    conn.query_row(
+        &format!("SELECT COALESCE(CAST({column} AS TEXT), 'null') FROM jobs WHERE id = ?1"),
+        [id],
+        |r| r.get(0),
+    )
+    .unwrap_or_else(|_| "null".into())
+}
+
+fn signal(pid: u32, sig: &str) {
+    let ok = std::process::Command::new("kill")
+        .args([sig, &pid.to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill {sig} failed");
+}
+
+/// A one-job tiny silo discharging for `discharge_s`, checkpointed every `every_s`.
+fn one(name: &str, discharge_s: f64, every_s: f64) -> Value {
+    let mut c = campaign(name, &[0.02], &[1.0], every_s);
+    c["base"]["discharge_time_s"] = json!(discharge_s);
+    c
+}
+
+#[test]
+fn a_running_job_whose_directory_is_deleted_is_not_run_twice() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let file = write_campaign(d, "c.json", &one("gone_dir", 3.0, 0.2));
+    let db = d.join("sweep.db");
+    let mut child = spawn_launch(d, &file, &db);
+    let jobs = d.join("sweep-work").join("sweep").join("jobs");
+    let running = wait_for(&mut child, "the discharge", || {
+        job_field(&db, 1, "stage") == "discharge"
+    });
+    assert!(running, "the launch ended before its discharge was seen");
+    std::fs::remove_dir_all(&jobs).unwrap();
+    let o = resume(d, &db);
+    let out = text(&o);
+    assert!(
+        out.contains("job 1 left alone: running in process"),
+        "the process that holds the job lives, though its lock file is gone:\n{out}"
+    );
+    assert!(
+        !out.contains("job 1 started"),
+        "resume ran the job again:\n{out}"
+    );
+    assert!(child.wait().unwrap().success(), "the launch failed");
+    assert_eq!(job_field(&db, 1, "status"), "done");
+    assert_eq!(job_field(&db, 1, "attempts"), "1", "one attempt, one run");
+}
+
+#[test]
+fn a_sigterm_while_a_large_bed_is_placed_stops_within_seconds() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    // 10⁶ spheres in a wide silo: placing them alone takes longer than the patience below.
+    let mut c = one("large_bed", 1.0, 0.2);
+    c["base"]["particle_count"] = json!(1_000_000);
+    c["base"]["cylinder_radius_m"] = json!(0.3);
+    c["base"]["cylinder_height_m"] = json!(1.5);
+    c["base"]["orifice_diameter_m"] = json!(0.04);
+    c["run"]["precision"] = json!("f32");
+    c["sweep"] = json!({});
+    let file = write_campaign(d, "c.json", &c);
+    let db = d.join("sweep.db");
+    let mut child = spawn_launch(d, &file, &db);
+    let filling = wait_for(&mut child, "the fill", || {
+        job_field(&db, 1, "stage") == "fill"
+    });
+    assert!(filling, "the launch ended before its fill was seen");
+    std::thread::sleep(Duration::from_millis(300));
+    let t = Instant::now();
+    signal(child.id(), "-TERM");
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if t.elapsed() > Duration::from_secs(20) {
+            kill(&mut child);
+            panic!("a SIGTERM during the placing of the bed was ignored for 20 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(code, Some(75), "an interrupted launch exits 75");
+    assert_eq!(job_field(&db, 1, "status"), "paused");
+}
+
+#[test]
+fn a_fill_cut_by_sigterm_goes_on_from_its_checkpoint_to_the_same_bits() {
+    // The reference: the same job, never interrupted.
+    let (a, b) = (TempDir::new().unwrap(), TempDir::new().unwrap());
+    let mut c = one("fill_ckpt", 0.4, 0.02);
+    c["base"]["particle_count"] = json!(1500);
+    c["base"]["settle_max_time_s"] = json!(1.0);
+    let file = write_campaign(a.path(), "c.json", &c);
+    launch_ok(a.path(), &file, &a.path().join("sweep.db"));
+    let reference = results(&a.path().join("sweep.db"));
+
+    let d = b.path();
+    let file = write_campaign(d, "c.json", &c);
+    let db = d.join("sweep.db");
+    let mut child = spawn_launch(d, &file, &db);
+    let stages = d.join("sweep-work").join("sweep").join("stages");
+    let settling_checkpoint = || {
+        std::fs::read_dir(&stages)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|e| !sweep::checkpoint::list(&e.path().join("settling")).is_empty())
+    };
+    let seen = wait_for(
+        &mut child,
+        "a checkpoint of the settling",
+        settling_checkpoint,
+    );
+    assert!(seen, "the fill ended before it was checkpointed");
+    signal(child.id(), "-TERM");
+    assert_eq!(child.wait().unwrap().code(), Some(75));
+    assert_eq!(job_field(&db, 1, "status"), "paused");
+    let o = resume(d, &db);
+    let out = text(&o);
+    assert!(o.status.success(), "resume failed:\n{out}");
+    assert!(
+        out.contains("settling goes on from"),
+        "the fill must go on from its checkpoint, not start again:\n{out}"
+    );
+    assert_same_results(&reference, &results(&db));
+}
+
+#[test]
+fn more_threads_than_the_system_allows_fail_the_job_with_the_reason() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    write_campaign(d, "c.json", &one("threads", 0.2, 0.2));
+    let db = d.join("sweep.db");
+    // 1024 thread stacks do not fit in 1.5 GB of address space (root ignores `ulimit -u`).
+    let o = std::process::Command::new("bash")
+        .current_dir(d)
+        .args([
+            "-c",
+            &format!(
+                "ulimit -v 1500000 && exec {} launch c.json --db sweep.db --backend cpu --threads 1024",
+                bin()
+            ),
+        ])
+        .env_remove("SWEEP_DB")
+        .output()
+        .unwrap();
+    let out = text(&o);
+    assert_eq!(o.status.code(), Some(1), "a failed job exits 1:\n{out}");
+    assert!(!out.contains("panicked"), "no panic:\n{out}");
+    assert!(
+        out.contains("cannot start 1024 CPU engine thread(s)"),
+        "the job says what failed:\n{out}"
+    );
+    assert_eq!(job_field(&db, 1, "status"), "failed");
+    assert!(job_field(&db, 1, "last_error").contains("--threads"));
+}
+
+#[test]
+fn resume_exits_1_while_failed_jobs_remain() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c = one("spent", 0.2, 0.2);
+    c["run"]["max_attempts"] = json!(1);
+    let file = write_campaign(d, "c.json", &c);
+    let db = d.join("sweep.db");
+    launch_ok(d, &file, &db);
+    // A job that failed on its last attempt, as a crash would leave it.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute(
+        "UPDATE jobs SET status = 'failed', attempts = 1, last_error = 'made to fail'",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let o = resume(d, &db);
+    let out = text(&o);
+    assert_eq!(o.status.code(), Some(1), "a failed job remains:\n{out}");
+    assert!(out.contains("failed with no attempts left"), "{out}");
+}
+
+/// Runs `f` with a tmpfs of `size` mounted at `at`, unmounted after (even on a panic). `None`
+/// where mounting is not allowed (not root, no mount namespace): the test then says so and
+/// passes, except under CI=true, where it fails.
+fn with_tmpfs<T>(at: &Path, size: &str, f: impl FnOnce() -> T) -> Option<T> {
+    struct Unmount<'a>(&'a Path);
+    impl Drop for Unmount<'_> {
+        fn drop(&mut self) {
+            let _ = std::process::Command::new("umount").arg(self.0).status();
+        }
+    }
+    std::fs::create_dir_all(at).unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+        .arg(at)
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !mounted {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI=true and no tmpfs can be mounted (the full-disk test needs root)"
+        );
+        eprintln!("skipped: cannot mount a tmpfs here (not root?)");
+        return None;
+    }
+    let _guard = Unmount(at);
+    Some(f())
+}
+
+#[test]
+fn a_full_disk_exits_1_and_leaves_the_jobs_resumable() {
+    let dir = TempDir::new().unwrap();
+    let disk = dir.path().join("disk");
+    let _ = with_tmpfs(&disk, "400k", || {
+        let file = write_campaign(&disk, "c.json", &one("full", 0.2, 0.05));
+        let db = disk.join("sweep.db");
+        let o = sweep_cmd(&disk)
+            .args(["launch", "c.json", "--db", "sweep.db", "--backend", "cpu"])
+            .args(["--threads", "1"])
+            .output()
+            .unwrap();
+        let out = text(&o);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "a full disk is a failure, not bad input:\n{out}"
+        );
+        assert!(out.contains("No space left on device"), "{out}");
+        assert!(out.contains("sweep resume"), "it says how to go on:\n{out}");
+        let status = job_field(&db, 1, "status");
+        assert!(status != "running", "no job is left running: {status}");
+        // Room again: the same job runs to its end.
+        let grown = std::process::Command::new("mount")
+            .args(["-o", "remount,size=8m"])
+            .arg(&disk)
+            .status()
+            .unwrap()
+            .success();
+        assert!(grown);
+        let o = resume(&disk, &db);
+        assert!(o.status.success(), "resume:\n{}", text(&o));
+        assert_eq!(job_field(&db, 1, "status"), "done");
+        assert!(file.exists());
+    });
+}
+
+#[test]
+fn values_no_experiment_has_are_refused_by_field() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    // (what, section of the file ("" the top), key, value, the field the message names)
+    let cases = [
+        (
+            "max_attempts 0",
+            "run",
+            "max_attempts",
+            json!(0),
+            "run.max_attempts",
+        ),
+        (
+            "f = 1e300 Hz",
+            "sweep",
+            "rotation_frequency_hz",
+            json!([1e300]),
+            "rotation_frequency_hz",
+        ),
+        (
+            "origin 1e300 m",
+            "base",
+            "origin_m",
+            json!([1e300, 0.0, 0.0]),
+            "origin_m",
+        ),
+        (
+            "polydispersity 0.99",
+            "base",
+            "diameter_polydispersity",
+            json!(0.99),
+            "diameter_polydispersity",
+        ),
+        ("empty name", "", "name", json!(""), "name"),
+        ("NUL in the name", "", "name", json!("a\u{0}b"), "name"),
+        (
+            "no gravity",
+            "base",
+            "gravity_m_per_s2",
+            json!(0.0),
+            "gravity_m_per_s2",
+        ),
+    ];
+    for (what, section, key, value, field) in cases {
+        let mut c = one("typo", 0.2, 0.2);
+        let at = if section.is_empty() {
+            &mut c
+        } else {
+            &mut c[section]
+        };
+        at[key] = value;
+        let file = write_campaign(d, "c.json", &c);
+        let db = d.join("typo.db");
+        let o = sweep_cmd(d)
+            .args([
+                "launch",
+                file.to_str().unwrap(),
+                "--db",
+                db.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let out = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{what} must be refused:\n{out}");
+        assert!(
+            out.contains(field),
+            "{what}: the message names {field}:\n{out}"
+        );
+        assert!(
+            !db.exists() || count(&db, "SELECT COUNT(*) FROM jobs") == 0,
+            "{what}: nothing registered"
+        );
+    }
+    // −0 Hz and 0 Hz are one bottom at rest: one job.
+    let mut c = one("zeros", 0.2, 0.2);
+    c["sweep"]["rotation_frequency_hz"] = json!([0.0, -0.0]);
+    let file = write_campaign(d, "z.json", &c);
+    let db = d.join("z.db");
+    launch_ok(d, &file, &db);
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs"),
+        1,
+        "one physics, one job"
+    );
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--backend", "cpu", "--threads", "1"])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "launching it again adds nothing:\n{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn temp_files_of_a_killed_checkpoint_write_are_removed() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = launch_and_kill(d, 0.05);
+    let ckpt = job_checkpoints(d).pop().expect("a checkpoint");
+    let leftover = ckpt.with_extension("tmp.999999");
+    std::fs::write(&leftover, b"half a checkpoint").unwrap();
+    let o = resume(d, &db);
+    assert!(o.status.success(), "resume:\n{}", text(&o));
+    assert!(
+        !leftover.exists(),
+        "the leftover {} is still there",
+        leftover.display()
+    );
+}
+
+#[test]
+fn a_damaged_store_is_refused_before_anything_runs() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let file = write_campaign(d, "c.json", &campaign("damaged", &[0.02], &[0.0, 1.0], 0.2));
+    let db = d.join("sweep.db");
+    launch_ok(d, &file, &db);
+    // Fold the log into the file, then break the b-tree page of the jobs table's hash index:
+    // a page no launch reads until it looks a job up by hash.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.pragma_update(None, "journal_mode", "DELETE").unwrap();
+    let root: i64 = conn
+        .query_row(
+            "SELECT rootpage FROM sqlite_master WHERE tbl_name = 'jobs' AND type = 'index' AND sql IS NULL",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    let page: i64 = conn
+        .query_row("PRAGMA page_size", [], |r| r.get(0))
+        .unwrap();
+    drop(conn);
+    let mut bytes = std::fs::read(&db).unwrap();
+    let at = ((root - 1) * page) as usize;
+    // The page's cell count (bytes 3–4 of a b-tree page header) beyond any page's room.
+    bytes[at + 3] = 0xff;
+    bytes[at + 4] = 0xff;
+    std::fs::write(&db, &bytes).unwrap();
+    let before = std::fs::read(&db).unwrap();
+    for args in [
+        vec!["resume", "--db", "sweep.db"],
+        vec!["launch", "c.json", "--db", "sweep.db"],
+    ] {
+        let o = sweep_cmd(d).args(&args).output().unwrap();
+        let out = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}:\n{out}");
+        assert!(
+            out.contains("the database is damaged") && out.contains(".recover"),
+            "{args:?} says what is wrong and what to do:\n{out}"
+        );
+    }
+    // Opening switches the file back to WAL (header bytes 18–19); the pages are untouched.
+    let after = std::fs::read(&db).unwrap();
+    assert!(
+        after[100..] == before[100..],
+        "the store's pages are left as they were"
+    );
+}
+
+#[test]
+fn status_of_a_large_campaign_is_a_summary() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c = one("large", 0.2, 0.2);
+    c["replicas"] = json!(500);
+    let file = write_campaign(d, "c.json", &c);
+    let db = d.join("sweep.db");
+    let (parsed, jobs) = sweep::campaign::load(&file).unwrap();
+    let mut conn = sweep::store::open(&db).unwrap();
+    sweep::store::jobs::register(&mut conn, "c.json", &parsed, &jobs, false).unwrap();
+    drop(conn);
+    let o = sweep_cmd(d)
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let out = stdout(&o);
+    assert!(o.status.success());
+    assert!(
+        out.contains("500 jobs — 0 done, 0 running, 500 pending"),
+        "{out}"
+    );
+    assert!(out.contains("`--all-jobs` lists every one"), "{out}");
+    assert!(
+        out.lines().count() < 20,
+        "a summary, not a line per job:\n{out}"
+    );
+    let o = sweep_cmd(d)
+        .args(["status", "--db", db.to_str().unwrap(), "--all-jobs"])
+        .output()
+        .unwrap();
+    assert!(
+        stdout(&o).lines().count() > 500,
+        "--all-jobs lists them all"
+    );
+}

@@ -1,0 +1,40 @@
+//! The integration tests, one binary. One link instead of one per file, and the test threads
+//! share the cores across every file's tests instead of waiting for each file's slowest one.
+//! Each module was a test file of its own; run one with `cargo test --release --test suite
+//! -- silo::` (or any part of a test's path).
+
+mod common;
+
+mod accuracy_replicas;
+mod accuracy_report;
+mod campaign_validation;
+mod chute_cli;
+mod chute_warm_start;
+mod claims;
+mod cli;
+mod coarse_grain;
+mod determinism;
+mod engine_collisions;
+mod engine_conservation;
+mod engine_contacts;
+mod engine_stability;
+mod export;
+mod faults;
+mod gpu;
+mod gpu_batch;
+mod gpu_dispatch;
+mod gpu_rods;
+mod gpu_validation;
+mod integrity;
+mod observe_chute;
+mod precision;
+mod report_chute;
+mod silo;
+mod silo_fields;
+mod slurm;
+mod spherocylinder;
+mod spherocylinder_engine;
+mod spherocylinder_impact;
+mod stability;
+mod target;
+mod translation;
