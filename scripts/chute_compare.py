@@ -167,6 +167,8 @@ def trend(series, t0, t1, block):
         if v:
             pts.append((t0 + (k + 0.5) * block, sum(v) / len(v)))
     n = len(pts)
+    if n < 3:
+        return None
     tm = sum(t for t, _ in pts) / n
     em = sum(e for _, e in pts) / n
     stt = sum((t - tm) ** 2 for t, _ in pts)
@@ -174,6 +176,8 @@ def trend(series, t0, t1, block):
     res = sum((e - em - slope * (t - tm)) ** 2 for t, e in pts) / max(n - 2, 1)
     err = math.sqrt(res / stt)
     w = t1 - t0
+    if em == 0:
+        return None
     return slope * w / em, err * w / em
 
 
@@ -227,6 +231,13 @@ def main():
     ke_s, ke_l = block_mean(es, a.t0, a.t1, a.block), block_mean(el, a.t0, a.t1, a.block)
     # Each code's trend over the window: the first and last thirds' block means.
     bs, bl_ = blocks(sw, a.t0, a.t1, a.block), blocks(lm, a.t0, a.t1, a.block)
+    # Each code must have measured the window: two blocks at least, for a mean and its error.
+    short = [f"{who} has {len(b)} block(s) of {a.block} in [{a.t0}, {a.t1}] (its record ends at "
+             f"t = {series[-1][0]:.1f})" for who, b, series in (("sweep", bs, es), ("LAMMPS", bl_, el))
+             if len(b) < 2]
+    if short:
+        print("\nNOT COMPARABLE: " + "; ".join(short) + ". Run both codes through the window.")
+        return 3
     area = lx * ly
     ps, vs = profiles(bs, nbins, a.dz, area, vp)
     pl, vl = profiles(bl_, nbins, a.dz, area, vp)
@@ -273,8 +284,10 @@ def main():
     print("| quantity | sweep | LAMMPS | difference | target |\n|---|---:|---:|---:|---|")
     print(f"| KE in [{a.t0}, {a.t1}] | {ke_s[0]:.0f} +- {ke_s[1]:.0f} | {ke_l[0]:.0f} +- "
           f"{ke_l[1]:.0f} | {ke_s[0] / ke_l[0] - 1:+.3f} | |")
-    (ts, tse), (tl, tle) = trend(es, a.t0, a.t1, a.block), trend(el, a.t0, a.t1, a.block)
-    print(f"| KE trend x window / mean | {ts:+.3f} +- {tse:.3f} | {tl:+.3f} +- {tle:.3f} | | |")
+    def fmt(tr):
+        return "n/a (fewer than 3 blocks)" if tr is None else f"{tr[0]:+.3f} +- {tr[1]:.3f}"
+    trend_s, trend_l = fmt(trend(es, a.t0, a.t1, a.block)), fmt(trend(el, a.t0, a.t1, a.block))
+    print(f"| KE trend x window / mean | {trend_s} | {trend_l} | | |")
     print(f"| surface V_x (z = {(ks + 0.5) * a.dz:.1f} d) | {us[0]:.3f} +- {us[1]:.3f} | "
           f"{ul[0]:.3f} +- {ul[1]:.3f} | {us[0] / ul[0] - 1:+.3f} | |")
     print(f"| bed height h (d) | {hs:.2f} | {hl:.2f} | {hs - hl:+.2f} | |")

@@ -30,8 +30,8 @@ bin=$PWD/target/release/sweep
 out=${OUT:-$PWD/target/chute-lammps/$alpha-$start}
 rm -rf "$out"
 mkdir -p "$out"
-# steady_min_time_s = steady_max_time_s = T0: sweep measures [T0, T1] whatever its detector says,
-# the window LAMMPS is compared on.
+# steady_min_time_s = steady_max_time_s = T0 and measure_unsteady: sweep measures [T0, T1]
+# whatever its detector says (at any angle, steady or not), the window LAMMPS is compared on.
 cat >"$out/chute.json" <<EOF
 {
   "name": "chute_lammps_${alpha}_${start}",
@@ -50,7 +50,8 @@ cat >"$out/chute.json" <<EOF
     "warm_inertial_number": $warm_i,
     "steady_min_time_s": $t0,
     "steady_max_time_s": $t0,
-    "measure_time_s": $(python3 -c "print($t1 - $t0)")
+    "measure_time_s": $(python3 -c "print($t1 - $t0)"),
+    "measure_unsteady": true
   },
   "observers": {"snapshots": {"interval_s": 0.5}, "chute": {"sample_interval_s": 0.5}},
   "run": {"precision": "f64", "checkpoint_interval_s": 20.0}
@@ -65,5 +66,7 @@ mpi=(mpirun -np "$np")
 echo "== LAMMPS ($np processes): $("$lmp" -h | grep -m1 -i 'Large-scale' | xargs)"
 (cd "$out/lammps/job-1" && /usr/bin/time -f "LAMMPS: %e s" "${mpi[@]}" "$lmp" -in in.chute -log log.lammps -screen none)
 frames=$(ls -d "$out"/sweep-work/*/jobs/*/snapshots)
+# Exit status: 0 pass, 1 fail, 3 not comparable (a code did not run through the window).
 python3 scripts/chute_compare.py "$out/sweep.db" "$frames" "$out/lammps/job-1" --t0 "$t0" --t1 "$t1" \
   --block "$block" | tee "$out/result.md"
+exit "${PIPESTATUS[0]}"

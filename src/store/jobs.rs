@@ -87,6 +87,19 @@ pub fn owner_place(owner: Option<&str>) -> OwnerPlace {
     }
 }
 
+/// A page of claim candidates: pending jobs after id ?3 with attempts left (?2 overrides each
+/// job's own limit), of campaign ?1 if not NULL, at most ?4.
+const CLAIM_PAGE: &str =
+    "SELECT j.id, j.hash, j.params_json, j.status, j.attempts, j.sim_time_s, j.target_time_s,
+        COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
+        j.max_attempts
+ FROM jobs j
+ WHERE j.status = 'pending' AND j.id > ?3
+   AND j.attempts < COALESCE(?2, j.max_attempts)
+   AND (?1 IS NULL OR EXISTS (SELECT 1 FROM campaign_jobs cj
+                              WHERE cj.campaign_id = ?1 AND cj.job_id = j.id))
+ ORDER BY j.id LIMIT ?4";
+
 /// Claims the next pending job (of `campaign` if given) for `lease`, in one transaction, so two
 /// launchers never run the same job. `hold` is called inside that transaction with each
 /// candidate in turn and returns what keeps the job held (its OS lock) or `None` when another
@@ -110,17 +123,7 @@ pub fn claim<T>(
     let mut after = i64::MIN;
     loop {
         let page: Vec<JobRow> = tx
-            .prepare_cached(
-                "SELECT j.id, j.hash, j.params_json, j.status, j.attempts, j.sim_time_s, j.target_time_s,
-                        COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
-                        j.max_attempts
-                 FROM jobs j
-                 WHERE j.status = 'pending' AND j.id > ?3
-                   AND j.attempts < COALESCE(?2, j.max_attempts)
-                   AND (?1 IS NULL OR EXISTS (SELECT 1 FROM campaign_jobs cj
-                                              WHERE cj.campaign_id = ?1 AND cj.job_id = j.id))
-                 ORDER BY j.id LIMIT ?4",
-            )?
+            .prepare_cached(CLAIM_PAGE)?
             .query_map(params![campaign, max_attempts, after, PAGE], |r| {
                 Ok(JobRow {
                     id: r.get(0)?,
@@ -289,3 +292,31 @@ pub fn insert_running(conn: &Connection, job: &TaskJob) -> anyhow::Result<()> {
 pub use super::lookup::*;
 pub use super::register::*;
 pub use super::requeue::*;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A claim's cost must not grow with the jobs registered: SQLite's plan for a page of
+    /// candidates reads the pending jobs through their index and each label through the index
+    /// on `campaign_jobs(job_id)`, never a whole table (a scan per pending job made a launch of
+    /// N jobs cost N²).
+    #[test]
+    fn a_claim_reads_no_whole_table() {
+        let conn = crate::store::open_in_memory(None).unwrap();
+        let plan: Vec<String> = conn
+            .prepare(&format!("EXPLAIN QUERY PLAN {CLAIM_PAGE}"))
+            .unwrap()
+            .query_map(params![1, 3, 0, 16], |r| r.get::<_, String>(3))
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        let text = plan.join("\n");
+        assert!(
+            plan.iter().all(|step| !step.starts_with("SCAN")),
+            "a step scans a whole table:\n{text}"
+        );
+        assert!(text.contains("jobs_status"), "{text}");
+        assert!(text.contains("campaign_jobs_job"), "{text}");
+    }
+}

@@ -476,3 +476,38 @@ fn status_of_a_large_campaign_is_a_summary() {
         "--all-jobs lists them all"
     );
 }
+
+#[test]
+fn a_slurm_submission_of_thousands_of_jobs_is_split_at_max_array_size() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c = one("thousands", 0.2, 0.2);
+    c["replicas"] = json!(2500);
+    let file = write_campaign(d, "c.json", &c);
+    let o = sweep_cmd(d)
+        .args(["launch", file.to_str().unwrap(), "--db", "sweep.db"])
+        .args(["--executor", "slurm", "--dry-run"])
+        .output()
+        .unwrap();
+    let out = text(&o);
+    assert!(o.status.success(), "{out}");
+    // MaxArraySize: this machine's Slurm's, or Slurm's default (1001).
+    let arrays: Vec<usize> = out
+        .lines()
+        .filter_map(|l| l.strip_prefix("#SBATCH --array=0-"))
+        .map(|n| n.split('%').next().unwrap().parse::<usize>().unwrap() + 1)
+        .collect();
+    let max = sweep::runner::slurm::query::max_array_size();
+    assert_eq!(
+        arrays.len(),
+        2500usize.div_ceil(max),
+        "arrays of at most {max}: {arrays:?}"
+    );
+    assert!(arrays.iter().all(|&n| n <= max), "{arrays:?}");
+    assert_eq!(
+        arrays.iter().sum::<usize>(),
+        2500,
+        "every job once: {arrays:?}"
+    );
+    assert!(!d.join("sweep.db").exists(), "a dry run registers nothing");
+}

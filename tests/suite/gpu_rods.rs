@@ -491,6 +491,7 @@ fn dropped(tilt_deg: f64) -> (EngineConfig, State<f64>) {
 }
 
 #[test]
+#[ignore = "long tier (minutes on lavapipe): bash scripts/test-long.sh"]
 fn rods_dropped_onto_a_plane_come_to_the_cpus_rest() {
     let Some(dev) = device() else { return };
     for tilt in [90.0, 0.0, 30.0] {
@@ -751,6 +752,7 @@ fn run_chute(b: &mut dyn Backend, chunk: u64, dt: f64) -> (f64, f64, f64) {
 }
 
 #[test]
+#[ignore = "long tier (minutes on lavapipe): bash scripts/test-long.sh"]
 fn a_short_chute_flows_as_on_the_cpu() {
     let Some(dev) = device() else { return };
     let scene = ChuteScene::new(ChuteParams {

@@ -695,6 +695,7 @@ fn silo_scene() -> SiloScene {
 }
 
 #[test]
+#[ignore = "long tier (minutes on lavapipe): bash scripts/test-long.sh"]
 fn a_short_silo_discharge_gives_q_within_the_cpu_confidence_interval() {
     let Some(dev) = device() else { return };
     let scene = silo_scene();

@@ -51,7 +51,7 @@ fn base(n: usize, rc: f64, t: f64) -> serde_json::Value {
 }
 
 #[test]
-
+#[ignore = "long tier (minutes on 2 cores): bash scripts/test-long.sh"]
 fn beverloo_at_f0_over_four_orifices() {
     let dir = tempfile::tempdir().unwrap();
     let d = 0.0058;
@@ -103,6 +103,7 @@ fn beverloo_at_f0_over_four_orifices() {
 }
 
 #[test]
+#[ignore = "long tier (minutes on 2 cores): bash scripts/test-long.sh"]
 fn small_orifice_clogs_at_rest_and_flows_when_rotating() {
     let dir = tempfile::tempdir().unwrap();
     let c = serde_json::json!({

@@ -19,9 +19,12 @@ use tempfile::TempDir;
 /// Where the moved jobs sit.
 const MOVED: [f64; 2] = [100.0, 1.0e4];
 
-/// The tiny silo (300 particles, 1 s of discharge) at the origin, 100 m and 10 km above it, f32.
-fn silo() -> Value {
-    let origins = vec![[0.0; 3], [0.0, 0.0, MOVED[0]], [0.0, 0.0, MOVED[1]]];
+/// The tiny silo (300 particles, 1 s of discharge) at the origin and `moved` metres above it, f32.
+fn silo(moved: &[f64]) -> Value {
+    let origins: Vec<[f64; 3]> = std::iter::once(0.0)
+        .chain(moved.iter().copied())
+        .map(|z| [0.0, 0.0, z])
+        .collect();
     json!({
         "name": "silo_origin",
         "scene": "silo",
@@ -66,13 +69,13 @@ fn flow_rates(db: &Path) -> Vec<(f64, f64, f64)> {
     out
 }
 
-fn silo_is_invariant(backend: &str) {
+fn silo_is_invariant(backend: &str, moved: &[f64]) {
     let dir = TempDir::new().unwrap();
-    let file = write_campaign(dir.path(), "silo.json", &silo());
+    let file = write_campaign(dir.path(), "silo.json", &silo(moved));
     let db = dir.path().join("sweep.db");
     launch_on(dir.path(), &file, &db, backend, 2);
     let q = flow_rates(&db);
-    assert_eq!(q.len(), 3, "three jobs: {q:?}");
+    assert_eq!(q.len(), 1 + moved.len(), "a job per origin: {q:?}");
     let (_, q0, ci0) = q[0];
     assert!(
         q0 > 0.0 && ci0 < 0.5 * q0,
@@ -93,15 +96,17 @@ fn silo_is_invariant(backend: &str) {
 
 #[test]
 fn a_silo_moved_100_m_discharges_at_the_same_rate_on_the_cpu() {
-    silo_is_invariant("cpu");
+    silo_is_invariant("cpu", &MOVED);
 }
 
+/// On the GPU only the far place (10 km, where plain f32 failed): each job costs a minute on
+/// lavapipe, and the split positions are the same code at 100 m.
 #[test]
-fn a_silo_moved_100_m_discharges_at_the_same_rate_on_the_gpu() {
+fn a_silo_moved_10_km_discharges_at_the_same_rate_on_the_gpu() {
     if device().is_none() {
         return;
     }
-    silo_is_invariant("gpu");
+    silo_is_invariant("gpu", &MOVED[1..]);
 }
 
 /// Mean V_x of each chute job (mass-weighted over the coarse-grained profile, after 1 s to the
