@@ -78,6 +78,56 @@ fn bad_campaign_files_are_refused_with_file_and_field() {
     let db = d.join("sweep.db");
     drop(sweep::store::open(&db).unwrap());
 
+    // Values no experiment has: each refused by its field.
+    for (file, section, key, value, field) in [
+        (
+            "no_attempts.json",
+            "run",
+            "max_attempts",
+            json!(0),
+            "run.max_attempts",
+        ),
+        (
+            "fast_bottom.json",
+            "sweep",
+            "rotation_frequency_hz",
+            json!([1e300]),
+            "rotation_frequency_hz",
+        ),
+        (
+            "far_away.json",
+            "base",
+            "origin_m",
+            json!([1e300, 0.0, 0.0]),
+            "origin_m",
+        ),
+        (
+            "wide_sizes.json",
+            "base",
+            "diameter_polydispersity",
+            json!(0.99),
+            "diameter_polydispersity",
+        ),
+        ("empty_name.json", "", "name", json!(""), "name"),
+        ("nul_name.json", "", "name", json!("a\u{0}b"), "name"),
+        (
+            "no_gravity.json",
+            "base",
+            "gravity_m_per_s2",
+            json!(0.0),
+            "gravity_m_per_s2",
+        ),
+    ] {
+        let mut c = good.clone();
+        let at = if section.is_empty() {
+            &mut c
+        } else {
+            &mut c[section]
+        };
+        at[key] = value;
+        cases.push((file, c.to_string(), vec![field]));
+    }
+
     for (name, text, needles) in &cases {
         let path = d.join(name);
         std::fs::write(&path, text).unwrap();

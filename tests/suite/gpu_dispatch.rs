@@ -250,6 +250,7 @@ fn list_builds_sort_the_particles_by_cell() {
 }
 
 #[test]
+#[ignore = "long tier (a minute on lavapipe): bash scripts/test-long.sh"]
 fn a_hundred_thousand_particles_run_twice_to_the_same_bits() {
     let Some(dev) = device() else { return };
     let mut runs = Vec::new();

@@ -4,7 +4,6 @@
 //! refused by name, and exit codes and records say what happened.
 
 use std::path::Path;
-use std::process::{Child, Output};
 
 use crate::common::cli::*;
 use serde_json::{json, Value};
@@ -43,34 +42,6 @@ fn resume_args(db: &Path) -> Vec<&str> {
         "--threads",
         "1",
     ]
-}
-
-/// A job's column as text (NULL as "null"), read while other processes write.
-fn job_field(db: &Path, id: i64, column: &str) -> String {
-    let conn =
-        rusqlite::Connection::open_with_flags(db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY);
-    let Ok(conn) = conn else {
-        return "null".into();
-    };
-    conn.query_row(
-        &format!("SELECT COALESCE(CAST({column} AS TEXT), 'null') FROM jobs WHERE id = ?1"),
-        [id],
-        |r| r.get(0),
-    )
-    .unwrap_or_else(|_| "null".into())
-}
-
-fn signal(child: &Child, sig: &str) {
-    let ok = std::process::Command::new("kill")
-        .args([sig, &child.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill {sig} failed");
-}
-
-fn text(o: &Output) -> String {
-    format!("{}\n{}", stdout(o), stderr(o))
 }
 
 /// The fill stage's checkpoints under the default work directory of `dir/sweep.db`.

@@ -24,6 +24,7 @@ mod gpu;
 mod gpu_batch;
 mod gpu_dispatch;
 mod gpu_rods;
+mod gpu_translation;
 mod gpu_validation;
 mod integrity;
 mod observe_chute;

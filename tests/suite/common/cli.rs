@@ -371,3 +371,32 @@ pub fn launch_killed_in_a_round(dir: &Path, file: &Path, db: &Path) {
     let mut child = launch_until_a_round_runs(dir, file, db);
     kill(&mut child);
 }
+
+/// A job's column as text (NULL as "null"), read while other processes write (and before the
+/// store exists).
+pub fn job_field(db: &Path, id: i64, column: &str) -> String {
+    let Ok(conn) = Connection::open_with_flags(db, OpenFlags::SQLITE_OPEN_READ_ONLY) else {
+        return "null".into();
+    };
+    conn.query_row(
+        &format!("SELECT COALESCE(CAST({column} AS TEXT), 'null') FROM jobs WHERE id = ?1"),
+        [id],
+        |r| r.get(0),
+    )
+    .unwrap_or_else(|_| "null".into())
+}
+
+/// Sends `sig` ("-TERM", "-USR1", …) to a child.
+pub fn signal(child: &Child, sig: &str) {
+    let ok = std::process::Command::new("kill")
+        .args([sig, &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill {sig} failed");
+}
+
+/// A command's stdout and stderr, for messages and searches.
+pub fn text(o: &Output) -> String {
+    format!("{}\n{}", stdout(o), stderr(o))
+}
