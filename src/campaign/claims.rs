@@ -6,8 +6,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use super::error::FieldProblem;
-use super::expand::JobSpec;
 use super::file::{CampaignFile, SceneKind};
+use super::job_spec::JobSpec;
 use super::point::{label_without_replica, point_key, point_params};
 use crate::observe::claims::{PointData, Statistic, CHUTE_RESULTS, SILO_RESULTS};
 

@@ -1,5 +1,6 @@
 //! Campaign files: the raw format (`file`, with where jobs run in `executor`), validation with
-//! precise errors (`error`), and expansion into jobs with parameter hashes and seeds (`expand`).
+//! precise errors (`error`, `file_checks`), and expansion into jobs (`expand`; held by point in
+//! `jobs`) with parameter hashes and seeds (`identity`).
 
 pub mod adaptive;
 pub mod claims;
@@ -9,6 +10,10 @@ mod error;
 mod executor;
 mod expand;
 mod file;
+mod file_checks;
+mod identity;
+mod job_spec;
+mod jobs;
 mod point;
 mod resources;
 mod schema;
@@ -17,8 +22,11 @@ mod target;
 pub use diff::diff_fields;
 pub use error::{CampaignError, FieldProblem};
 pub use executor::{ExecutorKind, SlurmSettings};
-pub use expand::{expand, key_with, Identity, JobSpec};
+pub use expand::expand;
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
+pub use identity::{key_with, Identity};
+pub use job_spec::JobSpec;
+pub use jobs::Jobs;
 pub use point::{label_without_replica, point_key, point_params};
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};
 pub use schema::campaign_schema;
@@ -30,18 +38,18 @@ pub use target::{Allocation, ClaimsGoal, Target};
 /// The file cannot be read, is not JSON of the campaign shape, has invalid values, or has a job
 /// this machine cannot hold (`check_machine`); every problem names the file, the JSON path and
 /// what was expected.
-pub fn load(path: &std::path::Path) -> Result<(CampaignFile, Vec<JobSpec>), CampaignError> {
+pub fn load(path: &std::path::Path) -> Result<(CampaignFile, Jobs), CampaignError> {
     let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Read {
         file: path.display().to_string(),
         source: e,
     })?;
     let file = CampaignFile::parse_str(&text, &path.display().to_string())?;
     let jobs = expand(&file, &path.display().to_string())?;
-    check_machine(&jobs, &path.display().to_string())?;
+    check_machine(jobs.points(), &path.display().to_string())?;
     Ok((file, jobs))
 }
 
-/// Refuses jobs this machine cannot hold: each job's memory estimate against `MemTotal` (or
+/// Refuses jobs this machine cannot hold (replicas need what their point needs): each job's memory estimate against `MemTotal` (or
 /// `SWEEP_MEMORY_LIMIT_BYTES`), naming the field that sets its particle count.
 ///
 /// # Errors

@@ -3,8 +3,8 @@
 //! the memory this process may take (the least of `MemTotal`, its cgroup's limit and `ulimit
 //! -v`; or `SWEEP_MEMORY_LIMIT_BYTES`).
 
-use super::expand::JobSpec;
 use super::file::{Precision, SceneKind};
+use super::job_spec::JobSpec;
 use crate::engine::memory::bytes_per_particle;
 
 /// Environment variable that sets the memory limit (bytes) instead of `MemTotal`.

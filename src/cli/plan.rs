@@ -1,7 +1,7 @@
 //! `sweep plan FILE`: each job's effects and estimated cost, without running anything. Wall
 //! times come from this machine's `sweep bench` results in the database.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::BTreeSet;
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
@@ -62,7 +62,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     // job is ξ = 1: those run on the sphere engine).
     let (bench_scene, settled) = match file.scene {
         SceneKind::Silo => ("silo-bed", sweep::bench::settled_name("silo-bed")),
-        SceneKind::Chute if jobs.iter().all(|j| j.chute().spheres()) => ("chute-bed", None),
+        SceneKind::Chute if jobs.points().iter().all(|j| j.chute().spheres()) => {
+            ("chute-bed", None)
+        }
         SceneKind::Chute => ("chute-rods", None),
     };
     let conn = if a.db.db.exists() {
@@ -116,112 +118,65 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         "{:>4}  {:>10} {:>8} {:>10} {:>12} {:>10}  parameters",
         "job", "dt_s", "N", "steps", "particle-st", "wall_s"
     );
-    // A campaign of many jobs gets the first lines only; replicas of one point share its scene.
+    // A campaign of many jobs gets the first lines only. Replicas of one point share its scene
+    // and its cost: each point is costed once, for all its replicas.
     let lines = if jobs.len() <= LINE_PER_JOB_UP_TO || a.all_jobs {
         jobs.len()
     } else {
         FIRST_LINES
     };
-    let mut chute_scenes: HashMap<String, std::rc::Rc<ChuteScene>> = HashMap::new();
-    let mut silo_dts: HashMap<String, f64> = HashMap::new();
-    for (k, j) in jobs.iter().enumerate() {
-        if k == lines {
-            println!(
-                "      … and {} more job(s), counted in the total: `--all-jobs` lists every one",
-                jobs.len() - lines
-            );
-        }
-        let point = sweep::campaign::label_without_replica(&j.label);
-        if j.scene == SceneKind::Chute {
-            let scene = match chute_scenes.get(&point) {
-                Some(s) => s.clone(),
-                None => {
-                    let s = std::rc::Rc::new(
-                        ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?,
-                    );
-                    chute_scenes.insert(point.clone(), s.clone());
-                    s
-                }
-            };
-            // At most: the longest wait for the steady state plus the measurement.
-            let steps = (j.chute().max_time_s() / scene.dt).ceil();
-            let n = j.chute().count() as f64;
-            let ps = n * steps;
-            total_ps += ps;
-            let rate = rate_of(j);
-            total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
-            let wall = rate.map_or("?".to_string(), |r| format!("≤{:.0}", ps / r));
+    let replicas = jobs.replicas() as usize;
+    for (p, point) in jobs.points().iter().enumerate() {
+        let cost = match point.scene {
+            SceneKind::Chute => chute_cost(point)?,
+            // The fill stage is shared by jobs with the same fill parameters (other replicas
+            // have their own): count it once.
+            SceneKind::Silo => silo_cost(point, fills.insert(point.fill_key().0))?,
+        };
+        total_ps += cost.particle_steps * replicas as f64;
+        let rate = rate_of(point);
+        total_wall = total_wall
+            .zip(rate)
+            .map(|(w, r)| w + cost.particle_steps / r * replicas as f64);
+        let wall = rate.map_or("?".to_string(), |r| {
+            format!("{}{:.0}", cost.at_most, cost.particle_steps / r)
+        });
+        for r in 0..replicas {
+            let k = p * replicas + r;
+            if k == lines {
+                println!(
+                    "      … and {} more job(s), counted in the total: `--all-jobs` lists every one",
+                    jobs.len() - lines
+                );
+            }
+            if k >= lines && a.lammps.is_none() {
+                break;
+            }
+            let j = point.replica(r as u32);
             if k < lines {
                 println!(
                     "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
                     k + 1,
-                    scene.dt,
-                    j.chute().count(),
-                    steps,
-                    ps,
+                    cost.dt,
+                    j.particle_count(),
+                    cost.steps,
+                    cost.particle_steps,
                     wall,
                     j.label
                 );
             }
             if k == 0 {
-                let effects = Effects::of(&scene.engine_config(), true, !j.chute().spheres());
-                println!("      effects: {}", serde_json::to_string(&effects)?);
+                println!(
+                    "      effects: {}",
+                    serde_json::to_string(&effects_of(&j)?)?
+                );
             }
-            if let Some(dir) = &a.lammps {
-                let run = sweep::lammps::chute::ChuteRun::of(j);
+            if let (Some(dir), SceneKind::Chute) = (&a.lammps, j.scene) {
+                let run = sweep::lammps::chute::ChuteRun::of(&j);
                 let input =
-                    sweep::lammps::chute::export(j, run, &dir.join(format!("job-{}", k + 1)))?;
+                    sweep::lammps::chute::export(&j, run, &dir.join(format!("job-{}", k + 1)))?;
                 println!("      LAMMPS: {}", input.display());
             }
-            continue;
-        }
-        let dt = match silo_dts.get(&point) {
-            Some(&dt) => dt,
-            None => {
-                let dt = SiloScene::new(j.silo().clone())
-                    .map_err(|e| anyhow::anyhow!(e))?
-                    .dt;
-                silo_dts.insert(point.clone(), dt);
-                dt
-            }
-        };
-        let steps_discharge = (j.silo().discharge_time_s / dt).ceil();
-        // The fill stage is shared by jobs with the same fill parameters: count it once.
-        let fill = if fills.insert(j.fill_key().0) {
-            (j.silo().settle_max_time_s.min(1.0) / dt).ceil()
-        } else {
-            0.0
-        };
-        // Without re-insertion the silo empties towards `stop_remaining_fraction`: on average
-        // about the mean of the start and the end counts are simulated.
-        let n = j.silo().particle_count as f64;
-        let n_mean = if j.silo().reinsert {
-            n
-        } else {
-            n * (1.0 + j.silo().stop_remaining_fraction.max(0.5)) / 2.0
-        };
-        let ps = n * fill + n_mean * steps_discharge;
-        total_ps += ps;
-        let rate = rate_of(j);
-        total_wall = total_wall.zip(rate).map(|(w, r)| w + ps / r);
-        let wall = rate.map_or("?".to_string(), |r| format!("{:.0}", ps / r));
-        if k >= lines {
-            continue;
-        }
-        println!(
-            "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
-            k + 1,
-            dt,
-            j.silo().particle_count,
-            fill + steps_discharge,
-            ps,
-            wall,
-            j.label
-        );
-        if k == 0 {
-            let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
-            let effects = Effects::of(&scene.engine_config(SiloPhase::Discharge), false, false);
-            println!("      effects: {}", serde_json::to_string(&effects)?);
         }
     }
     println!(
@@ -254,6 +209,68 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// What one job of a point costs: its time step, steps and particle-steps.
+struct JobCost {
+    dt: f64,
+    steps: f64,
+    particle_steps: f64,
+    /// "≤" where the cost is a bound (a chute job may stop once steady).
+    at_most: &'static str,
+}
+
+/// A chute job at most: the longest wait for the steady state plus the measurement.
+fn chute_cost(j: &sweep::campaign::JobSpec) -> anyhow::Result<JobCost> {
+    let scene = ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?;
+    let steps = (j.chute().max_time_s() / scene.dt).ceil();
+    Ok(JobCost {
+        dt: scene.dt,
+        steps,
+        particle_steps: j.chute().count() as f64 * steps,
+        at_most: "≤",
+    })
+}
+
+/// A silo job: its fill (where `own_fill`: not shared with an earlier job) and its discharge.
+fn silo_cost(j: &sweep::campaign::JobSpec, own_fill: bool) -> anyhow::Result<JobCost> {
+    let dt = SiloScene::new(j.silo().clone())
+        .map_err(|e| anyhow::anyhow!(e))?
+        .dt;
+    let steps_discharge = (j.silo().discharge_time_s / dt).ceil();
+    let fill = if own_fill {
+        (j.silo().settle_max_time_s.min(1.0) / dt).ceil()
+    } else {
+        0.0
+    };
+    // Without re-insertion the silo empties towards `stop_remaining_fraction`: on average
+    // about the mean of the start and the end counts are simulated.
+    let n = j.silo().particle_count as f64;
+    let n_mean = if j.silo().reinsert {
+        n
+    } else {
+        n * (1.0 + j.silo().stop_remaining_fraction.max(0.5)) / 2.0
+    };
+    Ok(JobCost {
+        dt,
+        steps: fill + steps_discharge,
+        particle_steps: n * fill + n_mean * steps_discharge,
+        at_most: "",
+    })
+}
+
+/// What the engine computes for a job (printed once, under the first job).
+fn effects_of(j: &sweep::campaign::JobSpec) -> anyhow::Result<Effects> {
+    Ok(match j.scene {
+        SceneKind::Chute => {
+            let scene = ChuteScene::new(j.chute().clone()).map_err(|e| anyhow::anyhow!(e))?;
+            Effects::of(&scene.engine_config(), true, !j.chute().spheres())
+        }
+        SceneKind::Silo => {
+            let scene = SiloScene::new(j.silo().clone()).map_err(|e| anyhow::anyhow!(e))?;
+            Effects::of(&scene.engine_config(SiloPhase::Discharge), false, false)
+        }
+    })
 }
 
 /// What each point of a campaign with a target is expected to need still, from the jobs of it

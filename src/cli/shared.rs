@@ -26,7 +26,7 @@ pub fn register(
     conn: &mut rusqlite::Connection,
     a: &Arguments,
     file: &sweep::campaign::CampaignFile,
-    jobs: &[sweep::campaign::JobSpec],
+    jobs: &sweep::campaign::Jobs,
 ) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
     let path = a.file.display().to_string();
     let stop = super::launch::interrupt_flag();

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use sweep::campaign::{CampaignFile, ExecutorKind, JobSpec, SlurmSettings};
+use sweep::campaign::{CampaignFile, ExecutorKind, Jobs, SlurmSettings};
 use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
 use sweep::store::job_counts;
 
@@ -13,7 +13,7 @@ use super::run_args::{Arguments, ResumeArguments};
 use super::shared::work_dir;
 
 /// `sweep launch --executor slurm`: registers the jobs, then hands the pending ones to Slurm.
-pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &[JobSpec]) -> anyhow::Result<i32> {
+pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &Jobs) -> anyhow::Result<i32> {
     let settings = a.exec.slurm_settings(&file.run.slurm);
     let problems = settings.problems();
     if !problems.is_empty() {

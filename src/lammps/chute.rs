@@ -275,7 +275,7 @@ mod tests {
             "run": {{"precision": "f64"}}}}"#
         );
         let c = CampaignFile::parse_str(&text, "t.json").unwrap();
-        expand(&c, "t.json").unwrap().remove(0)
+        expand(&c, "t.json").unwrap().get(0)
     }
 
     fn section(text: &str, head: &str, next: Option<&str>) -> Vec<Vec<f64>> {

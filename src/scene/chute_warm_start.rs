@@ -240,7 +240,7 @@ mod tests {
         let hash = |base: &str| {
             let text = format!(r#"{{"name": "t", "scene": "chute", "base": {{{base}}}}}"#);
             let c = CampaignFile::parse_str(&text, "t.json").unwrap();
-            expand(&c, "t.json").map(|j| j[0].hash())
+            expand(&c, "t.json").map(|j| j.get(0).hash())
         };
         let plain = hash(r#""inclination_deg": 27.0"#).unwrap();
         let defaults = hash(

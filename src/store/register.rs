@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
-use crate::campaign::{CampaignFile, Identity, JobSpec};
+use crate::campaign::{CampaignFile, Identity, JobSpec, Jobs};
 
 /// Jobs registered per transaction: a few MB of log each.
 const CHUNK: usize = 20_000;
@@ -42,7 +42,7 @@ pub fn register(
     conn: &mut Connection,
     file: &str,
     c: &CampaignFile,
-    jobs: &[JobSpec],
+    jobs: &Jobs,
     new_version: bool,
 ) -> anyhow::Result<Registration> {
     register_until(conn, file, c, jobs, new_version, &|| false)
@@ -56,7 +56,7 @@ pub fn register_until(
     conn: &mut Connection,
     file: &str,
     c: &CampaignFile,
-    jobs: &[JobSpec],
+    jobs: &Jobs,
     new_version: bool,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> anyhow::Result<Registration> {
@@ -122,24 +122,33 @@ pub fn register_until(
         }
     };
     tx.commit()?;
-    // Identities (a serialisation and a hash each) are computed on the other cores while the
-    // previous chunk is written: the writing is serial, the hashing is not.
-    let identities =
-        |chunk: &[JobSpec]| -> Vec<Identity> { chunk.par_iter().map(JobSpec::identity).collect() };
+    // Jobs are made and hashed (a serialisation and a hash each) on the other cores while the
+    // previous chunk is written: the writing is serial, the hashing is not. Only two chunks are
+    // held at a time.
+    let made = |chunk: usize| -> Option<Vec<(JobSpec, Identity)>> {
+        let start = chunk * CHUNK;
+        (start < jobs.len()).then(|| {
+            (start..jobs.len().min(start + CHUNK))
+                .into_par_iter()
+                .map(|k| {
+                    let j = jobs.get(k);
+                    let id = j.identity();
+                    (j, id)
+                })
+                .collect()
+        })
+    };
     // The hash index of 10⁶ jobs takes random inserts: a page cache that holds it (SQLite's
     // default is 2 MB) saves a read and a write of a page per job.
     conn.pragma_update(None, "cache_size", -128 * 1024)?;
-    let chunks: Vec<&[JobSpec]> = jobs.chunks(CHUNK).collect();
     let mut added = 0;
-    let mut ready = chunks.first().map(|c| identities(c));
-    for (k, chunk) in chunks.iter().enumerate() {
-        let ids = ready.take().expect("computed ahead");
-        let (written, next) = rayon::join(
-            || insert_chunk(conn, cid, c, chunk, &ids),
-            || chunks.get(k + 1).map(|c| identities(c)),
-        );
+    let mut ready = made(0);
+    let mut k = 0;
+    while let Some(chunk) = ready.take() {
+        let (written, next) = rayon::join(|| insert_chunk(conn, cid, c, &chunk), || made(k + 1));
         added += written?;
         ready = next;
+        k += 1;
         if ready.is_some() && stop() {
             return Ok(Registration::Interrupted {
                 campaign_id: cid,
@@ -160,8 +169,7 @@ fn insert_chunk(
     conn: &mut Connection,
     cid: i64,
     c: &CampaignFile,
-    jobs: &[JobSpec],
-    ids: &[Identity],
+    jobs: &[(JobSpec, Identity)],
 ) -> anyhow::Result<usize> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let mut added = 0;
@@ -175,7 +183,7 @@ fn insert_chunk(
         let mut link = tx.prepare_cached(
             "INSERT OR IGNORE INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, ?3)",
         )?;
-        for (j, id) in jobs.iter().zip(ids) {
+        for (j, id) in jobs {
             let n = insert_job.execute(params![
                 id.hash,
                 id.resolved_json,
@@ -201,11 +209,12 @@ fn insert_chunk(
 }
 
 /// Whether the file's jobs and claims are those of the stored campaign `cid` (its own jobs, not
-/// those its target added).
+/// those its target added). The two sets of (hash, label) are compared by count and by an
+/// order-free digest, streamed: neither is held.
 fn same_jobs(
     tx: &Connection,
     cid: i64,
-    jobs: &[JobSpec],
+    jobs: &Jobs,
     old_spec: &str,
     spec: &str,
 ) -> anyhow::Result<bool> {
@@ -219,22 +228,42 @@ fn same_jobs(
     if claims_of(old_spec) != claims_of(spec) {
         return Ok(false);
     }
-    let mut stored: Vec<(String, String)> = tx
-        .prepare(
-            "SELECT j.hash, cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
-             WHERE cj.campaign_id = ?1 AND cj.origin IS NULL",
-        )?
-        .query_map([cid], |r| Ok((r.get(0)?, r.get(1)?)))?
-        .collect::<Result<_, _>>()?;
-    stored.sort_unstable();
-    let hashes: Vec<String> = jobs.par_iter().map(JobSpec::hash).collect();
+    let (mut stored_n, mut stored) = (0usize, 0u128);
+    let mut rows = tx.prepare(
+        "SELECT j.hash, cj.label FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+         WHERE cj.campaign_id = ?1 AND cj.origin IS NULL",
+    )?;
+    let mut rows = rows.query([cid])?;
+    while let Some(r) = rows.next()? {
+        stored_n += 1;
+        stored = stored.wrapping_add(pair_digest(
+            &r.get::<_, String>(0)?,
+            &r.get::<_, String>(1)?,
+        ));
+    }
+    // Two points of one physics (0.0 and −0.0) are one job, linked under the first: their
+    // replicas are equal too, so duplicates are found among the points.
     let mut seen = std::collections::HashSet::new();
-    let mut wanted: Vec<(String, String)> = hashes
-        .into_iter()
-        .zip(jobs)
-        .filter(|(h, _)| seen.insert(h.clone()))
-        .map(|(h, j)| (h, j.label.clone()))
+    let unique: Vec<bool> = jobs
+        .points()
+        .iter()
+        .map(|p| seen.insert(p.hash()))
         .collect();
-    wanted.sort_unstable();
-    Ok(stored == wanted)
+    let r = jobs.replicas() as usize;
+    let (wanted_n, wanted) = (0..jobs.len())
+        .into_par_iter()
+        .filter(|k| unique[k / r])
+        .map(|k| {
+            let j = jobs.get(k);
+            (1usize, pair_digest(&j.hash(), &j.label))
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1.wrapping_add(b.1)));
+    Ok(stored_n == wanted_n && stored == wanted)
+}
+
+/// A job's (hash, label) as 128 bits: summed over a set, equal sets give equal sums.
+fn pair_digest(hash: &str, label: &str) -> u128 {
+    use sha2::{Digest, Sha256};
+    let h = Sha256::digest(format!("{hash}\n{label}").as_bytes());
+    u128::from_le_bytes(h[..16].try_into().expect("16 bytes"))
 }

@@ -55,8 +55,8 @@ fn replicas_are_pooled_and_shifts_carry_welchs_interval() {
             0
         }
     };
-    for j in &jobs {
-        let (s, r) = (setting_of(j), j.silo().replica as usize);
+    for j in jobs.iter() {
+        let (s, r) = (setting_of(&j), j.silo().replica as usize);
         let id: i64 = conn
             .query_row("SELECT id FROM jobs WHERE hash = ?1", [j.hash()], |r| {
                 r.get(0)

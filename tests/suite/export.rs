@@ -796,11 +796,12 @@ fn snapshot_settings_are_validated_and_absent_ones_keep_job_hashes() {
     c["observers"].as_object_mut().unwrap().remove("snapshots");
     let file = sweep::campaign::CampaignFile::parse_str(&c.to_string(), "c.json").unwrap();
     let jobs = sweep::campaign::expand(&file, "c.json").unwrap();
-    assert!(!jobs[0].resolved_json().contains("snapshots"));
+    assert!(!jobs.get(0).resolved_json().contains("snapshots"));
     let with = silo_campaign(json!({ "interval_s": 0.1 }));
     let file = sweep::campaign::CampaignFile::parse_str(&with.to_string(), "c.json").unwrap();
     let with_jobs = sweep::campaign::expand(&file, "c.json").unwrap();
-    assert!(with_jobs[0]
+    assert!(with_jobs
+        .get(0)
         .resolved_json()
         .contains("\"snapshots\":{\"interval_s\":0.1}"));
 }

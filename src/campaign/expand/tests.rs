@@ -2,7 +2,7 @@ use super::*;
 
 fn parse(s: &str) -> Result<Vec<JobSpec>, CampaignError> {
     let c = CampaignFile::parse_str(s, "t.json")?;
-    expand(&c, "t.json")
+    expand(&c, "t.json").map(|j| j.to_vec())
 }
 
 #[test]
@@ -119,6 +119,50 @@ fn backend_is_a_job_parameter() {
         .to_string();
     assert!(
         e.contains("sweep.backend[0]") && e.contains("runs f32"),
+        "{e}"
+    );
+}
+
+#[test]
+fn replicas_made_on_demand_differ_from_their_point_only_in_the_index() {
+    let c = CampaignFile::parse_str(
+        r#"{"name":"a","scene":"silo","base":{"particle_count":100},
+            "sweep":{"orifice_diameter_m":[0.02,0.03]},"replicas":3}"#,
+        "t.json",
+    )
+    .unwrap();
+    let jobs = expand(&c, "t.json").unwrap();
+    assert_eq!(
+        (jobs.len(), jobs.points().len(), jobs.replicas()),
+        (6, 2, 3)
+    );
+    let mut seeds = std::collections::BTreeSet::new();
+    for p in 0..2 {
+        let point = jobs.points()[p].resolved_json();
+        for r in 0..3 {
+            let made = jobs.get(p * 3 + r);
+            assert_eq!(
+                made.resolved_json(),
+                point.replace("\"replica\":0", &format!("\"replica\":{r}")),
+                "point {p}, replica {r}"
+            );
+            assert!(made.silo().validate().is_empty());
+            assert!(
+                made.label.ends_with(&format!(",replica={r}")),
+                "{}",
+                made.label
+            );
+            seeds.insert(made.seed());
+        }
+    }
+    assert_eq!(seeds.len(), 6, "each replica its own seed");
+    assert_eq!(jobs.iter().count(), 6);
+    // The index is the file's `replicas`, not a parameter.
+    let e = parse(r#"{"name":"a","scene":"silo","base":{"replica":2}}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("base.replica") && e.contains("`replicas`"),
         "{e}"
     );
 }
