@@ -21,6 +21,11 @@ pub struct Arguments {
     /// Timed steps (after 100 untimed warm-up steps).
     #[arg(long, default_value_t = 200)]
     pub steps: u64,
+    /// Repeat the timed steps (in chunks of --steps) until the timed window lasts at least this
+    /// many seconds; later --repeat runs time as many steps as the first. The steps reported
+    /// are those timed.
+    #[arg(long, default_value_t = 0.0)]
+    pub min_seconds: f64,
     #[arg(long, default_value = "cpu")]
     pub backend: BackendChoice,
     #[command(flatten)]
@@ -101,6 +106,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let mut rates = Vec::new();
     let mut last = None;
     let mut dispatches = None;
+    // The steps timed: --steps, or as many chunks of it as the first run needed to last
+    // --min-seconds.
+    let mut timed_steps = None;
     for _ in 0..a.repeat {
         let config = sc.config.clone();
         let mut engine = backend::build_with(
@@ -116,9 +124,20 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
         let d0 = engine.dispatches();
         let t0 = Instant::now();
-        let r = engine
+        let mut r = engine
             .advance(a.steps)
             .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut done = a.steps;
+        while timed_steps.map_or(t0.elapsed().as_secs_f64() < a.min_seconds, |n| done < n) {
+            let more = engine
+                .advance(a.steps)
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            r.particle_steps += more.particle_steps;
+            r.list_builds += more.list_builds;
+            r.contacts_per_particle = more.contacts_per_particle;
+            done += a.steps;
+        }
+        timed_steps = Some(done);
         let secs = t0.elapsed().as_secs_f64();
         dispatches = engine.dispatches().zip(d0).map(|(d1, d0)| since(&d1, &d0));
         rates.push((r.particle_steps as f64 / secs, secs));
@@ -133,6 +152,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         last = Some((engine, r, secs, sum));
     }
     let (mut engine, r, _, sum) = last.expect("at least one run");
+    let steps = timed_steps.expect("at least one run");
     let runs: Vec<f64> = rates.iter().map(|x| x.0).collect();
     rates.sort_by(|a, b| a.0.total_cmp(&b.0));
     // The median run's rate and time (the upper one of an even count).
@@ -160,7 +180,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!(
             "{}",
             serde_json::json!({
-                "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": a.steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
+                "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
                 "precision": info.precision, "threads": info.threads, "particle_steps_per_s": rate,
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
                 "translational_ke_j": ke, "vcm_x_m_per_s": vcm_x,
@@ -171,7 +191,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         println!(
             "{}: N = {mobile}, {} steps, dt = {dt:.3e} s, {} {} ({}): {rate:.3e} particle-steps/s, {:.2} contacts/particle, {} list builds, {secs:.2} s, checksum {sum}",
-            scene_name, a.steps, info.kind, info.precision, info.adapter, r.contacts_per_particle, r.list_builds
+            scene_name, steps, info.kind, info.precision, info.adapter, r.contacts_per_particle, r.list_builds
         );
         println!(
             "  end state: translational kinetic energy {ke:.6e} J, mean x velocity {vcm_x:.6e} m/s"
@@ -206,7 +226,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 precision: &info.precision,
                 threads: info.threads as i64,
                 particles: mobile as i64,
-                steps: a.steps as i64,
+                steps: steps as i64,
                 dt_s: dt,
                 particle_steps_per_s: rate,
                 contacts_per_particle: r.contacts_per_particle,

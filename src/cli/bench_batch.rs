@@ -37,10 +37,16 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
     first(engine.advance_batch(100)?)?;
     let d0 = engine.dispatches().unwrap_or_default();
     let t0 = Instant::now();
-    let reports = first(engine.advance_batch(a.steps)?)?;
+    let mut particle_steps: u64 = 0;
+    let mut steps = 0;
+    // At least one chunk of --steps; more until the window lasts --min-seconds.
+    while steps == 0 || t0.elapsed().as_secs_f64() < a.min_seconds {
+        let reports = first(engine.advance_batch(a.steps)?)?;
+        particle_steps += reports.iter().map(|r| r.particle_steps).sum::<u64>();
+        steps += a.steps;
+    }
     let secs = t0.elapsed().as_secs_f64();
     let d = since(&engine.dispatches().unwrap_or_default(), &d0);
-    let particle_steps: u64 = reports.iter().map(|r| r.particle_steps).sum();
     let rate = particle_steps as f64 / secs;
     let mobile = sc.state.inv_mass.iter().filter(|&&m| m > 0.0).count();
     let info = engine.describe();
@@ -48,7 +54,7 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
         println!(
             "{}",
             serde_json::json!({
-                "scene": scene_name, "particles": mobile, "jobs": jobs, "steps": a.steps,
+                "scene": scene_name, "particles": mobile, "jobs": jobs, "steps": steps,
                 "dt_s": sc.config.dt_s, "backend": "gpu", "adapter": info.adapter, "precision": "f32",
                 "particle_steps_per_s": rate, "per_job_particle_steps_per_s": rate / jobs as f64,
                 "seconds": secs, "dispatches": dispatch_json(&d)
@@ -57,7 +63,7 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
     } else {
         println!(
             "{scene_name}: {jobs} jobs × N = {mobile}, {} steps, dt = {:.3e} s, gpu f32 ({}): {rate:.3e} particle-steps/s in all, {:.3e} per job, {secs:.2} s",
-            a.steps,
+            steps,
             sc.config.dt_s,
             info.adapter,
             rate / jobs as f64

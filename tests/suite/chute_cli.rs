@@ -15,15 +15,13 @@ use tempfile::TempDir;
 
 use crate::common::cli::{tiny_chute, write_campaign};
 
-const BIN: &str = env!("CARGO_BIN_EXE_sweep");
-
 /// The shared tiny chute (`common::cli::tiny_chute`): f64, a checkpoint every 0.25 s.
 fn campaign(dir: &Path) -> PathBuf {
     write_campaign(dir, "tiny.json", &tiny_chute("chute_tiny", "f64", 0.25))
 }
 
 fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
+    Command::new(crate::common::cli::bin())
         .args(args)
         .current_dir(dir)
         .env_remove("SWEEP_DB")
@@ -173,7 +171,7 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
     let d2 = dir2.path();
     let file2 = campaign(d2);
     let db2 = d2.join("sweep.db");
-    let mut child = Command::new(BIN)
+    let mut child = Command::new(crate::common::cli::bin())
         .args(launch_args(&file2, &db2))
         .current_dir(d2)
         .env_remove("SWEEP_DB")

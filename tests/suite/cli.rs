@@ -854,6 +854,25 @@ fn bench_repeats_report_the_median_of_identical_runs() {
     assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
 }
 
+/// `bench --min-seconds S` times chunks of --steps until the window lasts S; later repeats time
+/// as many steps (the same end state, checked by the bench).
+#[test]
+fn bench_min_seconds_times_whole_chunks_for_at_least_that_long() {
+    let dir = TempDir::new().unwrap();
+    let (v, _) = bench_json(
+        dir.path(),
+        "silo-bed",
+        "300",
+        &["--min-seconds", "0.3", "--repeat", "2", "--no-store"],
+    );
+    let steps = v["steps"].as_u64().unwrap();
+    assert!(steps > 20 && steps % 20 == 0, "whole chunks of 20: {steps}");
+    let runs = v["runs_particle_steps_per_s"].as_array().unwrap();
+    assert_eq!(runs.len(), 2);
+    // The median run times the steps the first needed for 0.3 s (this VM drifts by tens of %).
+    assert!(v["seconds"].as_f64().unwrap() > 0.15, "{v}");
+}
+
 /// `bench --settle` times a settled bed: the lattice comes to rest (kinetic energy below
 /// 10⁻⁴ m g d per particle, more contacts than the lattice has when timed unsettled); the bed is
 /// kept beside the database and reused (the same timed state); a damaged bed file is refused

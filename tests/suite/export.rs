@@ -18,10 +18,8 @@ use sweep::observe::snapshots::{list_frames, read_frame, Frame};
 use sweep::store::fields::{save_field_set, FieldArray, FieldSet};
 use tempfile::TempDir;
 
-const BIN: &str = env!("CARGO_BIN_EXE_sweep");
-
 fn sweep(dir: &Path, args: &[&str]) -> Output {
-    std::process::Command::new(BIN)
+    std::process::Command::new(crate::common::cli::bin())
         .args(args)
         .current_dir(dir)
         .env_remove("SWEEP_DB")

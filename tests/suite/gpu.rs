@@ -656,7 +656,7 @@ fn checkpoints_move_between_gpu_and_cpu() {
 fn sweep_bench_runs_on_the_gpu() {
     let Some(_dev) = device() else { return };
     let dir = tempfile::tempdir().unwrap();
-    let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+    let out = assert_cmd::Command::new(crate::common::cli::bin())
         .current_dir(dir.path())
         .env_remove("SWEEP_DB")
         .env_remove("SWEEP_ALLOW_SOFTWARE_GPU")
@@ -700,7 +700,7 @@ fn sweep_bench_runs_on_the_gpu() {
         v["dispatches"]
     );
     // f64 on the GPU is refused with a clear message.
-    let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+    let out = assert_cmd::Command::new(crate::common::cli::bin())
         .current_dir(dir.path())
         .args([
             "bench",
@@ -722,7 +722,7 @@ fn sweep_bench_runs_on_the_gpu() {
 /// `SWEEP_ALLOW_SOFTWARE_GPU`: its output.
 fn bench(extra: &[&str]) -> std::process::Output {
     let dir = tempfile::tempdir().unwrap();
-    assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+    assert_cmd::Command::new(crate::common::cli::bin())
         .current_dir(dir.path())
         .env_remove("SWEEP_DB")
         .env_remove("SWEEP_ALLOW_SOFTWARE_GPU")
@@ -751,7 +751,7 @@ fn sweep_bench_refuses_a_software_adapter_unless_allowed() {
     assert!(err.contains(&first.info.name), "names the adapter: {err}");
     // The environment variable allows it as the flag does.
     let dir = tempfile::tempdir().unwrap();
-    let out = assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+    let out = assert_cmd::Command::new(crate::common::cli::bin())
         .current_dir(dir.path())
         .env_remove("SWEEP_DB")
         .env("SWEEP_ALLOW_SOFTWARE_GPU", "1")

@@ -194,7 +194,7 @@ fn sweep_bench_times_a_batch() {
             "--json",
         ];
         args.extend_from_slice(extra);
-        assert_cmd::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        assert_cmd::Command::new(crate::common::cli::bin())
             .current_dir(dir.path())
             .env_remove("SWEEP_DB")
             .args(args)

@@ -1,6 +1,7 @@
 //! The GPU device shared by the tests of one test crate: acquired once, on any adapter (lavapipe
 //! included). Without an adapter the tests print a message and pass, except under CI=true, where a
-//! missing adapter fails them.
+//! missing adapter fails them. `SWEEP_TEST_GPU=hardware` (the GPU machine's check,
+//! `scripts/gpu-device-check.sh`) takes only a hardware adapter and fails without one.
 
 use std::sync::OnceLock;
 
@@ -15,8 +16,15 @@ pub fn device() -> Option<GpuDevice> {
             let dir = tempfile::tempdir().expect("temp dir").keep();
             std::env::set_var("XDG_RUNTIME_DIR", dir);
         }
-        match GpuDevice::acquire(AdapterPolicy::Any) {
+        let hardware = std::env::var("SWEEP_TEST_GPU").as_deref() == Ok("hardware");
+        let policy = if hardware {
+            AdapterPolicy::Hardware
+        } else {
+            AdapterPolicy::Any
+        };
+        match GpuDevice::acquire(policy) {
             Ok(d) => Some(d),
+            Err(e) if hardware => panic!("SWEEP_TEST_GPU=hardware and no hardware adapter: {e}"),
             Err(e) if std::env::var("CI").as_deref() == Ok("true") => {
                 panic!("CI=true and no usable GPU adapter: {e}")
             }

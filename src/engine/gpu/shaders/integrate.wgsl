@@ -58,7 +58,7 @@ fn translate(i: u32, k: u32) {
     let vi = vel_im[i];
     let im = vi.w;
     if (im == 0.0 || info[i].alive == 0u) { return; }
-    let dv = (load[i].force.xyz * im + gravity()) * half;
+    let dv = half_kick_dv(i, im);
     var vs = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
     if (k > 0u) {
         vs = kick_split(vs.s, vs.e, dv);
@@ -93,6 +93,14 @@ fn translate(i: u32, k: u32) {
     }
 }
 
+// Particle i's velocity change in a half kick, (F/m + g) dt/2. kick_drift and close_kick must
+// round it alike, or where a chunk ends would change bits; but naga's SPIR-V carries no
+// NoContraction, and a driver may fuse F·(1/m) + g into one FMA in one kernel and not in the
+// other. `opaque` makes the product a value of its own, so neither can fuse it.
+fn half_kick_dv(i: u32, im: f32) -> vec3<f32> {
+    return (opaque(load[i].force.xyz * im) + gravity()) * params.half_dt;
+}
+
 @compute @workgroup_size(WG)
 fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -103,7 +111,7 @@ fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
     let vi = vel_im[i];
     let im = vi.w;
     if (im != 0.0 && info[i].alive != 0u) {
-        let dv = (load[i].force.xyz * im + gravity()) * half;
+        let dv = half_kick_dv(i, im);
         let v = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
         vel_im[i] = vec4<f32>(v.s, im);
         vel_im[rest_at(i)] = vec4<f32>(v.e, 0.0);
