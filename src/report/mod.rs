@@ -21,7 +21,7 @@ mod table;
 pub use campaign::{find_campaign, split_version, CampaignRef};
 pub use chute::replicas::{
     combine_point, group_points, pool_diffusion, pooled_points, ChutePoint, OverReplicas,
-    PointBlock, PointProfiles, BULK_BED,
+    PointBlock, PointProfiles, BULK_BED, CENTRAL_BED,
 };
 pub use drawn::Output;
 pub use index::{render_all, AllFigures};

@@ -15,7 +15,7 @@ use crate::observe::claims::{result_key, Estimate, PointData, SceneConstants};
 use crate::observe::fits::mean_ci95;
 use crate::observe::fits::t_975;
 use crate::report::silo_points::gravity_m_per_s2;
-use crate::report::BULK_BED;
+use crate::report::CENTRAL_BED;
 use crate::store::chute_reads::{blocks, done_chute_jobs, BlockRow};
 
 use super::adaptive::Evaluation;
@@ -134,8 +134,8 @@ pub fn claim_points(
     Ok((out, constants))
 }
 
-/// One steady chute replica's results: over the bulk (blocks centred in 0.2 H < z < 0.8 H,
-/// averaged) and per block ("D@k").
+/// One steady chute replica's results: over the central bed (blocks centred in 0.3 H < z < 0.7 H,
+/// the paper's 6 L < z < 14 L, averaged) and per block ("D@k").
 fn chute_values(rows: &[BlockRow], bed_height_m: f64, d_perp_m: f64) -> BTreeMap<String, f64> {
     let mut out = BTreeMap::new();
     let d2 = d_perp_m * d_perp_m;
@@ -154,7 +154,7 @@ fn chute_values(rows: &[BlockRow], bed_height_m: f64, d_perp_m: f64) -> BTreeMap
             ("d_perp2", Some(d2)),
             ("shear_rate_d_perp2", Some(r.shear_rate_per_s * d2)),
         ];
-        let in_bulk = r.z_m > BULK_BED.0 * bed_height_m && r.z_m < BULK_BED.1 * bed_height_m;
+        let in_bulk = r.z_m > CENTRAL_BED.0 * bed_height_m && r.z_m < CENTRAL_BED.1 * bed_height_m;
         for (name, v) in values {
             let Some(v) = v.filter(|x| x.is_finite()) else {
                 continue;
@@ -193,10 +193,12 @@ mod tests {
 
     #[test]
     fn a_replica_gives_bulk_means_and_block_values() {
-        // H = 1 m: blocks centred at 0.1 and 0.9 m are outside the bulk (0.2 H, 0.8 H).
+        // H = 1 m: blocks centred at 0.1, 0.3 and 0.9 m are outside the central bed (0.3 H,
+        // 0.7 H).
         let rows = [
             row(0, 0.1, 9.0, 9.0),
-            row(1, 0.3, 1.0, 2.0),
+            row(4, 0.3, 9.0, 9.0),
+            row(1, 0.4, 1.0, 2.0),
             row(2, 0.5, 3.0, 2.0),
             row(3, 0.9, 9.0, 9.0),
         ];
@@ -204,7 +206,7 @@ mod tests {
         assert_eq!(v["D"], 2.0);
         assert_eq!(v["shear_rate"], 2.0);
         assert_eq!(v["D_over_shear_rate"], 1.0);
-        assert!((v["V_x"] - 0.8).abs() < 1e-12);
+        assert!((v["V_x"] - 0.9).abs() < 1e-12);
         assert!((v["d_perp2"] - 0.01).abs() < 1e-15);
         assert!((v["shear_rate_d_perp2"] - 0.02).abs() < 1e-15);
         assert_eq!(v["D@0"], 9.0);

@@ -43,7 +43,7 @@ pub struct SceneConstants {
 /// Results a silo point gives: Q (kg/s).
 pub const SILO_RESULTS: &[&str] = &["q"];
 
-/// Results a chute point gives, each over the bulk (0.2 H < z < 0.8 H) or in a block: D
+/// Results a chute point gives, each over the bulk (0.3 H < z < 0.7 H, the paper's 6 L < z < 14 L) or in a block: D
 /// (m²/s), γ̇ (1/s), D/γ̇ (m²), V_x (m/s), φ, d⊥² (m²) and γ̇ d⊥² (m²/s).
 pub const CHUTE_RESULTS: &[&str] = &[
     "D",

@@ -105,7 +105,7 @@ pub struct Compare {
     /// The result compared (silo: "q"; chute: "D", "shear_rate", "D_over_shear_rate", "V_x",
     /// "phi").
     pub result: String,
-    /// Chute: the block (height k L to (k+1) L); absent: the bulk (0.2 H < z < 0.8 H).
+    /// Chute: the block (height k L to (k+1) L); absent: the central bed (0.3 H < z < 0.7 H).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub block: Option<i64>,
     /// The point.

@@ -22,6 +22,11 @@ use crate::report::silo::data::{label_without_replica, same_value};
 /// as the accuracy map compares them.
 pub const BULK_BED: (f64, f64) = (0.2, 0.8);
 
+/// The central part of the bed, as fractions of the bed height H: blocks with centre
+/// 0.3 H < z < 0.7 H. For the paper's H = 20 L this is its 6 L < z < 14 L, where its Figs. 3, 4
+/// and 6 read D and γ̇: what Fig. 6 and the chute claims use.
+pub const CENTRAL_BED: (f64, f64) = (0.3, 0.7);
+
 /// A value over replicas: their mean and, from 2 on, a Student-t interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OverReplicas {

@@ -11,16 +11,13 @@ use rusqlite::Connection;
 use crate::observe::fits::{linear_fit, LinearFit};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::data::{done_chute_jobs, ChuteJob};
+use crate::report::chute::replicas::CENTRAL_BED;
 use crate::report::chute::replicas::{combine_point, group_points, replicas_caption};
 use crate::report::chute::{caption, color, preface, GREY};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
-
-/// The central part of the bed, as fractions of the bed height H: blocks with centre
-/// 0.3 H < z < 0.7 H. For the paper's H = 20 L this is its 6 L < z < 14 L.
-pub(crate) const CENTRAL_BED: (f64, f64) = (0.3, 0.7);
 
 /// One block of the central bed of one point (its replicas combined), lengths in units of L.
 struct ScalingPoint<'a> {
