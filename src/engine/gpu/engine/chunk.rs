@@ -1,0 +1,379 @@
+//! Running a chunk: its steps recorded two command buffers ahead, the stale word of each read
+//! as it completes (the step where the lists went stale redone with a build), then the closing
+//! read-back of the status words and energy sums.
+
+use super::readback::fixed_point_energy;
+use super::*;
+
+impl GpuEngine {
+    /// Advances every running job by `steps` steps in the same dispatches; returns each job's
+    /// report (an empty one for a stopped job) or the failure its kernels flagged.
+    ///
+    /// # Errors
+    /// A device failure (every job's).
+    pub fn advance_batch(
+        &mut self,
+        steps: u64,
+    ) -> Result<Vec<Result<ChunkReport, EngineError>>, EngineError> {
+        if let Some(e) = self.pending.take() {
+            return Err(e);
+        }
+        if let Some(e) = self.dev.take_error() {
+            return Err(EngineError::Device(e));
+        }
+        let jobs = self.jobs();
+        if steps == 0 {
+            return Ok((0..jobs).map(|_| Ok(ChunkReport::default())).collect());
+        }
+        self.compact()?;
+        let dt = self.configs[0].dt_s;
+        let Some(run) = &self.run else {
+            let mut out = Vec::new();
+            for j in 0..jobs {
+                let mut report = ChunkReport::default();
+                if self.active[j] {
+                    for _ in 0..steps {
+                        self.time[j] += dt;
+                    }
+                    self.step[j] += steps;
+                    report.steps = steps;
+                }
+                out.push(Ok(report));
+            }
+            return Ok(out);
+        };
+        let initial: Vec<u32> = (0..jobs).flat_map(|_| status_initial()).collect();
+        self.dev
+            .queue
+            .write_buffer(&run.bufs.status, 0, bytemuck::cast_slice(&initial));
+        let mut chunk = self.run_steps(run, steps)?;
+        // The status words and the energy's workgroup sums, copied by the closing submission.
+        let closing = chunk.closing_read.take().ok_or_else(|| {
+            EngineError::Device("the chunk's closing read-back never completed".into())
+        })?;
+        let status_bytes = jobs * STATUS_WORDS * 4;
+        let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&closing[..status_bytes]);
+        let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&closing[status_bytes..]);
+        let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
+        let mut outs = Vec::with_capacity(jobs);
+        let mut updates = Vec::with_capacity(jobs);
+        for j in 0..jobs {
+            let jr = &run.jobs[j];
+            if !self.active[j] {
+                outs.push(Ok(ChunkReport::default()));
+                updates.push(None);
+                continue;
+            }
+            let base = j * run.n_job;
+            let mut st = st_all[j * STATUS_WORDS..(j + 1) * STATUS_WORDS].to_vec();
+            // The batch's word.
+            st[ST_BUILDS] = st_all[ST_BUILDS];
+            let deaths = (st[ST_DEATHS] as u64).min(run.n_job as u64);
+            let events: Vec<[u32; 2]> = if deaths > 0 {
+                let p = buffers::read_at(&self.dev, &run.bufs.events, base as u64 * 8, deaths * 8)?;
+                bytemuck::pod_collect_to_vec::<u8, [u32; 2]>(&p)
+            } else {
+                Vec::new()
+            };
+            let energy = fixed_point_energy(
+                &sums[j * per_job_groups..(j + 1) * per_job_groups],
+                st[ST_KE_MAX],
+            );
+            let out = read_chunk(
+                &ChunkContext {
+                    masses: &jr.masses,
+                    alive: jr.alive,
+                    mobile: jr.mobile,
+                    slots: self.slots,
+                    stride: run.grid.stride,
+                    time0: self.time[j],
+                    step0: self.step[j],
+                    steps,
+                    dt,
+                    overlap_limit: self.options.watchdog.max_overlap_ratio,
+                },
+                &st,
+                &events,
+            );
+            updates.push(Some((out.alive, out.mobile, energy, out.time)));
+            outs.push(match out.error {
+                Some(e) => Err(e),
+                None => Ok(out.report),
+            });
+        }
+        for (j, u) in updates.into_iter().enumerate() {
+            if let Some((alive, mobile, energy, time)) = u {
+                if let Some(r) = self.run.as_mut() {
+                    let jr = &mut r.jobs[j];
+                    jr.alive = alive;
+                    jr.mobile = mobile;
+                    jr.energy = Some(energy);
+                }
+                self.time[j] = time;
+                self.step[j] += steps;
+            }
+        }
+        self.schedule = chunk.schedule;
+        self.dispatches.add(&chunk.count);
+        Ok(outs)
+    }
+
+    /// Runs `steps` steps on the device: records them two command buffers ahead, reads each
+    /// one's stale word as it completes, and redoes the step where the lists went stale.
+    fn run_steps(&self, run: &Run, steps: u64) -> Result<Chunk, EngineError> {
+        let mut c = Chunk {
+            schedule: self.schedule,
+            steps,
+            next: 0,
+            redo: None,
+            start_build: true,
+            closed: false,
+            builds: vec![-1],
+            per_step: Vec::with_capacity(steps as usize),
+            count: DispatchCount::default(),
+            closing_read: None,
+        };
+        let mut flight: VecDeque<InFlight> = VecDeque::new();
+        loop {
+            let work_left = c.next < steps || c.redo.is_some() || !c.closed;
+            if work_left && flight.len() < 2 {
+                flight.push_back(self.submit(run, &mut c));
+                continue;
+            }
+            let Some(f) = flight.pop_front() else {
+                break;
+            };
+            let (stale, closing) = f.wait(&self.dev)?;
+            if stale == u32::MAX {
+                if closing.is_some() {
+                    c.closing_read = closing;
+                }
+                continue;
+            }
+            // Everything recorded past step `stale` (this buffer's rest and the next one's) was
+            // void on the device: redo the step with a build and go on from there.
+            flight.clear();
+            let s = stale as u64;
+            let voided = c.next - (s + 1);
+            c.count.voided_steps += voided;
+            c.per_step.truncate(s as usize + 1);
+            c.builds.retain(|&b| b < s as i64);
+            let last = c.builds.last().copied().unwrap_or(-1);
+            if self.options.build_every.is_none() {
+                c.schedule.stale((s as i64 - last) as u64);
+            }
+            for (word, value) in [(ST_STEP, s as u32), (ST_STEP_NEXT, s as u32 + 1)] {
+                self.dev.queue.write_buffer(
+                    &run.bufs.status,
+                    word as u64 * 4,
+                    bytemuck::bytes_of(&value),
+                );
+            }
+            c.next = s + 1;
+            c.redo = Some(s);
+            c.closed = false;
+        }
+        c.count.steps = steps;
+        for &d in &c.per_step {
+            if d == STEP_DISPATCHES {
+                c.count.steady_steps += 1;
+                c.count.steady_dispatches += d as u64;
+                c.count.max_steady_step = c.count.max_steady_step.max(d as u64);
+            }
+        }
+        Ok(c)
+    }
+
+    /// Records and submits the chunk's next command buffer: a pending build (chunk start or a
+    /// redone step), up to `steps_per_submit` steps, and the closing passes after the last.
+    fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
+        let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
+        let gc = run.grid.n_chunks;
+        let build_dispatches = BUILD_DISPATCHES + run.reorder as u8;
+        let sorting = run.reorder as u64;
+        let pipes = &self.pipes;
+        let binds = &run.binds;
+        let mut dispatches = 0u64;
+        let mut closing = false;
+        let mut dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
+            pass.set_pipeline(&pipes.pipelines[k]);
+            pass.set_bind_group(0, &binds.0[k], &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+            dispatches += 1;
+        };
+        let build =
+            |pass: &mut wgpu::ComputePass<'_>,
+             dispatch: &mut dyn FnMut(&mut wgpu::ComputePass<'_>, usize, u32)| {
+                for (p, &k) in kernel::BUILD.iter().enumerate() {
+                    // histogram, scan_blocks, scan_totals, scan_apply, scatter, build_list.
+                    let groups = match p {
+                        1 | 3 => gc,
+                        2 => 1,
+                        _ => gp,
+                    };
+                    if k == kernel::BUILD[5] && run.reorder {
+                        dispatch(pass, kernel::SETTLE, gp);
+                    }
+                    dispatch(pass, k, groups);
+                }
+            };
+        let mut enc = self
+            .dev
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("steps"),
+            });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("steps"),
+                timestamp_writes: None,
+            });
+            if std::mem::take(&mut c.start_build) {
+                // NOTE: every chunk starts from fresh lists, as on the CPU.
+                build(&mut pass, &mut dispatch);
+                c.count.builds += 1;
+                c.count.sorting_builds += sorting;
+            }
+            if let Some(s) = c.redo.take() {
+                build(&mut pass, &mut dispatch);
+                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                c.count.builds += 1;
+                c.count.sorting_builds += sorting;
+                c.builds.push(s as i64);
+                c.per_step[s as usize] = 1 + build_dispatches + 1;
+            }
+            let end = c.steps.min(c.next + self.options.steps_per_submit.max(1));
+            for k in c.next..end {
+                let last = c.builds.last().copied().unwrap_or(-1);
+                let due = match self.options.build_every {
+                    Some(n) => (k as i64 - last) >= n.max(1) as i64,
+                    None => c.schedule.due(k as i64, last),
+                };
+                dispatch(&mut pass, kernel::KICK_DRIFT, gp);
+                if due {
+                    build(&mut pass, &mut dispatch);
+                    c.count.builds += 1;
+                    c.count.sorting_builds += sorting;
+                    c.builds.push(k as i64);
+                    c.schedule.scheduled();
+                }
+                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                c.per_step.push(if due {
+                    STEP_DISPATCHES + build_dispatches
+                } else {
+                    STEP_DISPATCHES
+                });
+            }
+            c.next = end;
+            if end == c.steps && !c.closed {
+                // The closing half kick, then finiteness, contact counts and kinetic energy.
+                dispatch(&mut pass, kernel::CLOSE_KICK, gp);
+                dispatch(&mut pass, kernel::FINISH, gp);
+                dispatch(&mut pass, kernel::ENERGY_SUM, gp);
+                c.closed = true;
+                closing = true;
+            }
+        }
+        // The stale word; after the closing passes also every job's status words and the
+        // energy's workgroup sums, so the chunk's end needs no read-back of its own.
+        let n = run.bufs.n as u64;
+        let status_bytes = (self.jobs() * STATUS_WORDS) as u64 * 4;
+        let sums_bytes = n.div_ceil(WORKGROUP_SIZE as u64) * 8;
+        let stale = self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stale step"),
+            size: if closing {
+                4 + status_bytes + sums_bytes
+            } else {
+                4
+            },
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        enc.copy_buffer_to_buffer(&run.bufs.status, ST_STALE as u64 * 4, &stale, 0, 4);
+        if closing {
+            enc.copy_buffer_to_buffer(&run.bufs.status, 0, &stale, 4, status_bytes);
+            enc.copy_buffer_to_buffer(
+                &run.bufs.energy,
+                n * 4,
+                &stale,
+                4 + status_bytes,
+                sums_bytes,
+            );
+        }
+        let index = self.dev.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        stale.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        c.count.dispatches += dispatches;
+        c.count.submissions += 1;
+        InFlight {
+            index,
+            stale,
+            rx,
+            closing,
+        }
+    }
+}
+
+/// Dispatches of a step without a build, and of one build.
+const STEP_DISPATCHES: u8 = 2;
+const BUILD_DISPATCHES: u8 = 6;
+
+/// The host's record of the chunk being run.
+struct Chunk {
+    /// The engine's build schedule, learning during the chunk.
+    schedule: BuildSchedule,
+    steps: u64,
+    /// The next step to record.
+    next: u64,
+    /// A step whose lists were found stale: to redo with a build before the next step.
+    redo: Option<u64>,
+    start_build: bool,
+    /// Whether the closing passes are recorded (after the last step).
+    closed: bool,
+    /// Steps after whose drift a build was recorded (−1: the chunk's start), ascending.
+    builds: Vec<i64>,
+    /// Dispatches recorded per step taken.
+    per_step: Vec<u8>,
+    count: DispatchCount,
+    /// Every job's status words then the energy's workgroup sums, as the closing submission
+    /// copied them (once it completed without a stale step).
+    closing_read: Option<Vec<u8>>,
+}
+
+/// A submitted command buffer and the pending read of its stale word.
+struct InFlight {
+    index: wgpu::SubmissionIndex,
+    stale: wgpu::Buffer,
+    rx: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+    /// Whether it records the chunk's closing passes (and copies their results).
+    closing: bool,
+}
+
+impl InFlight {
+    /// Waits for the buffer and returns the first stale step it saw (u32::MAX: none) and, for the
+    /// closing submission, the status words and energy sums it copied.
+    fn wait(self, dev: &GpuDevice) -> Result<(u32, Option<Vec<u8>>), EngineError> {
+        dev.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(self.index),
+                timeout: None,
+            })
+            .map_err(|e| EngineError::Device(format!("waiting for the device: {e}")))?;
+        self.rx
+            .recv()
+            .map_err(|e| EngineError::Device(format!("readback never completed: {e}")))?
+            .map_err(|e| EngineError::Device(format!("reading the status back: {e}")))?;
+        if let Some(e) = dev.take_error() {
+            return Err(EngineError::Device(e));
+        }
+        let view = self
+            .stale
+            .get_mapped_range(..)
+            .map_err(|e| EngineError::Device(format!("reading the status back: {e}")))?;
+        let word = u32::from_le_bytes([view[0], view[1], view[2], view[3]]);
+        let closing = self.closing.then(|| view[4..].to_vec());
+        Ok((word, closing))
+    }
+}
