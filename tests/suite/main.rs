@@ -27,6 +27,7 @@ mod gpu_rods;
 mod gpu_translation;
 mod gpu_validation;
 mod integrity;
+mod layers;
 mod observe_chute;
 mod precision;
 mod report_chute;
