@@ -4,8 +4,8 @@
 #   scripts/gpu-device-check.sh prepare         here: the Vulkan loader packages and the binaries
 #                                               that travel, all in .gl/ (ignored by git)
 #   scripts/gpu-device-check.sh run [--software] there, in one `run` call of the device tool:
-#       carry [".gl"], timeout_s 360. Its steps' limits add up to 257 s; each is killed 2 s
-#       after its limit at worst (the paper job 15 s): 296 s, so a second call still fits in
+#       carry [".gl"], timeout_s 360. Its steps' limits add up to 256 s; each is killed 2 s
+#       after its limit at worst (the paper job 15 s): 299 s, so a second call still fits in
 #       the session's 15 minutes.
 #
 # `run --software` goes end to end on lavapipe here (and in CI) with smaller sizes, so the GPU
@@ -30,16 +30,25 @@ prepare() {
         # shellcheck disable=SC2086
         (cd "$GL" && apt-get $o download libvulkan1)
     fi
-    cargo build --release
-    local suite
-    suite=$(cargo test --release --no-run --message-format=json 2>/dev/null |
+    # Both binaries from the test build (the one CI has just made): a plain `cargo build`
+    # resolves the dependencies' features without the dev-dependencies and compiles them all
+    # again (4 minutes on 2 cores).
+    local bins sweep suite
+    bins=$(cargo test --release --no-run --message-format=json 2>/dev/null |
         python3 -c 'import json,sys
 for l in sys.stdin:
     m = json.loads(l)
-    if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "suite" and m.get("executable"):
-        print(m["executable"])')
-    [ -n "$suite" ] || { echo "prepare: no suite test binary" >&2; exit 1; }
-    install -m 755 target/release/sweep "$GL/bin/sweep"
+    if m.get("reason") != "compiler-artifact" or not m.get("executable"):
+        continue
+    t = m["target"]
+    if t["name"] == "sweep" and t["kind"] == ["bin"] and not m["profile"]["test"]:
+        print("sweep", m["executable"])
+    elif t["name"] == "suite" and t["kind"] == ["test"]:
+        print("suite", m["executable"])')
+    sweep=$(awk '$1 == "sweep" {print $2}' <<< "$bins")
+    suite=$(awk '$1 == "suite" {print $2}' <<< "$bins")
+    [ -n "$sweep" ] && [ -n "$suite" ] || { echo "prepare: no sweep or suite binary in: $bins" >&2; exit 1; }
+    install -m 755 "$sweep" "$GL/bin/sweep"
     install -m 755 "$suite" "$GL/bin/suite"
     strip "$GL/bin/sweep" "$GL/bin/suite" 2>/dev/null || true
     du -sh "$GL"
@@ -98,21 +107,22 @@ run() {
         SOFT=(--allow-software-gpu)
         export SWEEP_ALLOW_SOFTWARE_GPU=1
         # Sizes lavapipe runs in seconds (one binding there holds 128 MiB).
-        SIZES="3000 10000 30000"; BATCH_N=3000; RODS_N=3000; MIN_S=0.5
-        PAPER_S=20; KIND="Cpu"
+        SIZES="3000 10000 30000"; BATCH_N=3000; RODS_N=3000; MIN_S=0.5; VARIANT_N=3000
+        PAPER_S=5; KIND="Cpu"
         # lavapipe takes minutes for one of the paper job's chunks (the interrupt is looked at
         # between chunks): killed there is expected too.
-        PAPER_OK="0 75 137"
+        PAPER_OK="0 75 137"; PAPER_KILL=2
         # The tests that run in seconds on lavapipe (the whole GPU suite runs in the test command).
-        TEST_FILTER=(gpu_dispatch::where_chunks_end gpu::one_step_forces gpu_rods::one_step_forces)
+        TEST_FILTER=(gpu::one_step_forces gpu_rods::one_step_forces)
     else
         for f in "$GL"/*.deb; do dpkg -x "$f" / 2>/dev/null; done
         ldconfig 2>/dev/null
         export VK_DRIVER_FILES=${VK_DRIVER_FILES:-/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json}
         export VK_ICD_FILENAMES=$VK_DRIVER_FILES
         export SWEEP_TEST_GPU=hardware
-        SIZES="3000 10000 30000 100000 300000 1000000"; BATCH_N=30000; RODS_N=100000; MIN_S=1
-        PAPER_S=30; TEST_FILTER=(gpu); KIND="[^C]"; PAPER_OK="0 75"
+        SIZES="3000 10000 30000 100000 1000000"; BATCH_N=30000; RODS_N=100000; MIN_S=1
+        VARIANT_N=100000
+        PAPER_S=30; TEST_FILTER=(gpu); KIND="[^C]"; PAPER_OK="0 75"; PAPER_KILL=15
     fi
 
     # 1. Find the GPU (within 30 s): a Vulkan adapter of the wanted kind, else the loader's word.
@@ -138,26 +148,34 @@ run() {
     # determinism), the long ones too on hardware.
     local ignored=()
     [ "$software" = 1 ] || ignored=(--include-ignored)
-    step tests 75 "$SUITE" "${TEST_FILTER[@]}" "${ignored[@]}" --test-threads=1 \
+    step tests 70 "$SUITE" "${TEST_FILTER[@]}" "${ignored[@]}" --test-threads=1 \
         > "$OUT/tests.txt" 2>&1
 
     # 3. Throughput: sizes, 16 batched jobs, rods; the CPU beside them for ratios.
     for n in $SIZES; do
-        bench "silo-$n" 13 --backend gpu --scene silo-bed --particles "$n" --steps 50 \
+        bench "silo-$n" 11 --backend gpu --scene silo-bed --particles "$n" --steps 50 \
             --min-seconds "$MIN_S"
     done
-    bench "silo-$BATCH_N-batch16" 18 --backend gpu --scene silo-bed --particles "$BATCH_N" \
+    bench "silo-$BATCH_N-batch16" 15 --backend gpu --scene silo-bed --particles "$BATCH_N" \
         --steps 50 --batch 16 --min-seconds "$MIN_S"
-    bench "rods-$RODS_N" 13 --backend gpu --scene chute-rods --particles "$RODS_N" --steps 50 \
+    bench "rods-$RODS_N" 11 --backend gpu --scene chute-rods --particles "$RODS_N" --steps 50 \
         --min-seconds "$MIN_S"
-    bench "cpu-silo-$BATCH_N" 12 --backend cpu --scene silo-bed --particles "$BATCH_N" \
+    bench "cpu-silo-$BATCH_N" 11 --backend cpu --scene silo-bed --particles "$BATCH_N" \
         --steps 20 --min-seconds "$MIN_S"
+    # The variants (runner/gpu_variants.rs), each beside the default at the same size: steps
+    # per command buffer, and list builds without the sort by cell.
+    for sps in 16 256; do
+        SWEEP_GPU_STEPS_PER_SUBMIT=$sps bench "silo-$VARIANT_N-submit$sps" 11 --backend gpu \
+            --scene silo-bed --particles "$VARIANT_N" --steps 50 --min-seconds "$MIN_S"
+    done
+    SWEEP_GPU_SORT_BY_CELL=0 bench "silo-$VARIANT_N-unsorted" 11 --backend gpu \
+        --scene silo-bed --particles "$VARIANT_N" --steps 50 --min-seconds "$MIN_S"
 
     # 4. Paper scale: one silo job for a bounded time (its checkpoints stay out of $OUT), then
     # the paper campaigns' forecasts from the rates just measured.
     # Stopped at its limit it finishes its chunk, checkpoints and exits 75 (paused): the
     # expected end; it has 15 s for that.
-    STEP_FG=1 STEP_KILL=15 STEP_OK=$PAPER_OK step paper-job "$PAPER_S" "$B" launch campaigns/silo_paper_one_gpu.json --db "$P/paper.db" \
+    STEP_FG=1 STEP_KILL=$PAPER_KILL STEP_OK=$PAPER_OK step paper-job "$PAPER_S" "$B" launch campaigns/silo_paper_one_gpu.json --db "$P/paper.db" \
         --backend gpu "${SOFT[@]}" > "$OUT/paper.txt" 2>&1
     "$B" status --db "$P/paper.db" >> "$OUT/paper.txt" 2>&1
     for c in silo_QvsF chute_DvsShear; do

@@ -3,6 +3,12 @@
 mod cli;
 
 fn main() {
+    // `sweep status | head`: a closed pipe ends the process quietly, as it ends `cat`. Rust
+    // starts with SIGPIPE ignored, and println! then panics on the broken pipe.
+    // SAFETY: restores the default disposition before any thread exists; no handler runs.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // First, while the process has one thread (it sets an environment variable).
     sweep::engine::gpu::quiet_headless_device_select();
     let code = match cli::run() {

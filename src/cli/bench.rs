@@ -185,7 +185,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
                 "translational_ke_j": ke, "vcm_x_m_per_s": vcm_x,
                 "runs_particle_steps_per_s": runs, "best_particle_steps_per_s": best,
-                "dispatches": dispatches.map(|d| dispatch_json(&d))
+                "dispatches": dispatches.map(|d| dispatch_json(&d)),
+                // The GPU engine's variants (environment; recorded for every backend, read by the GPU's).
+                "gpu_options": sweep::runner::gpu_variants::gpu_options()
+                    .map_or(serde_json::Value::Null, |o| sweep::runner::gpu_variants::describe(&o))
             })
         );
     } else {

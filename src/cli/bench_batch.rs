@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use sweep::bench::BenchScene;
 use sweep::engine::gpu::GpuEngine;
-use sweep::engine::gpu::GpuOptions;
+
 use sweep::engine::{Backend, State};
 use sweep::runner::backend::{self, BackendChoice};
 
@@ -28,7 +28,8 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
     }
     let configs = vec![sc.config.clone(); jobs];
     let states: Vec<&State<f64>> = vec![&sc.state; jobs];
-    let mut engine = GpuEngine::batch(&dev, configs, &states, GpuOptions::default())?;
+    let options = sweep::runner::gpu_variants::gpu_options()?;
+    let mut engine = GpuEngine::batch(&dev, configs, &states, options)?;
     let first = |r: Vec<Result<_, _>>| -> anyhow::Result<Vec<sweep::engine::ChunkReport>> {
         r.into_iter()
             .map(|x| x.map_err(|e: sweep::engine::EngineError| anyhow::anyhow!("{e}")))
@@ -57,7 +58,8 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
                 "scene": scene_name, "particles": mobile, "jobs": jobs, "steps": steps,
                 "dt_s": sc.config.dt_s, "backend": "gpu", "adapter": info.adapter, "precision": "f32",
                 "particle_steps_per_s": rate, "per_job_particle_steps_per_s": rate / jobs as f64,
-                "seconds": secs, "dispatches": dispatch_json(&d)
+                "seconds": secs, "dispatches": dispatch_json(&d),
+                "gpu_options": sweep::runner::gpu_variants::describe(&options)
             })
         );
     } else {

@@ -13,7 +13,7 @@ use super::gpu_batch::GpuBatches;
 use crate::campaign::Precision;
 use crate::engine::gpu::{
     enumerate_adapters, list_adapters, vulkan_driver_files, AdapterReport, GpuDevice, GpuEngine,
-    GpuOptions, VULKAN_ICD_DIRS,
+    VULKAN_ICD_DIRS,
 };
 use crate::engine::{Backend, CpuEngine, EngineConfig, State};
 
@@ -314,7 +314,7 @@ fn gpu(
         dev,
         config,
         state,
-        GpuOptions::default(),
+        super::gpu_variants::gpu_options()?,
     )?))
 }
 

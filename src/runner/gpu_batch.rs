@@ -8,7 +8,7 @@
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 use crate::engine::contact::ContactRecord;
-use crate::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
+use crate::engine::gpu::{GpuDevice, GpuEngine};
 use crate::engine::{
     Backend, BackendInfo, ChunkReport, DispatchCount, EngineConfig, EngineError, State,
 };
@@ -109,7 +109,9 @@ impl GpuBatches {
                 }));
             }
         }
-        let engine = GpuEngine::batch(dev, vec![config], &[state], GpuOptions::default())?;
+        let options = super::gpu_variants::gpu_options()
+            .map_err(|e| EngineError::Device(format!("{e:#}")))?;
+        let engine = GpuEngine::batch(dev, vec![config], &[state], options)?;
         let hub = Arc::new(Hub {
             inner: Mutex::new(HubInner {
                 engine,

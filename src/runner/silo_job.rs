@@ -146,7 +146,7 @@ fn fill_stage_run(
             d,
             config,
             &init,
-            crate::engine::gpu::GpuOptions::default(),
+            super::gpu_variants::gpu_options()?,
         )?),
         None => backend::build(
             BackendChoice::Cpu,

@@ -854,6 +854,24 @@ fn bench_repeats_report_the_median_of_identical_runs() {
     assert!(stderr(&out).contains("--repeat"), "{}", stderr(&out));
 }
 
+/// A reader that stops early (`sweep schema | head -1`) ends sweep quietly, as it ends `cat`:
+/// no panic about a broken pipe.
+#[test]
+fn a_closed_pipe_ends_sweep_quietly() {
+    let dir = TempDir::new().unwrap();
+    let mut child = std::process::Command::new(bin())
+        .arg("schema")
+        .current_dir(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 /// `bench --min-seconds S` times chunks of --steps until the window lasts S; later repeats time
 /// as many steps (the same end state, checked by the bench).
 #[test]
