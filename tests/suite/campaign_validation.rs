@@ -40,22 +40,12 @@ fn write(dir: &Path, file: &str, text: &str) -> PathBuf {
     p
 }
 
-/// A small soft silo (as tests/cli.rs): 300 spheres of 5.8 mm in R_c = 3 cm, h = 20 cm.
+/// The tests' tiny silo (`common::cli::tiny_silo_base`), one job.
 fn small_silo() -> Value {
     json!({
         "name": "small_silo",
         "scene": "silo",
-        "base": {
-            "cylinder_radius_m": 0.03,
-            "cylinder_height_m": 0.2,
-            "particle_count": 300,
-            "youngs_modulus_pa": 3.0e6,
-            "shear_modulus_pa": 1.0e5,
-            "dt_s": null,
-            "contact_steps": 20,
-            "discharge_time_s": 0.4,
-            "settle_max_time_s": 0.2
-        },
+        "base": crate::common::cli::tiny_silo_base(),
         "sweep": { "orifice_diameter_m": [0.02], "rotation_frequency_hz": [0.0] },
         "run": { "precision": "f64", "checkpoint_interval_s": 0.1 }
     })

@@ -13,25 +13,14 @@ use serde_json::{json, Value};
 use sweep::store::fields::{list_field_sets, load_field_arrays, load_field_series};
 use tempfile::TempDir;
 
-const BIN: &str = env!("CARGO_BIN_EXE_sweep");
-
 fn campaign(checkpoint_interval_s: f64) -> Value {
+    let mut base = crate::common::cli::tiny_silo_base();
+    base["orifice_diameter_m"] = json!(0.02);
+    base["rotation_frequency_hz"] = json!(1.0);
     json!({
         "name": "tiny_fields",
         "scene": "silo",
-        "base": {
-            "cylinder_radius_m": 0.03,
-            "cylinder_height_m": 0.2,
-            "particle_count": 300,
-            "youngs_modulus_pa": 3.0e6,
-            "shear_modulus_pa": 1.0e5,
-            "dt_s": null,
-            "contact_steps": 20,
-            "discharge_time_s": 0.4,
-            "settle_max_time_s": 0.2,
-            "orifice_diameter_m": 0.02,
-            "rotation_frequency_hz": 1.0
-        },
+        "base": base,
         "observers": {
             "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 },
             "fields": {
@@ -53,7 +42,7 @@ fn write(dir: &Path, c: &Value) -> PathBuf {
 }
 
 fn cmd(dir: &Path, args: &[&str]) -> Output {
-    std::process::Command::new(BIN)
+    std::process::Command::new(crate::common::cli::bin())
         .args(args)
         .current_dir(dir)
         .env_remove("SWEEP_DB")
@@ -189,7 +178,7 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     let file = write(b.path(), &campaign(0.05));
     let db_b = b.path().join("sweep.db");
     let log = std::fs::File::create(b.path().join("launch.log")).unwrap();
-    let mut child = std::process::Command::new(BIN)
+    let mut child = std::process::Command::new(crate::common::cli::bin())
         .args(launch_args(file.to_str().unwrap(), db_b.to_str().unwrap()))
         .current_dir(b.path())
         .env_remove("SWEEP_DB")

@@ -21,8 +21,6 @@ use crate::common::cli::{count, read_db, rows, stderr, stdout, write_campaign};
 use serde_json::{json, Value};
 use tempfile::TempDir;
 
-const BIN: &str = env!("CARGO_BIN_EXE_sweep");
-
 /// Longest the test waits for Slurm to bring a campaign to some point.
 const PATIENCE: Duration = Duration::from_secs(150);
 
@@ -71,7 +69,7 @@ impl Cluster {
 
     /// The sweep binary, in `dir`, against this cluster.
     fn sweep(&self, dir: &Path, args: &[&str]) -> Output {
-        let mut c = self.cmd(BIN);
+        let mut c = self.cmd(&crate::common::cli::bin());
         c.args(args).current_dir(dir).env_remove("SWEEP_DB");
         c.output().unwrap()
     }
@@ -176,21 +174,13 @@ fn ok(o: Output, what: &str) -> Output {
 /// A tiny silo campaign (as tests/cli.rs) that discharges long enough (4 s simulated, with
 /// re-insertion, a few seconds of wall time per job) for a task to be caught running.
 fn campaign(name: &str, orifices: &[f64], frequencies: &[f64]) -> Value {
+    let mut base = crate::common::cli::tiny_silo_base();
+    base["discharge_time_s"] = json!(4.0);
+    base["reinsert"] = json!(true);
     json!({
         "name": name,
         "scene": "silo",
-        "base": {
-            "cylinder_radius_m": 0.03,
-            "cylinder_height_m": 0.2,
-            "particle_count": 300,
-            "youngs_modulus_pa": 3.0e6,
-            "shear_modulus_pa": 1.0e5,
-            "dt_s": null,
-            "contact_steps": 20,
-            "discharge_time_s": 4.0,
-            "settle_max_time_s": 0.2,
-            "reinsert": true
-        },
+        "base": base,
         "sweep": { "orifice_diameter_m": orifices, "rotation_frequency_hz": frequencies },
         "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
         "run": { "precision": "f64", "checkpoint_interval_s": 0.05 }
@@ -292,7 +282,7 @@ fn without_sbatch_launch_says_so_and_registers_nothing() {
     let file = write_campaign(dir.path(), "c.json", &campaign("c", &[0.02], &[1.0]));
     let empty = dir.path().join("empty-path");
     std::fs::create_dir(&empty).unwrap();
-    let o = Command::new(BIN)
+    let o = Command::new(crate::common::cli::bin())
         .args(["launch", file.to_str().unwrap(), "--executor", "slurm"])
         .current_dir(dir.path())
         .env_remove("SWEEP_DB")
@@ -322,7 +312,7 @@ fn slurm_campaign_with_requeue_and_usr1_equals_the_local_run() {
     std::fs::create_dir(&local).unwrap();
     let file = write_campaign(&local, "tiny.json", &c);
     let ref_db = local.join("sweep.db");
-    let o = Command::new(BIN)
+    let o = Command::new(crate::common::cli::bin())
         .args([
             "launch",
             file.to_str().unwrap(),

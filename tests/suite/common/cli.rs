@@ -61,6 +61,22 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// The tiny silo's `base`: 300 spheres of 5.8 mm in R_c = 3 cm, h = 20 cm, softened (Y = 3 MPa,
+/// n_c = 20), 0.4 s of discharge after a fill of at most 0.2 s. Tests change what they need.
+pub fn tiny_silo_base() -> Value {
+    json!({
+        "cylinder_radius_m": 0.03,
+        "cylinder_height_m": 0.2,
+        "particle_count": 300,
+        "youngs_modulus_pa": 3.0e6,
+        "shear_modulus_pa": 1.0e5,
+        "dt_s": null,
+        "contact_steps": 20,
+        "discharge_time_s": 0.4,
+        "settle_max_time_s": 0.2
+    })
+}
+
 /// The tiny silo campaign: one job per (orifice, frequency) pair.
 pub fn campaign(
     name: &str,
@@ -71,17 +87,7 @@ pub fn campaign(
     json!({
         "name": name,
         "scene": "silo",
-        "base": {
-            "cylinder_radius_m": 0.03,
-            "cylinder_height_m": 0.2,
-            "particle_count": 300,
-            "youngs_modulus_pa": 3.0e6,
-            "shear_modulus_pa": 1.0e5,
-            "dt_s": null,
-            "contact_steps": 20,
-            "discharge_time_s": 0.4,
-            "settle_max_time_s": 0.2
-        },
+        "base": tiny_silo_base(),
         "sweep": { "orifice_diameter_m": orifices, "rotation_frequency_hz": frequencies },
         "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
         "run": { "precision": "f64", "checkpoint_interval_s": checkpoint_interval_s }
