@@ -23,8 +23,8 @@ pub struct Arguments {
     pub steps: u64,
     /// Repeat the timed steps (in chunks of --steps) until the timed window lasts at least this
     /// many seconds; later --repeat runs time as many steps as the first. The steps reported
-    /// are those timed.
-    #[arg(long, default_value_t = 0.0)]
+    /// are those timed. Not with --lammps, whose input runs --steps.
+    #[arg(long, default_value_t = 0.0, conflicts_with = "lammps")]
     pub min_seconds: f64,
     #[arg(long, default_value = "cpu")]
     pub backend: BackendChoice,

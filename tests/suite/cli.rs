@@ -859,15 +859,16 @@ fn bench_repeats_report_the_median_of_identical_runs() {
 #[test]
 fn a_closed_pipe_ends_sweep_quietly() {
     let dir = TempDir::new().unwrap();
-    let mut child = std::process::Command::new(bin())
+    // The reading end is closed before sweep starts: its first write meets a broken pipe.
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(bin())
         .arg("schema")
         .current_dir(dir.path())
-        .stdout(std::process::Stdio::piped())
+        .stdout(writer)
         .stderr(std::process::Stdio::piped())
-        .spawn()
+        .output()
         .unwrap();
-    drop(child.stdout.take());
-    let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
