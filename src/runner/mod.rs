@@ -6,6 +6,7 @@
 //! adds the work a campaign's target asks for, round by round.
 
 pub mod adaptive;
+mod auto_choice;
 pub mod backend;
 pub mod chute_job;
 pub mod claim_points;
