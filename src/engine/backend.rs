@@ -27,7 +27,7 @@ pub struct ChunkReport {
     pub list_builds: u64,
     /// K₁ / B of the energy watchdog (`watchdog::EnergyBudget`): the chunk's final kinetic
     /// energy over the most gravity, moving walls and stored elastic energy could supply. None
-    /// when not measured (the GPU engine, or the check switched off).
+    /// when not measured (the check switched off).
     pub kinetic_growth: Option<f64>,
 }
 

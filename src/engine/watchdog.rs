@@ -1,8 +1,8 @@
 //! The CPU engine's watchdog: its limits, and the energy criterion it checks once per chunk. The
 //! per-step overlap check, the per-chunk finiteness check and the elastic-energy gathers live
 //! with the steps they watch (`cpu/`, `oriented.rs`); this file owns the criterion
-//! (`EnergyBudget`) and the wall-speed bound it uses. The GPU engine reads only
-//! `max_overlap_ratio`: its status block carries no kinetic energy.
+//! (`EnergyBudget`) and the wall-speed bound it uses. The GPU engine checks the same criterion
+//! with energies summed on the device (`gpu/engine/watchdog.rs`).
 
 use super::backend::EngineError;
 use super::real::Real;
@@ -16,7 +16,7 @@ pub struct Watchdog {
     pub max_overlap_ratio: f64,
     /// Largest tolerated ratio K₁ / B of a chunk's final kinetic energy to its energy budget
     /// (`EnergyBudget`), checked once per `advance`. `f64::INFINITY` switches the check off (and
-    /// skips its O(N) passes). CPU engine only: the GPU engine ignores it.
+    /// skips its O(N) passes and its contact pass).
     pub max_kinetic_growth: f64,
 }
 

@@ -1112,16 +1112,8 @@ fn the_watchdog_stops_an_exploding_bed() {
     }
 }
 
-/// Case 9b: a chute of spheres at 40°, well above the angle at which a frictional bed flows: 400
-/// spheres of d = 0.125 m (the chute paper's units: ρ = 2600, g = 1, k_n = 2e5 m g / d,
-/// e = 0.88, μ = 0.5, dt = t_c/50) in a box periodic in x and y (10.1 d × 5.05 d) over a rough
-/// base of fixed spheres, starting at rest from a lattice 0.01 d apart. It accelerates for 6 000
-/// steps in chunks of only 100 (short chunks give the tightest budgets). The watchdog must not
-/// trip, and K₁/B stays ≤ 1 up to integrator error (bound 1.05; a chunk in free fall meets the
-/// budget exactly, measured 1.000); the kinetic energy must grow at least tenfold after the first
-/// chunk (measured 3 086×: the flow accelerates).
-#[test]
-fn the_watchdog_lets_an_accelerating_chute_run() {
+/// Case 9b's chute at 40°: its configuration and its 400 spheres on the rough base.
+fn accelerating_chute() -> (EngineConfig, State<f64>) {
     let d: f64 = 0.125;
     let r = d / 2.0;
     let sp = 1.01 * d;
@@ -1164,19 +1156,25 @@ fn the_watchdog_lets_an_accelerating_chute_run() {
         sink_z: None,
         skin_m: 0.2 * d,
     };
-    let mut e = CpuEngine::<f64>::new(cfg, s, 1);
+    (cfg, s)
+}
+
+/// Runs case 9b's chute on `b` and checks it: the watchdog does not trip, K₁/B ≤ 1.05, and K
+/// grows at least tenfold after the first chunk.
+fn accelerating_chute_runs(b: &mut dyn Backend, label: &str) {
+    const D_CHUTE: f64 = 0.125;
     let mut growth: f64 = 0.0;
     let mut k_first = 0.0;
     for chunk in 0..60 {
-        let rep = e
+        let rep = b
             .advance(100)
-            .unwrap_or_else(|err| panic!("chute at 40°, chunk {chunk}: {err}"));
-        growth = growth.max(rep.kinetic_growth.expect("the CPU engine measures it"));
+            .unwrap_or_else(|err| panic!("{label}: chute at 40°, chunk {chunk}: {err}"));
+        growth = growth.max(rep.kinetic_growth.expect("the engine measures it"));
         if chunk == 0 {
-            k_first = e.state.kinetic_energy();
+            k_first = b.download().kinetic_energy();
         }
     }
-    let st = e.download();
+    let st = b.download();
     finite(&st).unwrap();
     let k_end = st.kinetic_energy();
     let vx: f64 = (0..st.len())
@@ -1185,17 +1183,31 @@ fn the_watchdog_lets_an_accelerating_chute_run() {
         .sum::<f64>()
         / 400.0;
     eprintln!(
-        "chute at 40°: largest K₁/B {growth:.3} (bound 1.05, watchdog limit {}), K after the first chunk {k_first:.3e} J, \
+        "{label}: chute at 40°: largest K₁/B {growth:.3} (bound 1.05, watchdog limit {}), K after the first chunk {k_first:.3e} J, \
          after 6 000 steps {k_end:.3e} J ({:.0}×), mean v_x {vx:.3} m/s = {:.3} √(g d)",
         Watchdog::default().max_kinetic_growth,
         k_end / k_first,
-        vx / d.sqrt()
+        vx / D_CHUTE.sqrt()
     );
-    assert!(growth <= 1.05, "K₁/B reached {growth}");
+    assert!(growth <= 1.05, "{label}: K₁/B reached {growth}");
     assert!(
         k_end > 10.0 * k_first,
-        "the chute did not accelerate: K {k_first:e} → {k_end:e} J"
+        "{label}: the chute did not accelerate: K {k_first:e} → {k_end:e} J"
     );
+}
+
+/// Case 9b: a chute of spheres at 40°, well above the angle at which a frictional bed flows: 400
+/// spheres of d = 0.125 m (the chute paper's units: ρ = 2600, g = 1, k_n = 2e5 m g / d,
+/// e = 0.88, μ = 0.5, dt = t_c/50) in a box periodic in x and y (10.1 d × 5.05 d) over a rough
+/// base of fixed spheres, starting at rest from a lattice 0.01 d apart. It accelerates for 6 000
+/// steps in chunks of only 100 (short chunks give the tightest budgets). The watchdog must not
+/// trip, and K₁/B stays ≤ 1 up to integrator error (bound 1.05; a chunk in free fall meets the
+/// budget exactly, measured 1.000); the kinetic energy must grow at least tenfold after the first
+/// chunk (measured 3 086×: the flow accelerates).
+#[test]
+fn the_watchdog_lets_an_accelerating_chute_run() {
+    let (cfg, s) = accelerating_chute();
+    accelerating_chute_runs(&mut CpuEngine::<f64>::new(cfg, s, 1), "CPU f64");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1284,6 +1296,78 @@ fn gpu_stops_an_exploding_bed() {
             EngineError::Overlap { .. } | EngineError::NonFinite { .. } | EngineError::Device(_)
         ),
         "{err}"
+    );
+}
+
+/// Case 9a's energy check alone on the GPU (overlap check off, chunks of 10), as on the CPU: it
+/// must stop the bed with EnergyBlowUp at dt = 3 t_c and at dt = t_c, before any value turns
+/// non-finite or a list overflows.
+#[test]
+fn gpu_energy_watchdog_stops_an_exploding_bed() {
+    let Some(dev) = device() else { return };
+    for ratio in [3.0, 1.0] {
+        let (cfg, s) = loose_bed(ratio * tc());
+        let options = GpuOptions {
+            watchdog: Watchdog {
+                max_overlap_ratio: f64::INFINITY,
+                ..Watchdog::default()
+            },
+            ..GpuOptions::default()
+        };
+        let mut g = GpuEngine::new(&dev, cfg, &s, options).expect("GPU engine");
+        let (err, at) =
+            run_until_error(&mut g, 2_000, 10).expect("the bed ran 20 000 steps without error");
+        eprintln!("dt = {ratio} t_c on the GPU, overlap check off, chunks of 10: stopped in the chunk from step {at}: {err}");
+        let EngineError::EnergyBlowUp {
+            to_j,
+            budget_j,
+            growth,
+            first_step,
+            step,
+            ..
+        } = err
+        else {
+            panic!("dt = {ratio} t_c on the GPU: expected EnergyBlowUp, got: {err}")
+        };
+        assert!(to_j > 4.0 * budget_j && growth > 4.0 && first_step == at + 1 && step == at + 10);
+    }
+}
+
+/// Case 9b on the GPU (f32): the watchdog lets the accelerating chute run, with the CPU's bounds.
+#[test]
+fn gpu_watchdog_lets_an_accelerating_chute_run() {
+    let Some(dev) = device() else { return };
+    let (cfg, s) = accelerating_chute();
+    let mut g = GpuEngine::new(&dev, cfg, &s, GpuOptions::default()).expect("GPU engine");
+    accelerating_chute_runs(&mut g, "GPU");
+}
+
+/// The GPU's U₀ (the elastic energy `contact_energy` sums) against the CPU's on the same state:
+/// case 6's beds overlapping by 10 % of d, relaxed for 10 steps in f64 on the CPU and uploaded to
+/// both (springs included), which take one more step. Bound 1e-4 relative: f32 overlaps of
+/// ~6e-4 m round at ~1e-7 relative, and one f32 step departs from the f64 one by about as much.
+#[test]
+fn gpu_elastic_energy_matches_the_cpu() {
+    let Some(dev) = device() else { return };
+    let case = overlap_case();
+    let mut cpu = cpu64(&case);
+    cpu.advance(10).expect("10 steps");
+    let state = cpu.download();
+    let u_cpu = cpu.elastic_energy();
+    let mut g = GpuEngine::new(&dev, case.config.clone(), &state, GpuOptions::default())
+        .expect("GPU engine");
+    // One step builds the device's lists; the CPU takes the same step.
+    g.advance(1).expect("GPU step");
+    cpu.advance(1).expect("CPU step");
+    let (u_gpu, u_cpu1) = (
+        g.elastic_energy_job(0).expect("GPU sum"),
+        cpu.elastic_energy(),
+    );
+    let rel = (u_gpu - u_cpu1).abs() / u_cpu1;
+    eprintln!("elastic energy: CPU {u_cpu:.6e} J after 10 steps, {u_cpu1:.6e} J after 11; GPU {u_gpu:.6e} J (relative difference {rel:.2e}, bound 1e-4)");
+    assert!(
+        u_cpu1 > 0.0 && rel < 1e-4,
+        "GPU {u_gpu:e} J against CPU {u_cpu1:e} J"
     );
 }
 

@@ -253,7 +253,8 @@ pub struct GpuBuffers {
     pub cell_start: wgpu::Buffer,
     pub chunk_sums: wgpu::Buffer,
     pub sorted: wgpu::Buffer,
-    /// Kinetic energy per slot (`finish`), then its fixed-point sum per workgroup (`energy_sum`).
+    /// An energy per slot (kinetic from `finish`, elastic from `contact_energy`), then the
+    /// fixed-point kinetic sums per workgroup (`energy_sum`), then the elastic (`elastic_sum`).
     pub energy: wgpu::Buffer,
     /// Contact records (`record_contacts`), grown when a call finds it short.
     pub records: wgpu::Buffer,
@@ -385,8 +386,8 @@ impl GpuBuffers {
             chunk_sums: zeroed("scan run totals", g.n_chunks as u64 * 4, STORAGE),
             sorted: zeroed("cell-sorted indices", n as u64 * 4, STORAGE),
             energy: zeroed(
-                "kinetic energy per slot and per workgroup",
-                (n as u64 + 2 * (n as u64).div_ceil(super::layout::WORKGROUP_SIZE as u64)) * 4,
+                "energy per slot and per workgroup",
+                (n as u64 + 4 * (n as u64).div_ceil(super::layout::WORKGROUP_SIZE as u64)) * 4,
                 STORAGE,
             ),
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),

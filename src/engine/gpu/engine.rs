@@ -9,7 +9,8 @@
 //! (lists sorted by index), so neither the schedule nor `steps_per_submit` does.
 //!
 //! At the chunk's end `finish` checks finiteness, counts contacts and sums the kinetic energy per
-//! workgroup; only the status block, those sums and the sink events are read back. Particles
+//! workgroup; only the status block, those sums and the sink events are read back. The energy
+//! watchdog's elastic energy is summed likewise after the chunk's opening build (`watchdog`). Particles
 //! removed by the sink stay in place (flagged dead, skipped by every kernel) until the host
 //! compacts them with a download and upload once they exceed 1/8 of the slots; a download never
 //! shows them, as on the CPU.
@@ -31,7 +32,7 @@ use super::grid::{plan_grid, GridSpec};
 use super::layout::{
     scratch_bytes, status_initial, LawGpu, Params, RecordGpu, WallGpu, KE_BITS, MAX_JOBS,
     MAX_WALLS, SCAN_ITEMS, STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE,
-    ST_STEP, ST_STEP_NEXT, WORKGROUP_SIZE,
+    ST_STEP, ST_STEP_NEXT, ST_U_MAX, WORKGROUP_SIZE,
 };
 use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
@@ -49,6 +50,7 @@ mod membership;
 mod readback;
 mod single;
 mod upload;
+mod watchdog;
 
 /// Tunables of the GPU engine that do not change the physics.
 #[derive(Clone, Copy, Debug)]
@@ -64,8 +66,9 @@ pub struct GpuOptions {
     /// neighbours are read from nearby memory (one more dispatch per build, and a scratch of
     /// every particle's record).
     pub reorder_by_cell: bool,
-    /// Only `max_overlap_ratio` applies: the energy check also needs the elastic energy and the
-    /// work of gravity and the walls, which the kernels do not sum.
+    /// The CPU engine's limits: the overlap is checked every step, the energy once per chunk
+    /// (with one more contact pass at its start, `watchdog`); `max_kinetic_growth` infinite
+    /// switches that pass off.
     pub watchdog: Watchdog,
 }
 
@@ -95,6 +98,8 @@ struct JobRun {
     /// Kinetic energy at the last chunk's end (None before the first chunk of this upload).
     energy: Option<f64>,
     grid: GridSpec,
+    /// The energy watchdog's inputs other than the energies.
+    budget: watchdog::BudgetBase,
 }
 
 /// Device resources of the particles currently uploaded (none when no job has particles).

@@ -78,6 +78,9 @@ pub const ST_RECORDS: usize = 12;
 /// Largest kinetic energy of one particle at the chunk's end, as f32 bits: the scale of the
 /// fixed-point energy sum (`energy_sum`).
 pub const ST_KE_MAX: usize = 13;
+/// Largest elastic energy stored in one particle's contacts at the chunk's start, as f32 bits:
+/// the scale of the fixed-point elastic sum (`contact_energy`, `elastic_sum`).
+pub const ST_U_MAX: usize = 14;
 
 /// Status words at the start of a chunk: no step taken, nothing stale, minima at u32::MAX.
 pub fn status_initial() -> [u32; STATUS_WORDS] {
@@ -109,7 +112,9 @@ pub mod binding {
     pub const CELL_START: u32 = 14;
     pub const CHUNK_SUMS: u32 = 15;
     pub const SORTED: u32 = 16;
-    /// Kinetic energy per workgroup of particles, left by `finish`.
+    /// An energy per slot (kinetic from `finish`, elastic from `contact_energy`), then two
+    /// fixed-point sums per workgroup of particles: the kinetic (`energy_sum`) and the elastic
+    /// (`elastic_sum`).
     pub const ENERGY: u32 = 17;
     /// Contact records (`record_contacts`), `RecordGpu`.
     pub const RECORDS: u32 = 19;
@@ -160,6 +165,7 @@ pub fn prelude() -> String {
         ("ST_STEP_NEXT", ST_STEP_NEXT),
         ("ST_RECORDS", ST_RECORDS),
         ("ST_KE_MAX", ST_KE_MAX),
+        ("ST_U_MAX", ST_U_MAX),
     ] {
         s += &format!("const {name}: u32 = {v}u;\n");
     }

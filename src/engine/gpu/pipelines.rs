@@ -105,10 +105,14 @@ pub mod kernel {
     pub const ENERGY_SUM: usize = 11;
     /// Unpacks the records `scatter` packed in cell order (a build that sorts by cell).
     pub const SETTLE: usize = 12;
+    /// Each particle's share of the elastic energy in the contacts (compiled with RECORD), then
+    /// its fixed-point sum: the energy watchdog's U₀.
+    pub const CONTACT_ENERGY: usize = 13;
+    pub const ELASTIC_SUM: usize = 14;
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 13] = [
+pub const KERNELS: [KernelSpec; 15] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -276,6 +280,28 @@ pub const KERNELS: [KernelSpec; 13] = [
             b::SCRATCH,
         ],
     },
+    KernelSpec {
+        module: Module::Contacts,
+        entry: "contact_energy",
+        bindings: &[
+            b::PARAMS,
+            b::WALLS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::HIST,
+            b::NBR,
+            b::STATUS,
+            b::RECORDS,
+            b::ENERGY,
+        ],
+    },
+    KernelSpec {
+        module: Module::Integrate,
+        entry: "elastic_sum",
+        bindings: &[b::PARAMS, b::STATUS, b::ENERGY],
+    },
 ];
 
 /// Smallest valid binding size of each buffer: one record.
@@ -423,7 +449,7 @@ impl Pipelines {
                 module,
                 entry_point: Some(k.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: if k.entry == "record_contacts" {
+                    constants: if matches!(k.entry, "record_contacts" | "contact_energy") {
                         &recording
                     } else {
                         &constants

@@ -53,7 +53,9 @@ impl GpuEngine {
         })?;
         let status_bytes = jobs * STATUS_WORDS * 4;
         let st_all: Vec<u32> = bytemuck::pod_collect_to_vec(&closing[..status_bytes]);
+        // Per workgroup: the kinetic sums, then the elastic (U₀ at the chunk's start).
         let sums: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&closing[status_bytes..]);
+        let (kinetic_sums, elastic_sums) = sums.split_at(sums.len() / 2);
         let per_job_groups = run.n_job / WORKGROUP_SIZE as usize;
         let mut outs = Vec::with_capacity(jobs);
         let mut updates = Vec::with_capacity(jobs);
@@ -75,10 +77,8 @@ impl GpuEngine {
             } else {
                 Vec::new()
             };
-            let energy = fixed_point_energy(
-                &sums[j * per_job_groups..(j + 1) * per_job_groups],
-                st[ST_KE_MAX],
-            );
+            let groups = j * per_job_groups..(j + 1) * per_job_groups;
+            let energy = fixed_point_energy(&kinetic_sums[groups.clone()], st[ST_KE_MAX]);
             let out = read_chunk(
                 &ChunkContext {
                     masses: &jr.masses,
@@ -95,19 +95,30 @@ impl GpuEngine {
                 &st,
                 &events,
             );
-            updates.push(Some((out.alive, out.mobile, energy, out.time)));
+            let removed_kg: f64 = out.report.removed.iter().map(|e| e.mass_kg).sum();
+            updates.push(Some((out.alive, out.mobile, energy, out.time, removed_kg)));
             outs.push(match out.error {
                 Some(e) => Err(e),
+                None if self.checks_energy() => {
+                    let elastic = fixed_point_energy(&elastic_sums[groups], st[ST_U_MAX]);
+                    let mut report = out.report;
+                    self.energy_check(jr, j, self.step[j], steps, elastic, energy)
+                        .map(|growth| {
+                            report.kinetic_growth = Some(growth);
+                            report
+                        })
+                }
                 None => Ok(out.report),
             });
         }
         for (j, u) in updates.into_iter().enumerate() {
-            if let Some((alive, mobile, energy, time)) = u {
+            if let Some((alive, mobile, energy, time, removed_kg)) = u {
                 if let Some(r) = self.run.as_mut() {
                     let jr = &mut r.jobs[j];
                     jr.alive = alive;
                     jr.mobile = mobile;
                     jr.energy = Some(energy);
+                    jr.budget.mobile_mass_kg -= removed_kg;
                 }
                 self.time[j] = time;
                 self.step[j] += steps;
@@ -233,6 +244,11 @@ impl GpuEngine {
                 build(&mut pass, &mut dispatch);
                 c.count.builds += 1;
                 c.count.sorting_builds += sorting;
+                if self.checks_energy() {
+                    // U₀ for the energy watchdog, from the fresh lists.
+                    dispatch(&mut pass, kernel::CONTACT_ENERGY, gp);
+                    dispatch(&mut pass, kernel::ELASTIC_SUM, gp);
+                }
             }
             if let Some(s) = c.redo.take() {
                 build(&mut pass, &mut dispatch);
@@ -275,10 +291,11 @@ impl GpuEngine {
             }
         }
         // The stale word; after the closing passes also every job's status words and the
-        // energy's workgroup sums, so the chunk's end needs no read-back of its own.
+        // energies' workgroup sums (kinetic, then elastic), so the chunk's end needs no
+        // read-back of its own.
         let n = run.bufs.n as u64;
         let status_bytes = (self.jobs() * STATUS_WORDS) as u64 * 4;
-        let sums_bytes = n.div_ceil(WORKGROUP_SIZE as u64) * 8;
+        let sums_bytes = n.div_ceil(WORKGROUP_SIZE as u64) * 16;
         let stale = self.dev.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stale step"),
             size: if closing {

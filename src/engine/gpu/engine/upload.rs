@@ -153,7 +153,8 @@ impl GpuEngine {
         let jobs = states
             .iter()
             .zip(&grids)
-            .map(|(s, g)| JobRun {
+            .zip(&self.configs)
+            .map(|((s, g), c)| JobRun {
                 masses: {
                     let mut m: Vec<(u32, f32)> =
                         s.id.iter()
@@ -168,6 +169,7 @@ impl GpuEngine {
                 mobile: s.inv_mass.iter().filter(|&&m| m != 0.0).count(),
                 energy: None,
                 grid: *g,
+                budget: watchdog::BudgetBase::of(c, s),
             })
             .collect();
         self.run = Some(Run {

@@ -24,12 +24,42 @@ struct Rec {
     force: vec4<f32>,
 }
 
-fn emit(i: u32, me: Info, key: u32, id_j: u32, flags: u32, p: vec3<f32>, branch: vec3<f32>, f: vec3<f32>) {
+// `u` is the contact's elastic energy (branch.w of the record). While `contact_energy` tallies,
+// the contact only adds `u` to the tally.
+fn emit(i: u32, me: Info, key: u32, id_j: u32, flags: u32, p: vec3<f32>, branch: vec3<f32>, f: vec3<f32>,
+        u: f32) {
+    if (tallying) {
+        tally += u;
+        return;
+    }
     let k = atomicAdd(&status[ST_RECORDS], 1u);
     if (k < arrayLength(&records)) {
         records[k] = Rec(vec4<u32>(i, me.id, key, flags), vec4<f32>(p, bitcast<f32>(id_j)),
-                         vec4<f32>(branch, 0.0), vec4<f32>(f, 0.0));
+                         vec4<f32>(branch, u), vec4<f32>(f, 0.0));
     }
+}
+
+// The elastic-energy pass (`contact_energy`, compiled with RECORD): each contact's energy summed
+// per particle, each contact once, as the records list them.
+var<private> tallying: bool;
+var<private> tally: f32;
+@group(0) @binding(17) var<storage, read_write> energy: array<u32>;
+
+// Elastic energy stored in one contact (contact::elastic_energy): the normal spring's
+// potential (Hertz 2/5 k_n δ², linear ½ k_n δ²) plus ½ k_t |ξ|², k_t at the current overlap.
+fn elastic_energy(law: Law, overlap: f32, r_eff: f32, spring: vec3<f32>) -> f32 {
+    let hertz = ANY_HERTZ && (!ANY_LINEAR || law.hertz != 0u);
+    var sq = 1.0;
+    var share = 0.5;
+    if (hertz) {
+        sq = sqrt(r_eff * overlap);
+        share = 0.4;
+    }
+    var u = share * law.kn * sq * overlap * overlap;
+    if (law.tangential != 0u) {
+        u += 0.5 * law.kt * sq * dot3(spring, spring);
+    }
+    return u;
 }
 
 var<private> old_key: array<u32, MAX_SLOTS>;
@@ -191,6 +221,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
         if (use_rows) {
             spring = rows_get(other.id);
         }
+        let stored = spring;
         let fc = contact_force(params.law_pp, overlap, n, v_rel, ri * rj / sum, m_eff, &spring);
         if (use_rows) {
             rows_put(i, other.id, spring);
@@ -200,7 +231,8 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
         max_ov = max(max_ov, overlap / (min(ri, rj) * 2.0));
         nc++;
         if (RECORD && !fixed_i && (fixed_j || me.id < other.id)) {
-            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pi, d, fc);
+            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pi, d, fc,
+                 elastic_energy(params.law_pp, overlap, ri * rj / sum, stored));
         }
     }
     if (WALLS && !fixed_i) {
@@ -215,6 +247,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
             if (use_rows) {
                 spring = rows_get(key);
             }
+            let stored = spring;
             let fc = contact_force(params.law_pw, wc.overlap, n, v_rel, ri, mi, &spring);
             if (use_rows) {
                 rows_put(i, key, spring);
@@ -224,7 +257,8 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
             max_ov = max(max_ov, wc.overlap / (ri * 2.0));
             nc++;
             if (RECORD) {
-                emit(i, me, w, 0u, 3u, pi, -bi, fc);
+                emit(i, me, w, 0u, 3u, pi, -bi, fc,
+                     elastic_energy(params.law_pw, wc.overlap, ri, stored));
             }
         }
     }
@@ -304,4 +338,33 @@ fn record_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else {
         gather_spheres(i, me);
     }
+}
+
+// Each live particle's share of the elastic energy stored in the contacts (each contact counted
+// once, from the side `record_contacts` takes it) into energy[i], and the job's largest share in
+// its status block (the scale of `elastic_sum`): the energy watchdog's U₀, at a chunk's start
+// right after its list build. Compiled with RECORD: springs are read, nothing else is written.
+@compute @workgroup_size(WG)
+fn contact_energy(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= jobs[0].n) { return; }
+    enter(i);
+    var u = 0.0;
+    let me = info[i];
+    if (params.running != 0u && me.alive != 0u) {
+        tallying = true;
+        tally = 0.0;
+        if (HISTORY) {
+            rows_open(i);
+        }
+        if (ORIENTED) {
+            gather_oriented(i, me);
+        } else {
+            gather_spheres(i, me);
+        }
+        // +0 for anything not positive (−0 and NaN would order above every energy as bits).
+        u = select(0.0, tally, tally > 0.0);
+        atomicMax(&status[sw(ST_U_MAX)], bitcast<u32>(u));
+    }
+    energy[i] = bitcast<u32>(u);
 }

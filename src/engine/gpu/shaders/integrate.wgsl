@@ -202,25 +202,19 @@ fn ke_exponent(max_bits: u32) -> i32 {
     return i32((max_bits >> 23u) & 0xffu) - 126;
 }
 
-// The kinetic energy summed so that no order of the particles (in the buffers or in time) can
-// change a bit: each particle's energy is rounded to a multiple of 2^(ke_exponent − KE_BITS) and
-// the integers are added exactly (two words with carry); the host adds the workgroups' sums in
-// u128 and scales back.
-@compute @workgroup_size(WG)
-fn energy_sum(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(local_invocation_id) lid: vec3<u32>,
-    @builtin(workgroup_id) wid: vec3<u32>,
-) {
-    let i = gid.x;
-    let t = lid.x;
+// An energy summed so that no order of the particles (in the buffers or in time) can change a
+// bit: each particle's energy[i] is rounded to a multiple of 2^(ke_exponent − KE_BITS), the
+// exponent from the job's largest (its f32 bits in status word `max_word`), and the integers are
+// added exactly (two words with carry) into two words per workgroup from energy[at]; the host
+// adds the workgroups' sums in u128 and scales back.
+fn fixed_sum(i: u32, t: u32, max_word: u32, at: u32) {
     var lo = 0u;
     var hi = 0u;
     if (i < jobs[0].n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
         enter(i);
         let e = bitcast<f32>(energy[i]);
         if (params.running != 0u && e > 0.0) {
-            let scale = KE_BITS - ke_exponent(atomicLoad(&status[sw(ST_KE_MAX)]));
+            let scale = KE_BITS - ke_exponent(atomicLoad(&status[sw(max_word)]));
             let x = round(ldexp(e, scale));
             let h = floor(ldexp(x, -32));
             hi = u32(h);
@@ -240,8 +234,29 @@ fn energy_sum(
         workgroupBarrier();
     }
     if (t == 0u) {
-        let at = jobs[0].n + 2u * wid.x;
         energy[at] = ke_lo[0];
         energy[at + 1u] = ke_hi[0];
     }
+}
+
+// The kinetic energy `finish` left per slot, summed per workgroup.
+@compute @workgroup_size(WG)
+fn energy_sum(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    fixed_sum(gid.x, lid.x, ST_KE_MAX, jobs[0].n + 2u * wid.x);
+}
+
+// The elastic energy `contact_energy` left per slot, summed per workgroup after the kinetic
+// sums (the energy watchdog's U₀ at a chunk's start).
+@compute @workgroup_size(WG)
+fn elastic_sum(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    fixed_sum(gid.x, lid.x, ST_U_MAX, jobs[0].n + 2u * (groups.x + wid.x));
 }

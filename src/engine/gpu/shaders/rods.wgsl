@@ -321,6 +321,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         if (use_rows) {
             spring = rows_get(other.id);
         }
+        let stored = spring;
         let fc = contact_force(params.law_pp, pc.overlap, pc.normal, v_rel, ra * rb / (ra + rb),
                                m_eff, &spring);
         if (use_rows) {
@@ -337,7 +338,8 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         max_ov = rmax(max_ov, pc.overlap / (rmin(ra, rb) * 2.0));
         nc++;
         if (RECORD && !fixed_i && (fixed_j || i_is_a)) {
-            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pos_r[i].xyz, select(-d, d, i_is_a), force_i);
+            emit(i, me, j, other.id, select(0u, 2u, fixed_j), pos_r[i].xyz, select(-d, d, i_is_a), force_i,
+                 elastic_energy(params.law_pp, pc.overlap, ra * rb / (ra + rb), stored));
         }
     }
     if (WALLS && !fixed_i) {
@@ -354,6 +356,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
             if (use_rows) {
                 spring = rows_get(key);
             }
+            let stored = spring;
             var m_w = me.mass;
             if (sh.w > 0.0) {
                 m_w = 1.0 / (v4.w + turn_term(sh.w, me.inv_inertia, wc.arm, wc.normal));
@@ -367,7 +370,8 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
             max_ov = rmax(max_ov, wc.overlap / (ri * 2.0));
             nc++;
             if (RECORD) {
-                emit(i, me, w, 0u, 3u, p4.xyz, -wc.arm, fc);
+                emit(i, me, w, 0u, 3u, p4.xyz, -wc.arm, fc,
+                     elastic_energy(params.law_pw, wc.overlap, ri, stored));
             }
         }
     }
