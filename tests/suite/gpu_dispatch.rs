@@ -8,6 +8,10 @@
 //! - where chunks end (one chunk or several, the state moved through the host between them as
 //!   a resume moves it) changes no bit of the state or of the kinetic energy;
 //! - two runs of 10⁵ particles with many list builds end in the same bits;
+//! - the history and the lists bound in two ranges each (as beds past the device's binding limit
+//!   are) change no bit, and a bed of 6·10⁵ spheres, whose history passes lavapipe's 128 MiB,
+//!   steps to the same bits in one chunk or two, its energy within the watchdog's budget;
+//! - dispatches in rows of workgroups (as beds past 4.19·10⁶ slots run) change no bit;
 //! - the kinetic energy summed on the device is the downloaded state's, to f32 rounding.
 //!
 //! Without an adapter the tests print a message and pass, except under CI=true (common::gpu).
@@ -247,6 +251,108 @@ fn list_builds_sort_the_particles_by_cell() {
             assert!(share < 0.9, "{share}");
         }
     }
+}
+
+#[test]
+fn bindings_split_in_two_do_not_change_the_bits() {
+    let Some(dev) = device() else { return };
+    // Limits below the history's and the lists' sizes (hundreds of KiB here) bind them in two
+    // ranges: both, then only the larger.
+    for (name, n) in [("silo-bed", 1500), ("chute-rods", 600)] {
+        let sc = stirred_scene(name, n);
+        let run_with = |max_binding_bytes: Option<u64>| {
+            let options = GpuOptions {
+                max_binding_bytes,
+                ..GpuOptions::default()
+            };
+            let mut e =
+                GpuEngine::new(&dev, sc.config.clone(), &sc.state, options).expect("GPU engine");
+            let split = e.split_bindings();
+            (split, run(&mut e, 3, 100))
+        };
+        let ([(hist, false), (nbr, false)], reference) = run_with(None) else {
+            panic!("{name}: split without a limit")
+        };
+        let (small, large) = (hist.min(nbr), hist.max(nbr));
+        assert!(large < 2 * small, "{name}: {hist} and {nbr} bytes");
+        for limit in [large / 2 + 1024, (small + large) / 2] {
+            let (split, got) = run_with(Some(limit));
+            eprintln!("{name}: history {hist} B, lists {nbr} B, limit {limit} B: {split:?}");
+            assert!(split[0].1 == (hist > limit) && split[1].1 == (nbr > limit));
+            assert!(split.iter().any(|s| s.1));
+            assert!(
+                got == reference,
+                "{name}: bindings of at most {limit} bytes change the bits"
+            );
+        }
+    }
+}
+
+#[test]
+fn rows_of_workgroups_do_not_change_the_bits() {
+    let Some(dev) = device() else { return };
+    // A dispatch past 65 535 workgroups (4.19·10⁶ slots) runs in rows; rows of 5 workgroups
+    // make the small beds run that way (1 536 slots: 5 rows of 5, the last workgroup past the
+    // slots). The reports (kinetic growth from both energy sums), the kinetic energy, the
+    // elastic energy and the states keep every bit.
+    for (name, n) in [("silo-bed", 1500), ("chute-rods", 600)] {
+        let sc = stirred_scene(name, n);
+        let run_with = |max_row_groups: Option<u32>| {
+            let options = GpuOptions {
+                max_row_groups,
+                ..GpuOptions::default()
+            };
+            let mut e =
+                GpuEngine::new(&dev, sc.config.clone(), &sc.state, options).expect("GPU engine");
+            let (mut reports, state) = run(&mut e, 3, 100);
+            reports.push(e.kinetic_energy().unwrap().to_bits());
+            reports.push(e.elastic_energy_job(0).unwrap().to_bits());
+            (reports, state)
+        };
+        let reference = run_with(None);
+        assert!(
+            run_with(Some(5)) == reference,
+            "{name}: rows of 5 workgroups change the bits"
+        );
+    }
+}
+
+/// 6·10⁵ spheres of the bench's silo bed: 16 history slots take 147 MiB, past lavapipe's
+/// 128 MiB binding (two ranges), and the scratch of a sorting build does not bind (builds keep
+/// the order). Three steps in one chunk and in chunks of 1 and 2 end in the same bits; every
+/// chunk passes the watchdog (overlap, finiteness and the energy budget) and the kinetic energy
+/// summed on the device is the downloaded state's to f32 rounding (1e-5).
+#[test]
+fn six_hundred_thousand_spheres_step_on_any_adapter() {
+    let Some(dev) = device() else { return };
+    let sc = sweep::bench::scene("silo-bed", 600_000, 7).expect("bench scene");
+    let run_as = |chunks: &[u64]| {
+        let mut e = GpuEngine::new(&dev, sc.config.clone(), &sc.state, GpuOptions::default())
+            .expect("GPU engine");
+        if dev.limits.max_storage_buffer_binding_size <= 128 << 20 {
+            assert!(e.split_bindings()[0].1, "{:?}", e.split_bindings());
+        }
+        for &steps in chunks {
+            let r = e.advance(steps).expect("chunk");
+            assert!(r.kinetic_growth.is_some_and(|g| g <= 1.05), "{r:?}");
+        }
+        let s = e.download();
+        let k = e.kinetic_energy().unwrap();
+        let rel = (k - s.kinetic_energy()).abs() / s.kinetic_energy().max(f64::MIN_POSITIVE);
+        eprintln!(
+            "N = {}: chunks {chunks:?}, K {k:.6e} J (device sum against the download: {rel:.1e}), {:?}",
+            s.len(),
+            e.dispatches().unwrap()
+        );
+        assert!(
+            k.is_finite() && rel < 1e-5,
+            "K {k} J, relative difference {rel}"
+        );
+        let mut out = state_bits(&s);
+        out.push(k.to_bits());
+        out
+    };
+    assert!(run_as(&[3]) == run_as(&[1, 2]), "one chunk and two differ");
 }
 
 #[test]

@@ -245,6 +245,13 @@ pub struct GpuBuffers {
     pub load: wgpu::Buffer,
     pub hist: wgpu::Buffer,
     pub nbr: wgpu::Buffer,
+    /// Bytes of `hist` and `nbr` in their first binding (`split_binding`); the rest is bound as
+    /// `HIST_HI` and `NBR_HI`.
+    pub hist_split_bytes: u64,
+    pub nbr_split_bytes: u64,
+    /// What `HIST_HI` and `NBR_HI` bind when the whole buffer fits in the first binding.
+    pub spare_hist: wgpu::Buffer,
+    pub spare_nbr: wgpu::Buffer,
     pub ref_pos: wgpu::Buffer,
     pub status: wgpu::Buffer,
     pub events: wgpu::Buffer,
@@ -273,12 +280,14 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 impl GpuBuffers {
     /// Allocates and fills the buffers of the batch `p` (every job's block, one after the other)
     /// with one record and `MAX_WALLS` walls per job in `params` and `walls`, and `g` the sizes
-    /// of the batch's grid (all jobs' cells, the widest list row).
+    /// of the batch's grid (all jobs' cells, the widest list row). No binding exceeds
+    /// `max_binding` bytes (the device's limit, or less to test the split bindings).
     ///
     /// # Errors
     /// A buffer larger than the device binds (`EngineError::Device`, naming it and the limit).
     pub fn new(
         dev: &GpuDevice,
+        max_binding: u64,
         params: &[Params],
         walls: &[WallGpu],
         p: &Packed,
@@ -286,17 +295,26 @@ impl GpuBuffers {
     ) -> Result<Self, EngineError> {
         let jobs = params.len();
         debug_assert!(jobs <= MAX_JOBS && walls.len() == jobs * MAX_WALLS);
+        let n = p.pos_r.len();
+        let slots = params[0].slots as usize;
+        let max = max_binding;
+        let align = dev.limits.min_storage_buffer_offset_alignment as u64;
+        let nbr_words = n as u64 * (g.stride as u64 + 1);
+        let (hist_bytes, nbr_bytes) = ((n * slots * 16) as u64, nbr_words * 4);
+        let hist_split_bytes = split_binding(hist_bytes, max, align);
+        let nbr_split_bytes = split_binding(nbr_bytes, max, align);
         let mut records = params.to_vec();
+        for r in &mut records {
+            r.hist_split = (hist_split_bytes / 16) as u32;
+            r.nbr_split = (nbr_split_bytes / 4) as u32;
+        }
         records.resize(MAX_JOBS, Params::default());
         let mut all_walls = walls.to_vec();
         all_walls.resize(MAX_WALLS * MAX_JOBS, WallGpu::default());
-        let n = p.pos_r.len();
-        let slots = params[0].slots as usize;
         let oriented = p.oriented();
         // Oriented runs: a second block of n records in pos_r and ref_pos (module doc); every
         // run: a last block of n position rests in pos_r.
         let blocks: u64 = if oriented { 2 } else { 1 };
-        let max = dev.limits.max_storage_buffer_binding_size;
         let check = |what: &str, bytes: u64| -> Result<(), EngineError> {
             if bytes > max {
                 return Err(EngineError::Device(format!(
@@ -308,9 +326,22 @@ impl GpuBuffers {
             }
             Ok(())
         };
-        let nbr_words = n as u64 * (g.stride as u64 + 1);
-        check("history", (n * slots * 16) as u64)?;
-        check("neighbour list", nbr_words * 4)?;
+        // The history and the lists may take two bindings each, within one buffer.
+        let check_split = |what: &str, bytes: u64, split: u64| -> Result<(), EngineError> {
+            let limit = max.min(dev.limits.max_buffer_size);
+            if bytes - split > max || bytes > dev.limits.max_buffer_size {
+                return Err(EngineError::Device(format!(
+                    "{n} particles need {:.0} MiB for the {what} buffer; {} holds at most {:.0} MiB in one buffer and binds it in two ranges of at most {:.0} MiB",
+                    bytes as f64 / 1048576.0,
+                    dev.info.name,
+                    dev.limits.max_buffer_size as f64 / 1048576.0,
+                    limit as f64 / 1048576.0
+                )));
+            }
+            Ok(())
+        };
+        check_split("history", hist_bytes, hist_split_bytes)?;
+        check_split("neighbour list", nbr_bytes, nbr_split_bytes)?;
         check("load", n as u64 * 32)?;
         check("position", (blocks + 1) * n as u64 * 16)?;
         check("velocity", 2 * n as u64 * 16)?;
@@ -373,6 +404,10 @@ impl GpuBuffers {
             load: init("load", bytemuck::cast_slice(&p.load), STORAGE),
             hist: init("history", bytemuck::cast_slice(&p.hist), STORAGE),
             nbr: zeroed("neighbour lists", nbr_words * 4, STORAGE),
+            hist_split_bytes,
+            nbr_split_bytes,
+            spare_hist: zeroed("spare history range", 256, STORAGE),
+            spare_nbr: zeroed("spare list range", 256, STORAGE),
             ref_pos: zeroed(
                 "list reference positions (and axes)",
                 blocks * n as u64 * 16,
@@ -422,6 +457,37 @@ impl GpuBuffers {
             binding::ROD => &self.rod,
             binding::SCRATCH => &self.scratch,
             _ => unreachable!("no buffer at binding {b}"),
+        }
+    }
+
+    /// What binding `b` binds: the whole buffer, or for the history and the lists the range of
+    /// their first or second binding (`split_binding`).
+    pub fn resource(&self, b: u32) -> wgpu::BindingResource<'_> {
+        fn range(buf: &wgpu::Buffer, offset: u64, size: Option<u64>) -> wgpu::BindingResource<'_> {
+            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: buf,
+                offset,
+                size: size.and_then(std::num::NonZeroU64::new),
+            })
+        }
+        let hist = (self.n * self.slots * 16) as u64;
+        let nbr = self.nbr.size();
+        match b {
+            binding::HIST if self.hist_split_bytes < hist => {
+                range(&self.hist, 0, Some(self.hist_split_bytes))
+            }
+            binding::HIST_HI if self.hist_split_bytes < hist => {
+                range(&self.hist, self.hist_split_bytes, None)
+            }
+            binding::HIST_HI => self.spare_hist.as_entire_binding(),
+            binding::NBR if self.nbr_split_bytes < nbr => {
+                range(&self.nbr, 0, Some(self.nbr_split_bytes))
+            }
+            binding::NBR_HI if self.nbr_split_bytes < nbr => {
+                range(&self.nbr, self.nbr_split_bytes, None)
+            }
+            binding::NBR_HI => self.spare_nbr.as_entire_binding(),
+            _ => self.get(b).as_entire_binding(),
         }
     }
 
@@ -641,5 +707,16 @@ pub fn block(p: &Packed, j: usize, n_job: usize, slots: usize) -> Packed {
         } else {
             p.rod[r].to_vec()
         },
+    }
+}
+
+/// Bytes of a buffer of `bytes` in its first binding: all of it when it fits in `max`, else the
+/// most that fits at a multiple of `align` (the second binding's offset must be aligned; 256
+/// bytes, a multiple of the 16-byte history record).
+pub fn split_binding(bytes: u64, max: u64, align: u64) -> u64 {
+    if bytes <= max {
+        bytes
+    } else {
+        max / align.max(16) * align.max(16)
     }
 }

@@ -73,10 +73,10 @@ pub fn is_hardware(info: &wgpu::AdapterInfo) -> bool {
     )
 }
 
-/// Storage buffers the widest kernel binds (`scatter`, which packs every particle's record when
-/// list builds sort by cell); every Vulkan, Metal and D3D12 GPU offers far more than WebGPU's
-/// default 8.
-pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 12;
+/// Storage buffers the widest kernel binds (`scatter`, which packs every particle's record, its
+/// history's two ranges included, when list builds sort by cell); every Vulkan, Metal and D3D12
+/// GPU offers more than WebGPU's default 8 (lavapipe 32, its GL driver 16, Metal 31).
+pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 13;
 
 /// The limits the engine requests: WebGPU's defaults except the storage buffers per kernel and
 /// the storage binding and buffer sizes, raised to what the adapter offers so that large runs fit.

@@ -34,7 +34,7 @@ use super::layout::{
     MAX_WALLS, SCAN_ITEMS, STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE,
     ST_STEP, ST_STEP_NEXT, ST_U_MAX, WORKGROUP_SIZE,
 };
-use super::pipelines::{kernel, BindGroups, Pipelines, Specialization};
+use super::pipelines::{dispatch_size, kernel, BindGroups, Pipelines, Specialization};
 use super::schedule::BuildSchedule;
 use super::status::{read_chunk, ChunkContext};
 use crate::engine::backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError};
@@ -70,6 +70,12 @@ pub struct GpuOptions {
     /// (with one more contact pass at its start, `watchdog`); `max_kinetic_growth` infinite
     /// switches that pass off.
     pub watchdog: Watchdog,
+    /// Dispatch at most this many workgroups along x, below the device's limit per dimension
+    /// (tests: a small bed then runs the 2-D dispatches of a bed past 4.19·10⁶ slots).
+    pub max_row_groups: Option<u32>,
+    /// Bind at most this many bytes per storage binding, below the device's own limit (tests:
+    /// the history and lists of a small bed then take two bindings each, as a large bed's do).
+    pub max_binding_bytes: Option<u64>,
 }
 
 impl Default for GpuOptions {
@@ -79,6 +85,8 @@ impl Default for GpuOptions {
             build_every: None,
             reorder_by_cell: true,
             watchdog: Watchdog::default(),
+            max_binding_bytes: None,
+            max_row_groups: None,
         }
     }
 }
@@ -227,6 +235,28 @@ impl GpuEngine {
     /// Jobs in the batch.
     pub fn jobs(&self) -> usize {
         self.configs.len()
+    }
+
+    /// Workgroups per row of a dispatch (`dispatch_size`): the device's limit per dimension, or
+    /// `GpuOptions::max_row_groups` where that is lower.
+    fn row_groups(&self) -> u32 {
+        let device = self.dev.limits.max_compute_workgroups_per_dimension;
+        self.options
+            .max_row_groups
+            .map_or(device, |g| g.clamp(1, device))
+    }
+
+    /// Bytes of the history and of the neighbour lists, and whether each takes two bindings
+    /// (past the binding limit, `GpuOptions::max_binding_bytes`).
+    pub fn split_bindings(&self) -> [(u64, bool); 2] {
+        self.run.as_ref().map_or([(0, false); 2], |r| {
+            let b = &r.bufs;
+            let hist = (b.n * b.slots * 16) as u64;
+            [
+                (hist, b.hist_split_bytes < hist),
+                (b.nbr.size(), b.nbr_split_bytes < b.nbr.size()),
+            ]
+        })
     }
 
     /// The grid of the first job's upload (None without particles).

@@ -123,6 +123,10 @@ pub mod binding {
     /// Every particle's record packed at its slot of the next order (`scatter` writes it,
     /// `settle` unpacks it): `reorder.wgsl`.
     pub const SCRATCH: u32 = 20;
+    /// The history and list words past what one binding holds (the same buffers, bound from
+    /// `hist_split` and `nbr_split` on; a spare record when everything fits in the first).
+    pub const HIST_HI: u32 = 21;
+    pub const NBR_HI: u32 = 22;
 }
 
 /// WGSL constants generated from this file, prepended to `common.wgsl`.
@@ -232,8 +236,9 @@ pub struct Params {
     pub n_chunks: u32,
     /// 1: each list build also sorts the particles by cell (`scatter`, `settle`).
     pub reorder: u32,
-    /// Unused (keeps the record's layout; the WGSL struct has the same word).
-    pub pad1: u32,
+    /// History slots (16-byte records) in the `HIST` binding; the rest are in `HIST_HI`
+    /// (`GpuBuffers::new`: a buffer larger than one binding is bound in two).
+    pub hist_split: u32,
     pub lo_x: f32,
     pub lo_y: f32,
     pub lo_z: f32,
@@ -266,6 +271,11 @@ pub struct Params {
     pub cell_offset: u32,
     /// 1 while the job runs; 0 once the host masked it (its particles are left as they are).
     pub running: u32,
+    /// List words in the `NBR` binding; the rest are in `NBR_HI`.
+    pub nbr_split: u32,
+    pub pad2: u32,
+    pub pad3: u32,
+    pub pad4: u32,
 }
 
 /// A wall as the shaders read it (the same numbers as `WallKernel<f32>`).
@@ -400,7 +410,7 @@ impl Default for Slot {
     }
 }
 
-const _: () = assert!(std::mem::size_of::<Params>() == 224);
+const _: () = assert!(std::mem::size_of::<Params>() == 240);
 const _: () = assert!(std::mem::size_of::<WallGpu>() == 64);
 const _: () = assert!(std::mem::size_of::<Slot>() == 16);
 const _: () = assert!(std::mem::size_of::<RodGpu>() == 48);

@@ -73,12 +73,13 @@ impl Module {
             Module::Integrate => matches!(binding, b::LOAD | b::REF_POS),
             Module::Grid => matches!(
                 binding,
-                b::POS_R | b::INFO | b::VEL_IM | b::OMEGA | b::LOAD | b::HIST | b::ROD
+                b::POS_R | b::INFO | b::VEL_IM | b::OMEGA | b::LOAD | b::HIST | b::HIST_HI | b::ROD
             ),
             Module::Reorder => matches!(binding, b::CELL_START | b::SCRATCH),
-            Module::Contacts => {
-                matches!(binding, b::POS_R | b::VEL_IM | b::OMEGA | b::INFO | b::NBR)
-            }
+            Module::Contacts => matches!(
+                binding,
+                b::POS_R | b::VEL_IM | b::OMEGA | b::INFO | b::NBR | b::NBR_HI
+            ),
         }
     }
 }
@@ -109,6 +110,19 @@ pub mod kernel {
     /// its fixed-point sum: the energy watchdog's U₀.
     pub const CONTACT_ENERGY: usize = 13;
     pub const ELASTIC_SUM: usize = 14;
+    /// The cell-start scan's passes, which index their workgroups along x alone.
+    pub const SCANS: [usize; 3] = [BUILD[1], BUILD[2], BUILD[3]];
+}
+
+/// Workgroups (x, y) of a dispatch of `groups` workgroups of kernel `k`. The per-slot kernels
+/// run in rows of at most `max_x` workgroups when one row would pass the device's limit per
+/// dimension (common.wgsl `flat`); the scans run in one row.
+pub fn dispatch_size(k: usize, groups: u32, max_x: u32) -> (u32, u32) {
+    if kernel::SCANS.contains(&k) || groups <= max_x {
+        return (groups, 1);
+    }
+    let rows = groups.div_ceil(max_x.max(1));
+    (groups.div_ceil(rows), rows)
 }
 
 /// Every kernel of the engine.
@@ -205,6 +219,7 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::OMEGA,
             b::LOAD,
             b::HIST,
+            b::HIST_HI,
             b::ROD,
             b::SCRATCH,
         ],
@@ -217,6 +232,7 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::POS_R,
             b::INFO,
             b::NBR,
+            b::NBR_HI,
             b::REF_POS,
             b::STATUS,
             b::CELL_RANK,
@@ -236,7 +252,9 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::INFO,
             b::LOAD,
             b::HIST,
+            b::HIST_HI,
             b::NBR,
+            b::NBR_HI,
             b::STATUS,
             b::RECORDS,
         ],
@@ -253,7 +271,9 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::INFO,
             b::LOAD,
             b::HIST,
+            b::HIST_HI,
             b::NBR,
+            b::NBR_HI,
             b::STATUS,
             b::RECORDS,
         ],
@@ -274,6 +294,7 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::INFO,
             b::LOAD,
             b::HIST,
+            b::HIST_HI,
             b::STATUS,
             b::CELL_START,
             b::ROD,
@@ -291,7 +312,9 @@ pub const KERNELS: [KernelSpec; 15] = [
             b::OMEGA,
             b::INFO,
             b::HIST,
+            b::HIST_HI,
             b::NBR,
+            b::NBR_HI,
             b::STATUS,
             b::RECORDS,
             b::ENERGY,
@@ -313,7 +336,13 @@ fn min_size(binding: u32) -> u64 {
         b::STATUS => STATUS_WORDS as u64 * 4,
         b::EVENTS | b::CELL_RANK => 8,
         b::SCRATCH => 16,
-        b::NBR | b::CELL_COUNT | b::CELL_START | b::CHUNK_SUMS | b::SORTED | b::ENERGY => 4,
+        b::NBR
+        | b::NBR_HI
+        | b::CELL_COUNT
+        | b::CELL_START
+        | b::CHUNK_SUMS
+        | b::SORTED
+        | b::ENERGY => 4,
         b::ROD => std::mem::size_of::<RodGpu>() as u64,
         b::RECORDS => std::mem::size_of::<RecordGpu>() as u64,
         _ => 16,
@@ -479,7 +508,7 @@ impl Pipelines {
                         .iter()
                         .map(|&n| wgpu::BindGroupEntry {
                             binding: n,
-                            resource: bufs.get(n).as_entire_binding(),
+                            resource: bufs.resource(n),
                         })
                         .collect();
                     dev.device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -206,10 +206,12 @@ impl GpuEngine {
         let binds = &run.binds;
         let mut dispatches = 0u64;
         let mut closing = false;
+        let row = self.row_groups();
         let mut dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
             pass.set_pipeline(&pipes.pipelines[k]);
             pass.set_bind_group(0, &binds.0[k], &[]);
-            pass.dispatch_workgroups(groups, 1, 1);
+            let (x, y) = dispatch_size(k, groups, row);
+            pass.dispatch_workgroups(x, y, 1);
             dispatches += 1;
         };
         let build =

@@ -45,6 +45,7 @@ impl GpuEngine {
     /// # Errors
     /// A failed dispatch or read-back.
     pub fn contact_records_job(&mut self, j: usize) -> Result<Vec<ContactRecord>, EngineError> {
+        let row = self.row_groups();
         let Some(run) = self.run.as_mut() else {
             return Ok(Vec::new());
         };
@@ -71,7 +72,8 @@ impl GpuEngine {
                 let k = kernel::RECORD_CONTACTS;
                 pass.set_pipeline(&self.pipes.pipelines[k]);
                 pass.set_bind_group(0, &run.binds.0[k], &[]);
-                pass.dispatch_workgroups(groups, 1, 1);
+                let (x, y) = dispatch_size(k, groups, row);
+                pass.dispatch_workgroups(x, y, 1);
             }
             self.dev.queue.submit([enc.finish()]);
             let w = buffers::read_at(&self.dev, &run.bufs.status, ST_RECORDS as u64 * 4, 4)?;

@@ -4,6 +4,15 @@
 use super::*;
 
 impl GpuEngine {
+    /// The most bytes one storage binding may hold: the device's limit, or
+    /// `GpuOptions::max_binding_bytes` where that is lower.
+    fn max_binding(&self) -> u64 {
+        let device = self.dev.limits.max_storage_buffer_binding_size;
+        self.options
+            .max_binding_bytes
+            .map_or(device, |b| b.min(device))
+    }
+
     /// Job j's record for the kernels: its own grid, walls, laws and sink, the batch's sizes.
     fn params(
         &self,
@@ -37,7 +46,8 @@ impl GpuEngine {
             scan_chunk: all.scan_chunk,
             n_chunks: all.n_chunks,
             reorder: 0,
-            pad1: 0,
+            // Set by GpuBuffers::new, which splits the bindings.
+            hist_split: 0,
             lo_x: g.lo[0],
             lo_y: g.lo[1],
             lo_z: g.lo[2],
@@ -64,6 +74,10 @@ impl GpuEngine {
             n_job: n_job as u32,
             cell_offset,
             running: self.active[j] as u32,
+            nbr_split: 0,
+            pad2: 0,
+            pad3: 0,
+            pad4: 0,
         }
     }
 
@@ -127,18 +141,18 @@ impl GpuEngine {
             n_chunks: ncell.div_ceil(scan_chunk),
             ..grids[0]
         };
+        // Slots dispatch in rows (`dispatch_size`); the cell scan in one.
         let max_groups = self.dev.limits.max_compute_workgroups_per_dimension;
-        let groups = (total as u32).div_ceil(WORKGROUP_SIZE);
-        if groups.max(all.n_chunks) > max_groups {
+        if all.n_chunks > max_groups {
             return Err(EngineError::Device(format!(
-                "{total} particle slots need {groups} workgroups of {WORKGROUP_SIZE}; {} dispatches at most {max_groups}",
-                self.dev.info.name
+                "{total} particle slots in {ncell} cells need {} scan workgroups; {} dispatches at most {max_groups} along one dimension",
+                all.n_chunks, self.dev.info.name
             )));
         }
         // Builds sort the particles by cell unless the scratch for it would not bind.
+        let max_binding = self.max_binding();
         let reorder = self.options.reorder_by_cell
-            && scratch_bytes(total, self.oriented, self.slots)
-                <= self.dev.limits.max_storage_buffer_binding_size;
+            && scratch_bytes(total, self.oriented, self.slots) <= max_binding;
         let mut params = Vec::with_capacity(states.len());
         let mut offset = 0u32;
         for (j, g) in grids.iter().enumerate() {
@@ -148,7 +162,7 @@ impl GpuEngine {
             offset += g.ncell;
         }
         let packed = buffers::concat(states.iter().map(|s| pack(s)).collect(), n_job, self.slots);
-        let bufs = GpuBuffers::new(&self.dev, &params, &self.walls, &packed, &all)?;
+        let bufs = GpuBuffers::new(&self.dev, max_binding, &params, &self.walls, &packed, &all)?;
         let binds = self.pipes.bind(&self.dev, &bufs);
         let jobs = states
             .iter()

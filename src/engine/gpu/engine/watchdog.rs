@@ -124,7 +124,8 @@ impl GpuEngine {
             for k in [kernel::CONTACT_ENERGY, kernel::ELASTIC_SUM] {
                 pass.set_pipeline(&self.pipes.pipelines[k]);
                 pass.set_bind_group(0, &run.binds.0[k], &[]);
-                pass.dispatch_workgroups(groups, 1, 1);
+                let (x, y) = dispatch_size(k, groups, self.row_groups());
+                pass.dispatch_workgroups(x, y, 1);
             }
         }
         self.dev.queue.submit([enc.finish()]);

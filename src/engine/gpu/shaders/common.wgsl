@@ -46,7 +46,7 @@ struct Params {
     scan_chunk: u32,
     n_chunks: u32,
     reorder: u32,
-    pad1: u32,
+    hist_split: u32,
     lo_x: f32,
     lo_y: f32,
     lo_z: f32,
@@ -75,6 +75,10 @@ struct Params {
     n_job: u32,
     cell_offset: u32,
     running: u32,
+    nbr_split: u32,
+    pad2: u32,
+    pad3: u32,
+    pad4: u32,
 }
 
 struct Wall {
@@ -129,6 +133,13 @@ var<private> params: Params;
 
 fn enter(i: u32) {
     params = jobs[min(i / jobs[0].n_job, MAX_JOBS - 1u)];
+}
+
+// The slot of an invocation. A dispatch of more workgroups than one dimension holds (65 535)
+// runs as rows of nwg.x workgroups (`pipelines::dispatch_size`); the last row's invocations
+// past the slots return at their kernel's bounds check.
+fn flat(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * WG;
 }
 
 fn enter_global() {

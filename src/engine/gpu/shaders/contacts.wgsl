@@ -13,6 +13,27 @@
 @group(0) @binding(8) var<storage, read> nbr: array<u32>;
 @group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(19) var<storage, read_write> records: array<Rec>;
+@group(0) @binding(21) var<storage, read_write> hist_hi: array<Slot>;
+@group(0) @binding(22) var<storage, read> nbr_hi: array<u32>;
+
+// History slot x and list word x, wherever the binding split put them (layout.rs `HIST_HI`).
+fn hist_get(x: u32) -> Slot {
+    if (x < params.hist_split) { return hist[x]; }
+    return hist_hi[x - params.hist_split];
+}
+
+fn hist_set(x: u32, v: Slot) {
+    if (x < params.hist_split) {
+        hist[x] = v;
+    } else {
+        hist_hi[x - params.hist_split] = v;
+    }
+}
+
+fn nbr_get(x: u32) -> u32 {
+    if (x < params.nbr_split) { return nbr[x]; }
+    return nbr_hi[x - params.nbr_split];
+}
 
 // One contact as `record_contacts` leaves it: (slot of i, id of i, slot of j or the wall's index,
 // flags: 1 wall, 2 j fixed), (position of i, id of j as bits), branch c_i − c_j or c_i − contact
@@ -74,7 +95,7 @@ fn rows_open(i: u32) {
     full = false;
     loop {
         if (old_len >= params.slots) { break; }
-        let s = hist[slot_at(i, old_len)];
+        let s = hist_get(slot_at(i, old_len));
         if (s.key == EMPTY) { break; }
         old_key[old_len] = s.key;
         old_spring[old_len] = s.spring;
@@ -95,14 +116,14 @@ fn rows_put(i: u32, key: u32, spring: vec3<f32>) {
         full = true;
         return;
     }
-    hist[slot_at(i, new_len)] = Slot(spring, key);
+    hist_set(slot_at(i, new_len), Slot(spring, key));
     new_len++;
 }
 
 fn rows_close(i: u32) {
     if (RECORD) { return; }
     for (var s = new_len; s < max(old_len, new_len); s++) {
-        hist[slot_at(i, s)] = Slot(vec3<f32>(0.0), EMPTY);
+        hist_set(slot_at(i, s), Slot(vec3<f32>(0.0), EMPTY));
     }
 }
 
@@ -183,9 +204,9 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
         wi = omega[i].xyz;
     }
     let fixed_i = v4.w == 0.0;
-    let cnt = nbr[nbr_at(i, 0u)];
+    let cnt = nbr_get(nbr_at(i, 0u));
     for (var q = 0u; q < cnt; q++) {
-        let j = nbr[nbr_at(i, 1u + q)];
+        let j = nbr_get(nbr_at(i, 1u + q));
         let other = info[j];
         if (other.alive == 0u) { continue; }
         let vj4 = vel_im[j];
@@ -266,8 +287,11 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
 }
 
 @compute @workgroup_size(WG)
-fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn compute_forces(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n) { return; }
     // Steps done after this one (1-based step index); the next kick_drift reads it.
     let k = atomicLoad(&status[ST_STEP_NEXT]);
@@ -323,8 +347,11 @@ fn compute_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
 // mobile particle), with the force a step would compute now: for stress observers
 // (`GpuEngine::contact_records_job`). Writes nothing else.
 @compute @workgroup_size(WG)
-fn record_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn record_contacts(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n) { return; }
     enter(i);
     if (params.running == 0u) { return; }
@@ -345,8 +372,11 @@ fn record_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
 // its status block (the scale of `elastic_sum`): the energy watchdog's U₀, at a chunk's start
 // right after its list build. Compiled with RECORD: springs are read, nothing else is written.
 @compute @workgroup_size(WG)
-fn contact_energy(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn contact_energy(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n) { return; }
     enter(i);
     var u = 0.0;

@@ -20,6 +20,22 @@
 @group(0) @binding(4) var<storage, read> omega: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> load: array<Load>;
 @group(0) @binding(7) var<storage, read> hist: array<Slot>;
+@group(0) @binding(21) var<storage, read> hist_hi: array<Slot>;
+@group(0) @binding(22) var<storage, read_write> nbr_hi: array<u32>;
+
+// History slot x and list word x, wherever the binding split put them (layout.rs `HIST_HI`).
+fn hist_get(x: u32) -> Slot {
+    if (x < params.hist_split) { return hist[x]; }
+    return hist_hi[x - params.hist_split];
+}
+
+fn nbr_set(x: u32, v: u32) {
+    if (x < params.nbr_split) {
+        nbr[x] = v;
+    } else {
+        nbr_hi[x - params.nbr_split] = v;
+    }
+}
 @group(0) @binding(18) var<storage, read> rod: array<Rod>;
 @group(0) @binding(20) var<storage, read_write> scratch: array<vec4<u32>>;
 
@@ -46,8 +62,11 @@ fn cell_of(p: vec3<f32>) -> vec3<u32> {
 }
 
 @compute @workgroup_size(WG)
-fn histogram(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn histogram(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n || void_build()) { return; }
     enter(i);
     if (info[i].alive == 0u || params.running == 0u) { return; }
@@ -178,8 +197,11 @@ fn scan_apply(
 // (within a cell, in the atomics' order: nothing depends on it, reorder.wgsl), so `sorted` holds
 // the new slots and the particle's record goes to `scratch` for `settle` to unpack.
 @compute @workgroup_size(WG)
-fn scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn scatter(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n || void_build()) { return; }
     enter(i);
     if (info[i].alive == 0u || params.running == 0u) { return; }
@@ -216,7 +238,7 @@ fn pack(i: u32, t: u32) {
     }
     let h0 = select(PACKED_SPHERE, PACKED_ROD, ORIENTED);
     for (var q = 0u; q < params.slots; q++) {
-        let h = hist[slot_at(i, q)];
+        let h = hist_get(slot_at(i, q));
         scratch[packed_at(t, h0 + q)] = vec4<u32>(bitcast<vec3<u32>>(h.spring), h.key);
         if (h.key == EMPTY) { break; }
     }
@@ -269,8 +291,11 @@ fn scan_range(i: u32, p: vec3<f32>, ri: f32, a: u32, b: u32, k0: u32) -> u32 {
 }
 
 @compute @workgroup_size(WG)
-fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn build_list(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n || void_build()) { return; }
     enter(i);
     let p4 = pos_r[i];
@@ -280,7 +305,7 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
         ref_pos[shape_at(i)] = pos_r[shape_at(i)];
     }
     if (info[i].alive == 0u || params.running == 0u) {
-        nbr[nbr_at(i, 0u)] = 0u;
+        nbr_set(nbr_at(i, 0u), 0u);
         return;
     }
     let p = p4.xyz;
@@ -320,9 +345,9 @@ fn build_list(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var b = 0u; b < m; b++) {
             rank += select(0u, 1u, found_id[b] < key);
         }
-        nbr[nbr_at(i, 1u + rank)] = found_slot[a];
+        nbr_set(nbr_at(i, 1u + rank), found_slot[a]);
     }
-    nbr[nbr_at(i, 0u)] = m;
+    nbr_set(nbr_at(i, 0u), m);
     if (k > params.stride) {
         atomicMax(&status[sw(ST_LIST_OVERFLOW)], k);
     }

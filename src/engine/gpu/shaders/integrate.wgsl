@@ -23,8 +23,11 @@ fn flag_stale(k: u32) {
 // Step k's kick and drift of every particle, then (oriented runs) its rotation; the step index
 // advances here for `compute_forces`. Void when an earlier step left the lists stale.
 @compute @workgroup_size(WG)
-fn kick_drift(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn kick_drift(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n) { return; }
     let k = atomicLoad(&status[ST_STEP]);
     if (atomicLoad(&status[ST_STALE]) < k) { return; }
@@ -102,8 +105,11 @@ fn half_kick_dv(i: u32, im: f32) -> vec3<f32> {
 }
 
 @compute @workgroup_size(WG)
-fn close_kick(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn close_kick(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n || atomicLoad(&status[ST_STALE]) != 0xffffffffu) { return; }
     enter(i);
     if (params.running == 0u) { return; }
@@ -178,8 +184,11 @@ fn check_particle(i: u32) -> f32 {
 // The chunk's closing checks: each live particle's kinetic energy is left in energy[i] and the
 // job's largest in its status block (the scale of `energy_sum`).
 @compute @workgroup_size(WG)
-fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+fn finish(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = flat(gid, nwg);
     if (i >= jobs[0].n) { return; }
     var e = 0.0;
     if (atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
@@ -205,9 +214,10 @@ fn ke_exponent(max_bits: u32) -> i32 {
 // An energy summed so that no order of the particles (in the buffers or in time) can change a
 // bit: each particle's energy[i] is rounded to a multiple of 2^(ke_exponent − KE_BITS), the
 // exponent from the job's largest (its f32 bits in status word `max_word`), and the integers are
-// added exactly (two words with carry) into two words per workgroup from energy[at]; the host
-// adds the workgroups' sums in u128 and scales back.
-fn fixed_sum(i: u32, t: u32, max_word: u32, at: u32) {
+// added exactly (two words with carry) into the two words of workgroup g from energy[at + 2 g];
+// the host adds the workgroups' sums in u128 and scales back. Workgroups past the slots (the
+// last row of a 2-D dispatch) write nothing.
+fn fixed_sum(i: u32, t: u32, max_word: u32, g: u32, at: u32) {
     var lo = 0u;
     var hi = 0u;
     if (i < jobs[0].n && atomicLoad(&status[ST_STALE]) == 0xffffffffu) {
@@ -233,10 +243,15 @@ fn fixed_sum(i: u32, t: u32, max_word: u32, at: u32) {
         }
         workgroupBarrier();
     }
-    if (t == 0u) {
-        energy[at] = ke_lo[0];
-        energy[at + 1u] = ke_hi[0];
+    if (t == 0u && g < groups_of_slots()) {
+        energy[at + 2u * g] = ke_lo[0];
+        energy[at + 2u * g + 1u] = ke_hi[0];
     }
+}
+
+// Workgroups that cover the slots.
+fn groups_of_slots() -> u32 {
+    return (jobs[0].n + WG - 1u) / WG;
 }
 
 // The kinetic energy `finish` left per slot, summed per workgroup.
@@ -245,8 +260,9 @@ fn energy_sum(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    fixed_sum(gid.x, lid.x, ST_KE_MAX, jobs[0].n + 2u * wid.x);
+    fixed_sum(flat(gid, nwg), lid.x, ST_KE_MAX, wid.x + wid.y * nwg.x, jobs[0].n);
 }
 
 // The elastic energy `contact_energy` left per slot, summed per workgroup after the kinetic
@@ -256,7 +272,8 @@ fn elastic_sum(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    fixed_sum(gid.x, lid.x, ST_U_MAX, jobs[0].n + 2u * (groups.x + wid.x));
+    let g = wid.x + wid.y * nwg.x;
+    fixed_sum(flat(gid, nwg), lid.x, ST_U_MAX, g, jobs[0].n + 2u * groups_of_slots());
 }

@@ -11,6 +11,16 @@
 @group(0) @binding(5) var<storage, read_write> info: array<Info>;
 @group(0) @binding(6) var<storage, read_write> load: array<Load>;
 @group(0) @binding(7) var<storage, read_write> hist: array<Slot>;
+@group(0) @binding(21) var<storage, read_write> hist_hi: array<Slot>;
+
+// History slot x, wherever the binding split put it (layout.rs `HIST_HI`).
+fn hist_set(x: u32, v: Slot) {
+    if (x < params.hist_split) {
+        hist[x] = v;
+    } else {
+        hist_hi[x - params.hist_split] = v;
+    }
+}
 @group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read> cell_start: array<u32>;
 @group(0) @binding(18) var<storage, read_write> rod: array<Rod>;
@@ -21,8 +31,11 @@ fn f4(t: u32, q: u32) -> vec4<f32> {
 }
 
 @compute @workgroup_size(WG)
-fn settle(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let t = gid.x;
+fn settle(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let t = flat(gid, nwg);
     if (t >= jobs[0].n || atomicLoad(&status[ST_STALE]) < atomicLoad(&status[ST_STEP])) {
         return;
     }
@@ -37,7 +50,7 @@ fn settle(@builtin(global_invocation_id) gid: vec3<u32>) {
         vel_im[t] = vec4<f32>(0.0);
         load[t] = Load(vec4<f32>(0.0), vec4<f32>(0.0));
         for (var q = 0u; q < params.slots; q++) {
-            hist[slot_at(t, q)] = Slot(vec3<f32>(0.0), EMPTY);
+            hist_set(slot_at(t, q), Slot(vec3<f32>(0.0), EMPTY));
         }
         return;
     }
@@ -63,6 +76,6 @@ fn settle(@builtin(global_invocation_id) gid: vec3<u32>) {
             h = Slot(bitcast<vec3<f32>>(w.xyz), w.w);
             open = w.w != EMPTY;
         }
-        hist[slot_at(t, q)] = h;
+        hist_set(slot_at(t, q), h);
     }
 }

@@ -278,9 +278,9 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
     let use_rows = HISTORY;
     let v4 = vel_im[i];
     let fixed_i = v4.w == 0.0;
-    let cnt = nbr[nbr_at(i, 0u)];
+    let cnt = nbr_get(nbr_at(i, 0u));
     for (var q = 0u; q < cnt; q++) {
-        let j = nbr[nbr_at(i, 1u + q)];
+        let j = nbr_get(nbr_at(i, 1u + q));
         let other = info[j];
         if (other.alive == 0u) { continue; }
         let fixed_j = vel_im[j].w == 0.0;
