@@ -218,7 +218,7 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
 }
 
 fn chute_rods(n: usize, seed: u64) -> BenchScene {
-    use crate::scene::chute::{ChuteParams, ChuteScene};
+    use crate::scene::{ChuteParams, ChuteScene};
     let p0 = ChuteParams {
         aspect_ratio: 1.5,
         inclination_deg: 28.0,

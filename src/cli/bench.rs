@@ -171,6 +171,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         },
     );
     let vcm_x = px / mass;
+    // Per-pass device times over one more chunk (state put back), where the GPU stamps passes.
+    let passes = engine
+        .profile_passes(a.steps.min(PROFILED_STEPS))
+        .map_err(|e| anyhow::anyhow!("timing the passes: {e}"))?;
     let machine = format!(
         "{} cores, {}",
         std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -188,7 +192,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "dispatches": dispatches.map(|d| dispatch_json(&d)),
                 // The GPU engine's variants (environment; recorded for every backend, read by the GPU's).
                 "gpu_options": sweep::runner::gpu_variants::gpu_options()
-                    .map_or(serde_json::Value::Null, |o| sweep::runner::gpu_variants::describe(&o))
+                    .map_or(serde_json::Value::Null, |o| sweep::runner::gpu_variants::describe(&o)),
+                "gpu_pass_times": passes
             })
         );
     } else {
@@ -209,6 +214,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 d.voided_steps,
                 d.submissions
             );
+        }
+        if let Some(p) = &passes {
+            println!("  {}", describe_passes(p));
+        } else if info.kind == "gpu" {
+            println!("  pass times: the adapter has no timestamp queries");
         }
         if runs.len() > 1 {
             let all: Vec<String> = runs.iter().map(|x| format!("{x:.3e}")).collect();
@@ -353,4 +363,31 @@ pub fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
         "voided_steps": d.voided_steps,
         "submissions": d.submissions,
     })
+}
+
+/// Steps of the profiled chunk (`Backend::profile_passes`).
+const PROFILED_STEPS: u64 = 100;
+
+/// Device time per step of each kernel, the most costly first, and the chunk's once-only passes.
+fn describe_passes(p: &[sweep::engine::PassTime]) -> String {
+    let steps = p.first().map_or(0, |t| t.steps_timed).max(1) as f64;
+    let total: f64 = p.iter().map(|t| t.ns).sum();
+    let mut sorted: Vec<&sweep::engine::PassTime> = p.iter().collect();
+    sorted.sort_by(|a, b| b.ns.total_cmp(&a.ns));
+    let each: Vec<String> = sorted
+        .iter()
+        .map(|t| {
+            format!(
+                "{} {:.1} µs ×{}",
+                t.kernel,
+                t.ns / t.calls as f64 / 1e3,
+                t.calls
+            )
+        })
+        .collect();
+    format!(
+        "pass times over one chunk of {steps} steps: {:.1} µs per step in all; {}",
+        total / steps / 1e3,
+        each.join(", ")
+    )
 }

@@ -5,8 +5,8 @@ use std::collections::BTreeSet;
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
-use sweep::scene::chute::ChuteScene;
 use sweep::scene::silo::{SiloPhase, SiloScene};
+use sweep::scene::ChuteScene;
 
 use super::DbArg;
 

@@ -147,4 +147,25 @@ pub trait Backend: Send {
     fn dispatches(&self) -> Option<DispatchCount> {
         None
     }
+    /// The device time of each kernel over a chunk of `steps` steps, the state put back after
+    /// (GPU engines whose device stamps passes; None otherwise).
+    ///
+    /// # Errors
+    /// A failed dispatch or read-back.
+    fn profile_passes(&mut self, _steps: u64) -> Result<Option<Vec<PassTime>>, EngineError> {
+        Ok(None)
+    }
+}
+
+/// One kernel's device time over a profiled chunk (`Backend::profile_passes`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassTime {
+    /// The kernel's entry point.
+    pub kernel: String,
+    /// Dispatches of it in the chunk.
+    pub calls: u64,
+    /// Their device time together (ns), from the adapter's timestamps.
+    pub ns: f64,
+    /// Steps the chunk took before its lists went stale (later steps return at once).
+    pub steps_timed: u64,
 }

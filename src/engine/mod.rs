@@ -34,7 +34,9 @@ mod verlet;
 pub mod walls;
 pub mod watchdog;
 
-pub use backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError, SinkEvent};
+pub use backend::{
+    Backend, BackendInfo, ChunkReport, DispatchCount, EngineError, PassTime, SinkEvent,
+};
 pub use config::EngineConfig;
 pub use cpu::CpuEngine;
 pub use effects::Effects;

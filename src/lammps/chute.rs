@@ -28,7 +28,7 @@ use anyhow::Context as _;
 use crate::campaign::JobSpec;
 use crate::engine::contact::{beta, NormalModel};
 use crate::engine::State;
-use crate::scene::chute::ChuteScene;
+use crate::scene::ChuteScene;
 
 /// Bin width of the profiles, in particle diameters.
 pub const PROFILE_BIN_D: f64 = 1.0;

@@ -3,6 +3,7 @@
 //! scene picks the paper: silo (PRE 2020) or chute (Soft Matter 2022).
 
 mod accuracy;
+mod accuracy_runs;
 pub mod accuracy_shift;
 mod campaign;
 mod chute;

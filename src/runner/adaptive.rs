@@ -201,7 +201,7 @@ fn chute_point(
 ) -> Result<(PointState, PointRow, JobSpec)> {
     let spec = spec_of(p.jobs[0])?;
     let cp = spec.chute();
-    let scene = crate::scene::chute::ChuteScene::new(cp.clone()).map_err(|e| anyhow::anyhow!(e))?;
+    let scene = crate::scene::ChuteScene::new(cp.clone()).map_err(|e| anyhow::anyhow!(e))?;
     let steps_per_s = cp.count() as f64 / scene.dt;
     let found = pooled.iter().find(|c| c.point == p.key);
     let widest = found.and_then(|c| {

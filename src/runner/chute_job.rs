@@ -21,7 +21,7 @@ use crate::observe::chute::{
     CHUNK_S,
 };
 use crate::observe::steady::{check_window, FlowSample, SteadyDetector, WindowCheck};
-use crate::scene::chute::ChuteScene;
+use crate::scene::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
 use crate::store::ChuteJobResults;
 

@@ -13,40 +13,12 @@
 //! more than `WARM_OVERLAP_D` (rods lie along the flow, x); a lattice would start a crystal that
 //! slides as a plug. Spin starts at zero.
 
-use schemars::JsonSchema;
-use serde::{Deserialize, Serialize};
-
-use super::chute::{ChuteParams, ChuteScene};
+use super::chute::ChuteParams;
+pub use super::chute::InitialState;
+use super::chute_scene::ChuteScene;
 use super::dense_bed::DenseBed;
 use super::silo::FieldError;
 use crate::engine::State;
-
-/// How a chute job's flowing particles start.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum InitialState {
-    /// A loose random gas at rest, poured onto the base (the paper's protocol).
-    #[default]
-    Pour,
-    /// A dense lattice bed moving with a Bagnold velocity profile.
-    Bagnold,
-}
-
-impl InitialState {
-    /// Serde's skip test: the default is left out of a job's parameters (its hash).
-    pub fn is_pour(&self) -> bool {
-        *self == InitialState::Pour
-    }
-}
-
-/// Default inertial number of the Bagnold guess: a dense flow well above the stopping angle
-/// (spheres with μ = 0.5 flow at I ≈ 0.05–0.3 between the two critical angles).
-pub const DEFAULT_WARM_INERTIAL_NUMBER: f64 = 0.1;
-
-/// Serde's skip test for `warm_inertial_number` (left out at its default, older hashes kept).
-pub fn default_warm_inertial_number(i: &f64) -> bool {
-    *i == DEFAULT_WARM_INERTIAL_NUMBER
-}
 
 /// Rotation taking the body axis (z) to the flow direction (x): a quarter turn about y.
 const ALONG_X: [f64; 4] = [

@@ -3,6 +3,7 @@
 
 mod blame;
 pub mod chute;
+pub mod chute_scene;
 pub mod chute_warm_start;
 pub mod dense_bed;
 pub mod fill;
@@ -11,7 +12,8 @@ pub mod placement_checks;
 pub mod silo;
 mod silo_checks;
 
-pub use chute::{ChuteParams, ChuteScene};
+pub use chute::ChuteParams;
+pub use chute_scene::ChuteScene;
 pub use silo::{SiloParams, SiloScene};
 
 /// Whether a scene's `origin_m` is the default (then it is left out of the job's parameters,

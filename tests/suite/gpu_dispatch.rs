@@ -317,6 +317,52 @@ fn rows_of_workgroups_do_not_change_the_bits() {
     }
 }
 
+/// Pass timings (`sweep bench`): where the device stamps passes, each step's two kernels are
+/// timed once per step with a positive time, the builds and closing passes once; the profiled
+/// chunk leaves no trace (the state and the run after it keep every bit). Without timestamp
+/// queries there is nothing to report.
+#[test]
+fn pass_times_come_from_the_device_and_leave_the_run_alone() {
+    let Some(dev) = device() else { return };
+    let stamps = dev
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let mut plain = stirred(&dev, 1500, GpuOptions::default());
+    let mut timed = stirred(&dev, 1500, GpuOptions::default());
+    plain.advance(50).expect("chunk");
+    timed.advance(50).expect("chunk");
+    let passes = timed.profile_passes(20).expect("profiled chunk");
+    eprintln!(
+        "{} ({}timestamps): {passes:?}",
+        dev.info.name,
+        if stamps { "" } else { "no " }
+    );
+    match passes {
+        None => assert!(!stamps, "the device stamps passes but none were timed"),
+        Some(p) => {
+            let of = |k: &str| {
+                p.iter()
+                    .find(|t| t.kernel == k)
+                    .unwrap_or_else(|| panic!("{k}: {p:?}"))
+            };
+            for k in ["kick_drift", "compute_forces"] {
+                assert_eq!(of(k).calls, 20);
+            }
+            for k in ["build_list", "finish", "energy_sum"] {
+                assert_eq!(of(k).calls, 1);
+            }
+            assert!(p.iter().all(|t| t.ns >= 0.0 && t.steps_timed <= 20));
+            assert!(of("compute_forces").ns > 0.0, "{p:?}");
+        }
+    }
+    assert!(state_bits(&plain.download()) == state_bits(&timed.download()));
+    assert!(
+        run(&mut plain, 2, 100) == run(&mut timed, 2, 100),
+        "the profiled run differs after"
+    );
+}
+
 /// 6·10⁵ spheres of the bench's silo bed: 16 history slots take 147 MiB, past lavapipe's
 /// 128 MiB binding (two ranges), and the scratch of a sorting build does not bind (builds keep
 /// the order). Three steps in one chunk and in chunks of 1 and 2 end in the same bits; every

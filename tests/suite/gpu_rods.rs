@@ -65,7 +65,7 @@ use sweep::engine::history::{wall_key, EMPTY};
 use sweep::engine::shape::{contact_spherocylinders, Quat, Spherocylinder};
 use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};
-use sweep::scene::chute::{ChuteParams, ChuteScene};
+use sweep::scene::{ChuteParams, ChuteScene};
 
 fn plane(point: [f64; 3], normal: [f64; 3]) -> Wall {
     Wall {

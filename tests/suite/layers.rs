@@ -24,7 +24,6 @@ const KNOWN: &[&str] = &[
     "runner/adaptive.rs <-> runner/claim_points.rs <-> runner/claim_rounds.rs",
     "runner/claim_points.rs -> report",
     "scene/chute.rs -> observe",
-    "scene/chute.rs <-> scene/chute_warm_start.rs",
     "scene/chute_warm_start.rs -> campaign",
     "store/jobs.rs <-> store/lookup.rs <-> store/requeue.rs",
 ];

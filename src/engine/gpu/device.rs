@@ -227,7 +227,8 @@ impl GpuDevice {
         let limits = required_limits(&adapter.limits());
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sweep device"),
-            required_features: wgpu::Features::empty(),
+            // Timestamps time the passes in `sweep bench` where the adapter has them.
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             required_limits: limits.clone(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,

@@ -34,7 +34,7 @@ use super::layout::{
     MAX_WALLS, SCAN_ITEMS, STATUS_WORDS, ST_BUILDS, ST_DEATHS, ST_KE_MAX, ST_RECORDS, ST_STALE,
     ST_STEP, ST_STEP_NEXT, ST_U_MAX, WORKGROUP_SIZE,
 };
-use super::pipelines::{dispatch_size, kernel, BindGroups, Pipelines, Specialization};
+use super::pipelines::{dispatch_size, kernel, BindGroups, Pipelines, Specialization, KERNELS};
 use super::schedule::BuildSchedule;
 use super::status::{read_chunk, ChunkContext};
 use crate::engine::backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError};
@@ -47,6 +47,7 @@ use crate::engine::state::State;
 mod chunk;
 mod compaction;
 mod membership;
+mod profile;
 mod readback;
 mod single;
 mod upload;

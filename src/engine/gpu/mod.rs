@@ -6,11 +6,11 @@ mod device;
 mod engine;
 mod grid;
 mod layout;
+mod packed;
 mod pipelines;
 mod schedule;
 mod status;
 
-pub use buffers::{pack, unpack, Packed};
 pub use device::{
     enumerate_adapters, instance, is_hardware, list_adapters, quiet_headless_device_select,
     required_limits, vulkan_driver_files, AdapterPolicy, AdapterReport, GpuDevice, VULKAN_ICD_DIRS,
@@ -18,3 +18,4 @@ pub use device::{
 pub use engine::{GpuEngine, GpuOptions};
 pub use grid::{list_capacity, plan_grid, GridSpec};
 pub use layout::{MAX_JOBS, MAX_WALLS, WORKGROUP_SIZE};
+pub use packed::{pack, unpack, Packed};

@@ -46,6 +46,13 @@ impl Backend for GpuEngine {
         Some(self.dispatches)
     }
 
+    fn profile_passes(
+        &mut self,
+        steps: u64,
+    ) -> Result<Option<Vec<crate::engine::backend::PassTime>>, EngineError> {
+        GpuEngine::profile_passes(self, steps)
+    }
+
     fn describe(&self) -> BackendInfo {
         BackendInfo {
             kind: "gpu".into(),
