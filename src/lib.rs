@@ -12,6 +12,7 @@ pub mod engine;
 pub mod export;
 pub mod lammps;
 pub mod observe;
+pub mod pooled;
 pub mod report;
 pub mod runner;
 pub mod scene;

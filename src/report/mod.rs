@@ -19,23 +19,23 @@ mod silo;
 mod streamlines;
 mod table;
 
-pub use campaign::{find_campaign, split_version, CampaignRef};
-pub use chute::replicas::{
+pub use crate::pooled::chute::{
     combine_point, group_points, pool_diffusion, pooled_points, ChutePoint, OverReplicas,
     PointBlock, PointProfiles, BULK_BED, CENTRAL_BED,
 };
+pub use crate::pooled::silo::{pooled_q_points, CiSource, FlowPoint, QPoint};
+pub use campaign::{find_campaign, split_version, CampaignRef};
 pub use drawn::Output;
 pub use index::{render_all, AllFigures};
 pub use missing::{campaign_completion, Completion};
 pub use plot::{Axis, Figure, Legend, Panel, Scale, Series, SeriesKind};
 pub use render::{figures_of, render_figure, render_figure_with, FigureReport, FIGURES};
-pub use silo::data::{pooled_q_points, CiSource, FlowPoint, QPoint};
 pub use table::Table;
 
 /// The silo's replicas combined into points, as fig3–fig5 combine them (campaign targets use
 /// the same statistic).
 pub mod silo_points {
-    pub use super::silo::data::{
+    pub use crate::pooled::silo::{
         combine_replicas, gravity_m_per_s2, CiSource, DischargeRow, FlowPoint,
     };
 }

@@ -13,7 +13,7 @@ use rusqlite::{Connection, TransactionBehavior};
 use crate::campaign::adaptive::{decide, Decision, PointState, RunState, Work};
 use crate::campaign::{point_key, CampaignFile, JobSpec, SceneKind, Target};
 use crate::observe::fits::{Pooled, PooledFrom};
-use crate::report::silo_points::{combine_replicas, CiSource, DischargeRow};
+use crate::pooled::silo::{combine_replicas, CiSource, DischargeRow};
 use crate::scene::silo::SiloScene;
 use crate::store::silo_reads::done_discharge_rows;
 use crate::store::targets::{self, PointRow, TargetJob, WorkRow};
@@ -196,7 +196,7 @@ fn silo_point(
 /// steady run can measure on; an unsteady one cannot.
 fn chute_point(
     p: &Point,
-    pooled: &[crate::report::ChutePoint],
+    pooled: &[crate::pooled::chute::ChutePoint],
     observable: &str,
 ) -> Result<(PointState, PointRow, JobSpec)> {
     let spec = spec_of(p.jobs[0])?;
@@ -367,7 +367,7 @@ pub fn evaluate_for(
     let rounds_done = targets::rounds(conn, campaign_id)?;
     let mut points = Vec::new();
     let chute = if file.scene == SceneKind::Chute {
-        crate::report::pooled_points(conn, campaign_id)?
+        crate::pooled::chute::pooled_points(conn, campaign_id)?
     } else {
         Vec::new()
     };

@@ -1,6 +1,6 @@
 //! A campaign's points as its claims read them: each point's parameters and its pooled
 //! results, read from the store exactly as the figures pool them. Silo: Q over replicas and
-//! blocks (`report::silo_points`). Chute: every result is the mean over at least
+//! blocks (`pooled::silo`). Chute: every result is the mean over at least
 //! [`CHUTE_MIN_REPLICAS`] steady replicas with the Student-t error of their spread, so the
 //! interval includes the scatter between realisations.
 
@@ -14,8 +14,8 @@ use crate::campaign::{point_key, point_params, SceneKind};
 use crate::observe::claims::{result_key, Estimate, PointData, SceneConstants};
 use crate::observe::fits::mean_ci95;
 use crate::observe::fits::t_975;
-use crate::report::silo_points::gravity_m_per_s2;
-use crate::report::CENTRAL_BED;
+use crate::pooled::chute::CENTRAL_BED;
+use crate::pooled::silo::gravity_m_per_s2;
 use crate::store::chute_reads::{blocks, done_chute_jobs, BlockRow};
 
 use super::adaptive::Evaluation;
@@ -50,7 +50,7 @@ pub fn claim_points(
     let mut constants = None;
     match ev.file.scene {
         SceneKind::Silo => {
-            let pooled = crate::report::pooled_q_points(conn, campaign_id)?;
+            let pooled = crate::pooled::silo::pooled_q_points(conn, campaign_id)?;
             for (k, p) in keys.iter().zip(out.iter_mut()) {
                 let found = pooled.iter().find(|(key, ..)| key == k);
                 match found.and_then(|(_, _, _, fp)| fp.as_ref()) {

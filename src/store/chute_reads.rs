@@ -1,6 +1,6 @@
 //! Reading chute results back: a job's measurement window and z profiles for the exporters;
 //! a campaign's done jobs, their per-block rows and curves and the shear-rate profile for the
-//! figures (`report::chute::data`). Values in the database's SI units.
+//! figures (`pooled::chute_jobs`). Values in the database's SI units.
 
 use anyhow::Result;
 use rusqlite::{params, Connection, OptionalExtension};

@@ -1,4 +1,4 @@
-//! Reading silo results back for the figures (`report::silo::data`, `report::silo::fields`): the
+//! Reading silo results back for the figures (`pooled::silo`, `report::silo::fields`): the
 //! discharge summaries of a campaign's done jobs, a job's M(t) and its clogs.
 
 use anyhow::Result;

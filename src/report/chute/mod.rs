@@ -11,9 +11,9 @@
 //! skewness combine the steady replicas of a point (`replicas`): D pooled with its 95 % CI, the
 //! other block values their mean.
 
-pub(crate) mod data;
 mod profiles;
-pub(crate) mod replicas;
+#[cfg(test)]
+mod replica_tests;
 mod scaling;
 mod velocity;
 
@@ -27,12 +27,12 @@ use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, sci, short, Table};
 use crate::observe::chute::FlowState;
-use crate::report::chute::data::{
+use crate::pooled::chute::{combine_point, replicas_of};
+use crate::pooled::chute_jobs::{
     block_curves, blocks, closest_job, done_chute_jobs, done_without_summary, left_out_chute_jobs,
     ChuteJob, CurveTable,
 };
-use crate::report::chute::replicas::{combine_point, replicas_of};
-use crate::report::silo::data::spread;
+use crate::pooled::silo::spread;
 
 pub(crate) use crate::report::chute::profiles::{fig3, fig4};
 pub(crate) use crate::report::chute::scaling::fig6;

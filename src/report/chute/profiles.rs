@@ -10,13 +10,13 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use rusqlite::Connection;
 
+use crate::pooled::chute::{combine_point, group_points, replicas_caption};
+use crate::pooled::chute_jobs::{closest, done_chute_jobs, ChuteJob};
+use crate::pooled::silo::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::data::{closest, done_chute_jobs, ChuteJob};
-use crate::report::chute::replicas::{combine_point, group_points, replicas_caption};
 use crate::report::chute::{caption, color, empty_panel, preface};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// Fig. 3: the profiles at the campaign's ξ closest to 1.3.

@@ -9,14 +9,14 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::observe::fits::{linear_fit, LinearFit};
+use crate::pooled::chute::CENTRAL_BED;
+use crate::pooled::chute::{combine_point, group_points, replicas_caption};
+use crate::pooled::chute_jobs::{done_chute_jobs, ChuteJob};
+use crate::pooled::silo::{distinct, same_value};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::data::{done_chute_jobs, ChuteJob};
-use crate::report::chute::replicas::CENTRAL_BED;
-use crate::report::chute::replicas::{combine_point, group_points, replicas_caption};
 use crate::report::chute::{caption, color, preface, GREY};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, same_value};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// One block of the central bed of one point (its replicas combined), lengths in units of L.

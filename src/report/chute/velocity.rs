@@ -9,16 +9,16 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use rusqlite::Connection;
 
+use crate::pooled::chute::{combine_point, replicas_caption, replicas_of};
+use crate::pooled::chute_jobs::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
+use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::data::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
-use crate::report::chute::replicas::{combine_point, replicas_caption, replicas_of};
 use crate::report::chute::{
     caption, case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices,
     GREY,
 };
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{replica_label, REPLICA_NOTE};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// "z = 2.5 L", or the block index when the block has no chute_blocks row.

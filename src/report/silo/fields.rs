@@ -8,11 +8,11 @@ use anyhow::{bail, Result};
 use rusqlite::Connection;
 
 use crate::observe::silo_fields::MEAN_FLOWING;
+use crate::pooled::silo::{distinct, done_discharge_rows, same_value};
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::field_map::{MapFigure, MapPanel, MapRow};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, done_discharge_rows, same_value};
 use crate::report::streamlines::Field2d;
 use crate::report::table::{csv_num, mm, short, Table};
 use crate::store::fields::{list_field_sets, load_field_arrays, FieldArray, FieldSet};

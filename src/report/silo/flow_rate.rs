@@ -8,13 +8,13 @@ use crate::observe::fits::{
     beverloo_fit, janda_bootstrap, janda_fit, JandaFit, JandaIntervals, JandaPoint,
     BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
-use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn, Output};
-use crate::report::plot::{Axis, Figure, Legend, Marker, Panel, Series};
-use crate::report::silo::data::{
+use crate::pooled::silo::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2,
     replica_label, same_value, CiSource, CloggedPoint, DischargeRow, FlowPoint, REPLICA_NOTE,
 };
+use crate::report::campaign::CampaignRef;
+use crate::report::drawn::{write_all, Drawn, Output};
+use crate::report::plot::{Axis, Figure, Legend, Marker, Panel, Series};
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
 /// Used for Beverloo only when no job parameter gives gravity; the table says so.
@@ -287,7 +287,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     }
     q_panel
         .notes
-        .extend(super::data::target_note(conn, campaign.id)?);
+        .extend(crate::pooled::silo::target_note(conn, campaign.id)?);
     let dmin_label = (!dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
     dmin_panel
         .series

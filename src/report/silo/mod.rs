@@ -3,7 +3,6 @@
 //! Q/Q_{f=1} vs f (Figs. 4 and 5). Every number comes from discharge_summary and
 //! discharge_series of the campaign's done jobs; nothing from the paper is hard-coded.
 
-pub(crate) mod data;
 pub(crate) mod fields;
 mod flow_rate;
 mod normalise;
@@ -22,7 +21,7 @@ use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, mm, sci, short, Table};
-use crate::report::silo::data::{distinct, done_discharge_rows, mass_series, same_value, spread};
+use crate::pooled::silo::{distinct, done_discharge_rows, mass_series, same_value, spread};
 
 /// At most this many M(t) curves in Fig. 2, so the legend stays readable.
 const MAX_FIG2_CURVES: usize = 8;

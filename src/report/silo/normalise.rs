@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use crate::report::silo::data::{distinct, same_value, CloggedPoint, FlowPoint};
+use crate::pooled::silo::{distinct, same_value, CloggedPoint, FlowPoint};
 use crate::report::table::{csv_num, fixed, mm, sci, short, Table};
 
 /// Q/Q_ref vs f for one orifice.

@@ -6,13 +6,13 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use rusqlite::Connection;
 
-use crate::report::campaign::CampaignRef;
-use crate::report::drawn::{write_all, Drawn, Output};
-use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{
+use crate::pooled::silo::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, replica_label, same_value,
     spread, target_note, CloggedPoint, REPLICA_NOTE,
 };
+use crate::report::campaign::CampaignRef;
+use crate::report::drawn::{write_all, Drawn, Output};
+use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::silo::normalise::{normalise, Normalised, NormalisedCurve};
 use crate::report::table::mm;
 

@@ -6,10 +6,10 @@ use rusqlite::Connection;
 
 use crate::observe::fits::mean_ci95;
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
+use crate::pooled::silo::{distinct, replica_label, same_value};
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
-use crate::report::silo::data::{distinct, replica_label, same_value};
 use crate::report::table::{csv_num, mm, short, Table};
 use crate::store::fields::load_flagged_series;
 use crate::store::silo_reads::clog_intervals;

@@ -87,9 +87,9 @@ fn three_pooled_replicas_show_their_count_and_a_narrower_interval() {
 fn pooled_q_points_are_the_figure_points() {
     let (conn, d_rep) = pooled_db();
     let id = test_rows::campaign_id(&conn, "pooled");
-    let points = crate::report::silo::data::pooled_q_points(&conn, id).expect("points");
-    let rows = crate::report::silo::data::done_discharge_rows(&conn, id).expect("rows");
-    let combined = crate::report::silo::data::combine_replicas(&rows);
+    let points = crate::pooled::silo::pooled_q_points(&conn, id).expect("points");
+    let rows = crate::pooled::silo::done_discharge_rows(&conn, id).expect("rows");
+    let combined = crate::pooled::silo::combine_replicas(&rows);
     assert_eq!(points.len(), 8);
     assert_eq!(combined.len(), 8);
     for ((key, label, jobs, point), c) in points.iter().zip(&combined) {
@@ -115,7 +115,7 @@ fn pooled_q_points_are_the_figure_points() {
     );
     // A point whose every run clogged has its jobs and no Q.
     add_clogged_job(&conn, id, 0.010, 0.0);
-    let points = crate::report::silo::data::pooled_q_points(&conn, id).expect("points");
+    let points = crate::pooled::silo::pooled_q_points(&conn, id).expect("points");
     let clogged: Vec<_> = points.iter().filter(|p| p.3.is_none()).collect();
     assert_eq!(clogged.len(), 1);
     assert_eq!(clogged[0].2.len(), 1);

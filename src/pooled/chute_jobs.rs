@@ -9,7 +9,7 @@ pub use crate::store::chute_reads::{
     left_out_chute_jobs, shear_profile, BlockRow, ChuteJob, CurveTable,
 };
 
-use crate::report::silo::data::same_value;
+use crate::pooled::silo::same_value;
 
 /// The value of `values` closest to `target` (ties: the smaller one); None when empty.
 pub fn closest(values: impl Iterator<Item = f64>, target: f64) -> Option<f64> {

@@ -1,0 +1,177 @@
+//! Replicas of chute points pooled (`pooled::chute`) and drawn: a synthetic campaign of steady
+//! and drifted replicas with known D and errors.
+
+use rusqlite::Connection;
+
+use crate::observe::fits::{t_975, PooledFrom};
+use crate::pooled::chute::*;
+use crate::pooled::chute_jobs::done_chute_jobs;
+use crate::store::test_rows::{self, ChuteBlock, ChuteSummary};
+
+const L: f64 = 0.125;
+const H: f64 = 20.0 * L;
+const BLOCKS: i64 = 20;
+/// Each replica's standard error of D, relative.
+const SE_REL: f64 = 0.05;
+
+fn d0(z: f64) -> f64 {
+    1e-4 * (1.0 - 0.9 * z / H)
+}
+
+/// A done job at (ξ, α) = (1.3, `alpha`), replica `replica`, whose D is `scale` × d0(z)
+/// with a relative standard error of `SE_REL` (none when `with_se` is false).
+fn add(conn: &Connection, c: i64, alpha: f64, replica: u32, scale: f64, state: &'static str) {
+    let label = format!("aspect_ratio=1.3,inclination_deg={alpha},replica={replica}");
+    let params = format!(
+        r#"{{"scene":"chute","chute":{{"aspect_ratio":1.3,"inclination_deg":{alpha},"replica":{replica}}}}}"#
+    );
+    let job = test_rows::chute_job(conn, c, &label, "done", &params);
+    let summary = ChuteSummary {
+        aspect_ratio: 1.3,
+        inclination_deg: alpha,
+        total_length_m: L,
+        bed_height_m: H,
+        d_perp_m: 0.07,
+        measure_s: 240.0,
+        state,
+    };
+    test_rows::chute_summary(conn, job, &summary);
+    for k in 0..BLOCKS {
+        let z = (k as f64 + 0.5) * L;
+        let d = d0(z);
+        let block = ChuteBlock {
+            block: k,
+            z_m: z,
+            d: Some(scale * d),
+            d_se: Some(SE_REL * d),
+            shear_rate: 0.1 * (1.0 - 0.9 * z / H) * scale,
+            velocity_x: z,
+            solid_fraction: 0.55,
+            vz_skewness: Some(0.1 * scale),
+        };
+        test_rows::chute_block(conn, job, &block);
+    }
+    for i in 0..=80 {
+        let z = f64::from(i) * L / 4.0;
+        test_rows::chute_field(conn, job, z, 0.1 * (1.0 - 0.9 * z / H) * scale);
+    }
+}
+
+/// Point α = 27°: three steady replicas at D × (1.001, 1, 0.999) and a fourth that drifted
+/// (D × 2); point α = 28°: one steady run.
+fn db() -> (Connection, i64) {
+    let conn = test_rows::empty_db();
+    let c = test_rows::campaign(&conn, "chute_replicas", "chute", "2025-01-01T00:00:00.000Z");
+    for (r, scale) in [1.001, 1.0, 0.999].into_iter().enumerate() {
+        add(&conn, c, 27.0, r as u32, scale, "steady");
+    }
+    add(&conn, c, 27.0, 3, 2.0, "drifted");
+    add(&conn, c, 28.0, 0, 1.0, "steady");
+    (conn, c)
+}
+
+#[test]
+fn pooled_points_pool_the_steady_replicas_of_each_point() {
+    let (conn, c) = db();
+    let points = pooled_points(&conn, c).expect("points");
+    assert_eq!(points.len(), 2);
+    let (a, b) = (&points[0], &points[1]);
+    assert_eq!(a.label, "aspect_ratio=1.3,inclination_deg=27");
+    assert_eq!((a.jobs.len(), a.steady_jobs.len()), (4, 3));
+    assert_eq!(a.steady_jobs, a.jobs[..3].to_vec());
+    assert!(!a.point.contains("replica"), "{}", a.point);
+    // 0.2 H < z < 0.8 H: blocks 4 to 15.
+    assert_eq!(a.bulk_d.len(), 12);
+    let one = t_975(3.0) * SE_REL;
+    let three = t_975(9.0) * SE_REL / 3f64.sqrt();
+    for (z, d) in &a.bulk_d {
+        assert!((d.mean - d0(*z)).abs() < 1e-12 * d0(*z), "{z}: {d:?}");
+        assert_eq!((d.replicas, d.from), (3, PooledFrom::Blocks));
+        assert!((d.dof - 9.0).abs() < 1e-9, "{z}: {d:?}");
+        assert!((d.ci95_rel() - three).abs() < 1e-9, "{z}: {d:?}");
+        assert!(d.ci95_rel() < one);
+    }
+    let widest = a.widest_bulk_ci_rel.expect("widest");
+    assert!((widest - three).abs() < 1e-9, "{widest}");
+    assert_eq!((b.jobs.len(), b.steady_jobs.len()), (1, 1));
+    let widest = b.widest_bulk_ci_rel.expect("widest");
+    assert!((widest - one).abs() < 1e-9, "{widest}");
+}
+
+#[test]
+fn replicas_without_their_error_fall_back_to_their_spread() {
+    let (conn, c) = db();
+    let jobs = done_chute_jobs(&conn, c, false).expect("jobs");
+    conn.execute(
+        "UPDATE chute_blocks SET diffusion_stderr_m2_per_s = NULL WHERE job_id = ?1",
+        [jobs[0].job_id],
+    )
+    .expect("update");
+    let groups = group_points(&jobs);
+    assert_eq!(groups.len(), 2);
+    let p = combine_point(&conn, &groups[0]).expect("point");
+    let b = &p.blocks[5];
+    let d = b.diffusion.expect("D");
+    assert_eq!((d.replicas, d.from), (3, PooledFrom::ReplicaSpread));
+    // Student t over D × (1.001, 1, 0.999): s = 0.001 D.
+    let expected = t_975(2.0) * 0.001 * d0(b.z_m) / 3f64.sqrt();
+    assert!((d.ci95 - expected).abs() < 1e-9 * expected, "{d:?}");
+    // A single run without its error: D with an unknown (infinite) interval.
+    let single = combine_point(&conn, &groups[0][..1]).expect("single");
+    let d = single.blocks[5].diffusion.expect("D");
+    assert!(d.ci95.is_infinite() && d.replicas == 1);
+    // The other profiles: the replicas' mean with a t-interval.
+    assert_eq!(b.shear_rate.replicas, 3);
+    assert!(b.shear_rate.ci95.is_some());
+    assert_eq!(p.shear_field.len(), 81);
+    assert_eq!(p.shear_field[10].1.replicas, 3);
+    assert_eq!(error_windows(&jobs[0].params_json), 4.0);
+    assert_eq!(
+        error_windows(r#"{"o":{"chute":{"msd_error_windows":8}}}"#),
+        8.0
+    );
+}
+
+#[test]
+fn figures_draw_the_pooled_points_with_their_count() {
+    let (conn, _) = db();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let fig3 = crate::report::render_figure(&conn, "fig3", None, dir.path()).expect("fig3");
+    assert!(
+        fig3.table.contains("not steady, left out")
+            && fig3
+                .table
+                .contains("aspect_ratio=1.3,inclination_deg=27,replica=3"),
+        "{}",
+        fig3.table
+    );
+    let csv = std::fs::read_to_string(dir.path().join("chute_fig3.csv")).expect("csv");
+    let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+    assert_eq!(header.last(), Some(&"replicas"));
+    // The label is quoted (it holds a comma): the cells after it.
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.contains("inclination_deg=27\"") && l.contains("D_L2_per_s"))
+        .map(|l| l.rsplit_once("\",").expect("label").1.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), BLOCKS as usize);
+    for r in &rows {
+        assert_eq!(r[8], "3", "{r:?}");
+        let (d, ci): (f64, f64) = (r[4].parse().expect("D"), r[6].parse().expect("ci"));
+        let rel = t_975(9.0) * SE_REL / 3f64.sqrt();
+        assert!((ci / d - rel).abs() < 1e-9, "{r:?}");
+    }
+    let svg = std::fs::read_to_string(dir.path().join("chute_fig3.svg")).expect("svg");
+    assert!(svg.contains("n=3"), "no replica count in the figure");
+    let fig6 = crate::report::render_figure(&conn, "fig6", None, dir.path()).expect("fig6");
+    let csv = std::fs::read_to_string(dir.path().join("chute_fig6.csv")).expect("csv");
+    // 0.3 H < z < 0.7 H: 8 blocks per point, not per replica.
+    assert_eq!(csv.lines().count(), 1 + 2 * 8, "{}", fig6.table);
+    let fig5 = crate::report::render_figure(&conn, "fig5", None, dir.path()).expect("fig5");
+    assert!(
+        fig5.table.contains("1 of its point's 3 replicas"),
+        "{}",
+        fig5.table
+    );
+}
