@@ -160,3 +160,9 @@ impl JobSpec {
         )
     }
 }
+
+/// A job's own directory (checkpoints, snapshots, its lock) under the work directory: the first
+/// 16 hex digits of its hash.
+pub fn job_dir(work: &std::path::Path, hash: &str) -> std::path::PathBuf {
+    work.join("jobs").join(&hash[..16])
+}

@@ -25,7 +25,7 @@ pub use executor::{ExecutorKind, SlurmSettings};
 pub use expand::expand;
 pub use file::{CampaignFile, JobBackend, Observers, Precision, RunSettings, SceneKind};
 pub use identity::{key_with, Identity};
-pub use job_spec::JobSpec;
+pub use job_spec::{job_dir, JobSpec};
 pub use jobs::Jobs;
 pub use point::{label_without_replica, point_key, point_params};
 pub use resources::{memory_estimate, memory_limit, MemoryEstimate, MemoryLimit, MEMORY_LIMIT_ENV};

@@ -25,9 +25,9 @@ use super::error::ExportError;
 use super::pvd::{collection, PvdEntry};
 use super::vti::field_set_to_vti;
 use super::vtu::frame_to_vtu;
+use crate::campaign::job_dir;
 use crate::checkpoint;
 use crate::observe::snapshots::{list_frames, read_frame, snapshot_dir, Frame};
-use crate::runner::job::job_dir;
 use crate::store::fields::{list_field_sets, load_field_arrays, FieldArray, FieldSet};
 
 /// What to export and how.

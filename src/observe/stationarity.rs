@@ -89,6 +89,11 @@ pub fn trend(t: &[f64], y: &[f64], batches: usize, tol: f64) -> Option<Trend> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_chute_checks_the_same_fewest_batches() {
+        assert_eq!(super::MIN_BATCHES, crate::scene::chute::MIN_STEADY_BATCHES);
+    }
+
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

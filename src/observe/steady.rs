@@ -17,6 +17,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::stationarity::{trend, Trend};
+use crate::scene::ChuteParams;
 
 /// Thresholds of the steady-state criteria (recorded with each job through its parameters).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -38,6 +39,22 @@ pub struct SteadySettings {
     /// window's: waiting for the steady state, the coming measurement's length, so that a flow
     /// passes only if its trend would stay within tolerance while it is measured.
     pub horizon_s: f64,
+}
+
+impl SteadySettings {
+    /// A chute job's criteria over a window of `window_s` seconds, trends judged over the
+    /// measurement's length when it is longer.
+    pub fn of_chute(p: &ChuteParams, window_s: f64) -> Self {
+        Self {
+            horizon_s: p.measure_time_s,
+            window_s,
+            tol_ke: p.steady_kinetic_tolerance,
+            tol_vx: p.steady_velocity_tolerance,
+            tol_ratio: p.steady_stress_tolerance,
+            batches: p.steady_batches,
+            min_flow_velocity_m_per_s: p.min_flow_velocity_m_per_s(),
+        }
+    }
 }
 
 impl Default for SteadySettings {

@@ -20,7 +20,9 @@ use crate::observe::chute::{
     ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, FlowRecord, FlowState,
     CHUNK_S,
 };
-use crate::observe::steady::{check_window, FlowSample, SteadyDetector, WindowCheck};
+use crate::observe::steady::{
+    check_window, FlowSample, SteadyDetector, SteadySettings, WindowCheck,
+};
 use crate::scene::ChuteScene;
 use crate::store::jobs::{self, JobRow, Lease};
 use crate::store::ChuteJobResults;
@@ -285,7 +287,10 @@ impl Study for ChuteStudy {
         let prog = Progress {
             ledger: Ledger::default(),
             phase: Phase::Flowing,
-            detector: SteadyDetector::new(p.steady_settings(p.steady_window_s), p.inclination_deg),
+            detector: SteadyDetector::new(
+                SteadySettings::of_chute(p, p.steady_window_s),
+                p.inclination_deg,
+            ),
             series: Vec::new(),
             observer: None,
             transient: None,
@@ -450,7 +455,11 @@ impl Study for ChuteStudy {
                 .copied()
                 .collect();
             let span = window.last()?.t - window.first()?.t;
-            check_window(&window, &p.steady_settings(span), prog.detector.tan_alpha())
+            check_window(
+                &window,
+                &SteadySettings::of_chute(p, span),
+                prog.detector.tan_alpha(),
+            )
         });
         let state = FlowState::judge(prog.transient.as_ref(), measurement.as_ref());
         let results = prog

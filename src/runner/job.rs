@@ -57,10 +57,7 @@ pub struct JobContext {
     pub log: Arc<dyn Fn(String) + Send + Sync>,
 }
 
-/// A job's own directory (checkpoints, snapshots, its lock) under the work directory.
-pub fn job_dir(work: &Path, hash: &str) -> PathBuf {
-    work.join("jobs").join(&hash[..16])
-}
+pub use crate::campaign::job_dir;
 
 /// What every study's checkpoint keeps about the run itself (flattened into its progress
 /// record, so the checkpoint's JSON keeps its fields where they always were).

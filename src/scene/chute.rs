@@ -20,11 +20,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::engine::contact::{contact_time, ContactLaw, ContactPair, NormalModel};
 use crate::engine::shape::Spherocylinder;
-use crate::observe::stationarity::MIN_BATCHES;
-use crate::observe::steady::SteadySettings;
 
 use super::blame::{time_step_problems, Reset, TimeStepInputs};
 use super::silo::FieldError;
+
+/// Fewest batch means `steady_batches` may ask for: the stationarity test's own minimum
+/// (`observe::stationarity::MIN_BATCHES`, which a test there keeps equal to this).
+pub const MIN_STEADY_BATCHES: usize = 4;
 
 /// Smallest periodic box side, in particle lengths L, a campaign may ask for.
 pub const MIN_BOX_LENGTHS: f64 = 4.0;
@@ -319,11 +321,11 @@ impl ChuteParams {
                 );
             }
         }
-        if self.steady_batches < MIN_BATCHES {
+        if self.steady_batches < MIN_STEADY_BATCHES {
             err(
                 "steady_batches",
                 format!(
-                    "expected at least {MIN_BATCHES} batch means, got {}",
+                    "expected at least {MIN_STEADY_BATCHES} batch means, got {}",
                     self.steady_batches
                 ),
             );
@@ -524,20 +526,6 @@ impl ChuteParams {
     /// The flowing threshold on the bed's mean V_x (m/s).
     pub fn min_flow_velocity_m_per_s(&self) -> f64 {
         self.min_flow_velocity_ratio * (self.gravity_m_per_s2 * self.particle_length_m).sqrt()
-    }
-
-    /// The steady-state criteria over a window of `window_s` seconds, trends judged over the
-    /// measurement's length when it is longer.
-    pub fn steady_settings(&self, window_s: f64) -> SteadySettings {
-        SteadySettings {
-            horizon_s: self.measure_time_s,
-            window_s,
-            tol_ke: self.steady_kinetic_tolerance,
-            tol_vx: self.steady_velocity_tolerance,
-            tol_ratio: self.steady_stress_tolerance,
-            batches: self.steady_batches,
-            min_flow_velocity_m_per_s: self.min_flow_velocity_m_per_s(),
-        }
     }
 
     /// Total simulated time the job may take (s): the longest wait for steady state plus the

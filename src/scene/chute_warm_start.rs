@@ -203,31 +203,6 @@ mod tests {
         assert_eq!(back, spheres());
     }
 
-    /// A campaign may name the warm start's parameters (and `tangential_restitution`, also left
-    /// out at its default); at their defaults the job is the one without them (same hash), a
-    /// bad value is refused naming its JSON path.
-    #[test]
-    fn campaign_defaults_keep_job_hashes() {
-        use crate::campaign::{expand, CampaignFile};
-        let hash = |base: &str| {
-            let text = format!(r#"{{"name": "t", "scene": "chute", "base": {{{base}}}}}"#);
-            let c = CampaignFile::parse_str(&text, "t.json").unwrap();
-            expand(&c, "t.json").map(|j| j.get(0).hash())
-        };
-        let plain = hash(r#""inclination_deg": 27.0"#).unwrap();
-        let defaults = hash(
-            r#""inclination_deg": 27.0, "initial_state": "pour", "warm_inertial_number": 0.1,
-            "warm_surface_velocity_m_per_s": null, "tangential_restitution": null"#,
-        )
-        .unwrap();
-        assert_eq!(plain, defaults);
-        let warm = hash(r#""inclination_deg": 27.0, "initial_state": "bagnold""#).unwrap();
-        assert_ne!(plain, warm);
-        let e = hash(r#""initial_state": "bagnold", "warm_inertial_number": 0.0"#).unwrap_err();
-        assert!(e.to_string().contains("warm_inertial_number"), "{e}");
-        assert!(hash(r#""initial_state": "lattice""#).is_err());
-    }
-
     /// Every flowing particle of the warm bed: no overlap with another (minimum image) or the
     /// base beyond `WARM_OVERLAP_D` d, V_x on Bagnold's curve, the bed's φ the target one and
     /// not layered (no 1 d bin of the bulk denser than 0.7: a lattice's layers would be).

@@ -105,3 +105,28 @@ fn a_warm_rod_bed_runs() {
     assert!(vx.is_finite() && vx > 0.0, "mean v_x {vx}");
     assert!(s.kinetic_energy().is_finite());
 }
+
+/// A campaign may name the warm start's parameters (and `tangential_restitution`, also left
+/// out at its default); at their defaults the job is the one without them (same hash), a
+/// bad value is refused naming its JSON path.
+#[test]
+fn campaign_defaults_keep_job_hashes() {
+    use sweep::campaign::{expand, CampaignFile};
+    let hash = |base: &str| {
+        let text = format!(r#"{{"name": "t", "scene": "chute", "base": {{{base}}}}}"#);
+        let c = CampaignFile::parse_str(&text, "t.json").unwrap();
+        expand(&c, "t.json").map(|j| j.get(0).hash())
+    };
+    let plain = hash(r#""inclination_deg": 27.0"#).unwrap();
+    let defaults = hash(
+        r#""inclination_deg": 27.0, "initial_state": "pour", "warm_inertial_number": 0.1,
+        "warm_surface_velocity_m_per_s": null, "tangential_restitution": null"#,
+    )
+    .unwrap();
+    assert_eq!(plain, defaults);
+    let warm = hash(r#""inclination_deg": 27.0, "initial_state": "bagnold""#).unwrap();
+    assert_ne!(plain, warm);
+    let e = hash(r#""initial_state": "bagnold", "warm_inertial_number": 0.0"#).unwrap_err();
+    assert!(e.to_string().contains("warm_inertial_number"), "{e}");
+    assert!(hash(r#""initial_state": "lattice""#).is_err());
+}

@@ -16,13 +16,10 @@ const KNOWN: &[&str] = &[
     "cli/bench.rs <-> cli/bench_batch.rs",
     "cli/launch.rs <-> cli/run_args.rs <-> cli/shared.rs <-> cli/submit.rs",
     "engine/grid.rs <-> engine/state.rs",
-    "export/job.rs -> runner",
     "report/chute/mod.rs <-> report/chute/profiles.rs <-> report/chute/scaling.rs <-> report/chute/velocity.rs",
     "report/claims.rs <-> report/index.rs",
     "report/drawn.rs <-> report/plot/mod.rs <-> report/raster.rs",
     "runner/adaptive.rs <-> runner/claim_points.rs <-> runner/claim_rounds.rs",
-    "scene/chute.rs -> observe",
-    "scene/chute_warm_start.rs -> campaign",
     "store/jobs.rs <-> store/lookup.rs <-> store/requeue.rs",
 ];
 
