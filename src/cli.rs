@@ -1,7 +1,9 @@
 //! Command-line definitions (clap derive) and dispatch; one file per subcommand in `cli/`.
 
 mod bench;
+mod bench_args;
 mod bench_batch;
+mod bench_dispatches;
 mod cancel;
 mod claims;
 mod collect;

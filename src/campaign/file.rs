@@ -7,29 +7,11 @@ use serde::{Deserialize, Serialize};
 
 use super::error::{CampaignError, FieldProblem};
 use super::executor::{ExecutorKind, SlurmSettings};
+pub use super::scene_kind::SceneKind;
 use crate::observe::chute::ChuteObserverSettings;
 use crate::observe::discharge::DischargeSettings;
 use crate::observe::silo_fields::SiloFieldSettings;
 use crate::observe::snapshots::SnapshotSettings;
-
-/// Scene kinds a campaign can run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum SceneKind {
-    /// Silo with a rotating bottom (PRE 2020); parameters: see `SiloParams`.
-    Silo,
-    /// Chute flow of spherocylinders (Soft Matter 2022); parameters: see `ChuteParams`.
-    Chute,
-}
-
-impl SceneKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            SceneKind::Silo => "silo",
-            SceneKind::Chute => "chute",
-        }
-    }
-}
 
 /// Floating-point precision of the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema, Default)]

@@ -16,6 +16,7 @@ mod job_spec;
 mod jobs;
 mod point;
 mod resources;
+mod scene_kind;
 mod schema;
 mod target;
 

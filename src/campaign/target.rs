@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::error::FieldProblem;
-use super::file::SceneKind;
+use super::scene_kind::SceneKind;
 
 /// When a campaign's points are known well enough, and how far sweep may go to get there.
 ///

@@ -10,7 +10,8 @@ use sweep::engine::gpu::GpuEngine;
 use sweep::engine::{Backend, State};
 use sweep::runner::backend::{self, BackendChoice};
 
-use super::bench::{dispatch_json, since, Arguments};
+use super::bench_args::Arguments;
+use super::bench_dispatches::{dispatch_json, since};
 
 pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> anyhow::Result<i32> {
     anyhow::ensure!(

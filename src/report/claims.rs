@@ -7,8 +7,7 @@ use std::fmt::Write as _;
 
 use serde_json::Value;
 
-use super::index::escape;
-use super::table::csv_num;
+use super::table::{csv_num, escape};
 use crate::observe::claims::short;
 use crate::store::claims::VerdictRow;
 

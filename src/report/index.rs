@@ -12,6 +12,7 @@ use rusqlite::Connection;
 use super::campaign::find_campaign;
 use super::drawn::Output;
 use super::render::{figures_of, render_figure_with, FigureReport};
+use super::table::escape;
 
 /// What `--figure all` drew.
 #[derive(Debug)]
@@ -52,12 +53,6 @@ pub fn render_all(conn: &Connection, campaign: Option<&str>, out: &Output) -> Re
         figures: drawn,
         index,
     })
-}
-
-pub(super) fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 /// The file name of `path` (figures link their files relative to the index).

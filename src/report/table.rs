@@ -121,6 +121,13 @@ pub fn mm(d_m: f64) -> String {
     short(d_m * 1e3)
 }
 
+/// `s` with the characters HTML and Markdown tables would read as markup escaped (&, <, >).
+pub(super) fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
