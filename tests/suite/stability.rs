@@ -1067,6 +1067,23 @@ fn run_until_error(b: &mut dyn Backend, chunks: usize, steps: u64) -> Option<(En
     None
 }
 
+/// `err` is the energy watchdog's, past 4× its budget, in the chunk of 10 steps from step `at`.
+fn assert_energy_blow_up(err: &EngineError, at: u64, label: &str) {
+    let EngineError::EnergyBlowUp {
+        to_j,
+        budget_j,
+        growth,
+        first_step,
+        step,
+        ..
+    } = *err
+    else {
+        panic!("{label}: expected EnergyBlowUp, got: {err}")
+    };
+    assert!(to_j > 4.0 * budget_j && growth > 4.0 && first_step == at + 1 && step == at + 10);
+    assert!(err.to_string().contains("lower dt"), "{err}");
+}
+
 /// Case 9a: a loose bed at dt = 3 t_c explodes: with the default watchdog it must stop with
 /// EnergyBlowUp, Overlap or NonFinite within 20 000 steps (chunks of 100; measured: Overlap at step
 /// 22, 59.6 d). With the overlap check off and chunks of 10 steps, the energy check alone must stop
@@ -1096,19 +1113,7 @@ fn the_watchdog_stops_an_exploding_bed() {
         let (err, at) =
             run_until_error(&mut e, 2_000, 10).expect("the bed ran 20 000 steps without error");
         eprintln!("dt = {ratio} t_c, overlap check off, chunks of 10: stopped in the chunk from step {at}: {err}");
-        let EngineError::EnergyBlowUp {
-            to_j,
-            budget_j,
-            growth,
-            first_step,
-            step,
-            ..
-        } = err
-        else {
-            panic!("dt = {ratio} t_c: expected EnergyBlowUp, got: {err}")
-        };
-        assert!(to_j > 4.0 * budget_j && growth > 4.0 && first_step == at + 1 && step == at + 10);
-        assert!(err.to_string().contains("lower dt"), "{err}");
+        assert_energy_blow_up(&err, at, &format!("dt = {ratio} t_c"));
     }
 }
 
@@ -1318,18 +1323,7 @@ fn gpu_energy_watchdog_stops_an_exploding_bed() {
         let (err, at) =
             run_until_error(&mut g, 2_000, 10).expect("the bed ran 20 000 steps without error");
         eprintln!("dt = {ratio} t_c on the GPU, overlap check off, chunks of 10: stopped in the chunk from step {at}: {err}");
-        let EngineError::EnergyBlowUp {
-            to_j,
-            budget_j,
-            growth,
-            first_step,
-            step,
-            ..
-        } = err
-        else {
-            panic!("dt = {ratio} t_c on the GPU: expected EnergyBlowUp, got: {err}")
-        };
-        assert!(to_j > 4.0 * budget_j && growth > 4.0 && first_step == at + 1 && step == at + 10);
+        assert_energy_blow_up(&err, at, &format!("dt = {ratio} t_c on the GPU"));
     }
 }
 

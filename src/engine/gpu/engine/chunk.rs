@@ -199,7 +199,6 @@ impl GpuEngine {
     /// redone step), up to `steps_per_submit` steps, and the closing passes after the last.
     fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
-        let gc = run.grid.n_chunks;
         let build_dispatches = BUILD_DISPATCHES + run.reorder as u8;
         let sorting = run.reorder as u64;
         let pipes = &self.pipes;
@@ -217,16 +216,7 @@ impl GpuEngine {
         let build =
             |pass: &mut wgpu::ComputePass<'_>,
              dispatch: &mut dyn FnMut(&mut wgpu::ComputePass<'_>, usize, u32)| {
-                for (p, &k) in kernel::BUILD.iter().enumerate() {
-                    // histogram, scan_blocks, scan_totals, scan_apply, scatter, build_list.
-                    let groups = match p {
-                        1 | 3 => gc,
-                        2 => 1,
-                        _ => gp,
-                    };
-                    if k == kernel::BUILD[5] && run.reorder {
-                        dispatch(pass, kernel::SETTLE, gp);
-                    }
+                for (k, groups) in build_passes(run) {
                     dispatch(pass, k, groups);
                 }
             };
@@ -333,6 +323,28 @@ impl GpuEngine {
             closing,
         }
     }
+}
+
+/// The (kernel, workgroups) of one list build: histogram, scan_blocks, scan_totals, scan_apply,
+/// scatter, then `settle` when builds sort by cell, then build_list.
+pub(super) fn build_passes(run: &Run) -> Vec<(usize, u32)> {
+    let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
+    let gc = run.grid.n_chunks;
+    let mut v = Vec::with_capacity(7);
+    for (p, &k) in kernel::BUILD.iter().enumerate() {
+        if p == 5 && run.reorder {
+            v.push((kernel::SETTLE, gp));
+        }
+        v.push((
+            k,
+            match p {
+                1 | 3 => gc,
+                2 => 1,
+                _ => gp,
+            },
+        ));
+    }
+    v
 }
 
 /// Dispatches of a step without a build, and of one build.

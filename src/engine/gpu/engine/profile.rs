@@ -112,21 +112,7 @@ impl GpuEngine {
     /// The (kernel, workgroups) of a chunk as `submit` records it, without a rebuild mid-chunk.
     fn profiled_passes(&self, run: &Run, steps: u64) -> Vec<(usize, u32)> {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
-        let gc = run.grid.n_chunks;
-        let mut v = Vec::new();
-        for (p, &k) in kernel::BUILD.iter().enumerate() {
-            if p == 5 && run.reorder {
-                v.push((kernel::SETTLE, gp));
-            }
-            v.push((
-                k,
-                match p {
-                    1 | 3 => gc,
-                    2 => 1,
-                    _ => gp,
-                },
-            ));
-        }
+        let mut v = super::chunk::build_passes(run);
         if self.checks_energy() {
             v.push((kernel::CONTACT_ENERGY, gp));
             v.push((kernel::ELASTIC_SUM, gp));
