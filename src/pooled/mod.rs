@@ -5,4 +5,5 @@
 
 pub mod chute;
 pub mod chute_jobs;
+pub mod replica_results;
 pub mod silo;

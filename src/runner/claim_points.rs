@@ -11,12 +11,12 @@ use rusqlite::Connection;
 
 use crate::campaign::claims::CHUTE_MIN_REPLICAS;
 use crate::campaign::{point_key, point_params, SceneKind};
-use crate::observe::claims::{result_key, Estimate, PointData, SceneConstants};
+use crate::observe::claims::{Estimate, PointData, SceneConstants};
 use crate::observe::fits::mean_ci95;
 use crate::observe::fits::t_975;
-use crate::pooled::chute::CENTRAL_BED;
+use crate::pooled::replica_results::chute_replica_results;
 use crate::pooled::silo::gravity_m_per_s2;
-use crate::store::chute_reads::{blocks, done_chute_jobs, BlockRow};
+use crate::store::chute_reads::{blocks, done_chute_jobs};
 
 use super::adaptive::Evaluation;
 
@@ -92,7 +92,7 @@ pub fn claim_points(
                     .collect();
                 let mut per_replica: Vec<BTreeMap<String, f64>> = Vec::new();
                 for j in &steady {
-                    per_replica.push(chute_values(
+                    per_replica.push(chute_replica_results(
                         &blocks(conn, j.job_id)?,
                         j.bed_height_m,
                         j.d_perp_m,
@@ -132,84 +132,4 @@ pub fn claim_points(
         }
     }
     Ok((out, constants))
-}
-
-/// One steady chute replica's results: over the central bed (blocks centred in 0.3 H < z < 0.7 H,
-/// the paper's 6 L < z < 14 L, averaged) and per block ("D@k").
-fn chute_values(rows: &[BlockRow], bed_height_m: f64, d_perp_m: f64) -> BTreeMap<String, f64> {
-    let mut out = BTreeMap::new();
-    let d2 = d_perp_m * d_perp_m;
-    let mut bulk: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for r in rows {
-        let ratio = r
-            .diffusion_m2_per_s
-            .filter(|_| r.shear_rate_per_s != 0.0)
-            .map(|d| d / r.shear_rate_per_s);
-        let values = [
-            ("D", r.diffusion_m2_per_s),
-            ("shear_rate", Some(r.shear_rate_per_s)),
-            ("D_over_shear_rate", ratio),
-            ("V_x", Some(r.velocity_x_m_per_s)),
-            ("phi", Some(r.solid_fraction)),
-            ("d_perp2", Some(d2)),
-            ("shear_rate_d_perp2", Some(r.shear_rate_per_s * d2)),
-        ];
-        let in_bulk = r.z_m > CENTRAL_BED.0 * bed_height_m && r.z_m < CENTRAL_BED.1 * bed_height_m;
-        for (name, v) in values {
-            let Some(v) = v.filter(|x| x.is_finite()) else {
-                continue;
-            };
-            out.insert(result_key(name, Some(r.block)), v);
-            if in_bulk {
-                bulk.entry(name).or_default().push(v);
-            }
-        }
-    }
-    for (name, v) in bulk {
-        out.insert(name.to_string(), v.iter().sum::<f64>() / v.len() as f64);
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(block: i64, z_m: f64, d: f64, shear: f64) -> BlockRow {
-        BlockRow {
-            block,
-            z_m,
-            diffusion_m2_per_s: Some(d),
-            diffusion_stderr_m2_per_s: None,
-            msd_fit_r: None,
-            shear_rate_per_s: shear,
-            velocity_x_m_per_s: 2.0 * z_m,
-            solid_fraction: 0.55,
-            vz_std_m_per_s: None,
-            vz_skewness: None,
-            correlation_length_m: None,
-        }
-    }
-
-    #[test]
-    fn a_replica_gives_bulk_means_and_block_values() {
-        // H = 1 m: blocks centred at 0.1, 0.3 and 0.9 m are outside the central bed (0.3 H,
-        // 0.7 H).
-        let rows = [
-            row(0, 0.1, 9.0, 9.0),
-            row(4, 0.3, 9.0, 9.0),
-            row(1, 0.4, 1.0, 2.0),
-            row(2, 0.5, 3.0, 2.0),
-            row(3, 0.9, 9.0, 9.0),
-        ];
-        let v = chute_values(&rows, 1.0, 0.1);
-        assert_eq!(v["D"], 2.0);
-        assert_eq!(v["shear_rate"], 2.0);
-        assert_eq!(v["D_over_shear_rate"], 1.0);
-        assert!((v["V_x"] - 0.9).abs() < 1e-12);
-        assert!((v["d_perp2"] - 0.01).abs() < 1e-15);
-        assert!((v["shear_rate_d_perp2"] - 0.02).abs() < 1e-15);
-        assert_eq!(v["D@0"], 9.0);
-        assert_eq!(v["D_over_shear_rate@2"], 1.5);
-    }
 }

@@ -43,8 +43,12 @@ pub struct SceneConstants {
 /// Results a silo point gives: Q (kg/s).
 pub const SILO_RESULTS: &[&str] = &["q"];
 
-/// Results a chute point gives, each over the bulk (0.3 H < z < 0.7 H, the paper's 6 L < z < 14 L) or in a block: D
-/// (m²/s), γ̇ (1/s), D/γ̇ (m²), V_x (m/s), φ, d⊥² (m²) and γ̇ d⊥² (m²/s).
+/// Results a chute point gives, each over the central bed (0.3 H < z < 0.7 H, the paper's
+/// 6 L < z < 14 L, the mean of its blocks) and in a block ("D@k", heights k L to (k + 1) L):
+/// D (m²/s), γ̇ (1/s), D/γ̇ (m²), V_x (m/s), φ, d⊥² (m²), γ̇ d⊥² (m²/s), the skewness of v_z, the
+/// correlation length of the velocity fluctuations (m), and the profiles of Figs. 3–4: D/D_max,
+/// γ̇/γ̇_max (each replica's profile over its own maximum) and their gap D/D_max − γ̇/γ̇_max.
+/// Then the results over part of the bed only ([`CHUTE_BED_ONLY`]).
 pub const CHUTE_RESULTS: &[&str] = &[
     "D",
     "shear_rate",
@@ -53,6 +57,25 @@ pub const CHUTE_RESULTS: &[&str] = &[
     "phi",
     "d_perp2",
     "shear_rate_d_perp2",
+    "vz_skewness",
+    "correlation_length",
+    "D_norm",
+    "shear_rate_norm",
+    "profile_gap",
+    "profile_gap_rms",
+    "profile_gap_rms_base",
+    "vz_skewness_base",
+    "vz_skewness_surface",
+];
+
+/// Chute results over a part of the bed, with no value per block: the rms of the profile gap
+/// over the central bed and over the base (z < 0.25 H, the paper's z < 5 L), and the skewness
+/// of v_z in the lowest block and in the highest full block (under the free surface).
+pub const CHUTE_BED_ONLY: &[&str] = &[
+    "profile_gap_rms",
+    "profile_gap_rms_base",
+    "vz_skewness_base",
+    "vz_skewness_surface",
 ];
 
 /// The key of `result` in [`PointData::results`]: the name, or "name@k" in block k.

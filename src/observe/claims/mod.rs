@@ -5,6 +5,8 @@
 
 mod data;
 mod fit_value;
+#[cfg(test)]
+mod profile_tests;
 mod resolve;
 mod spec;
 mod statistic;
@@ -13,10 +15,10 @@ mod tests;
 mod verdict;
 
 pub use data::{
-    matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_RESULTS,
-    SILO_RESULTS,
+    matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_BED_ONLY,
+    CHUTE_RESULTS, SILO_RESULTS,
 };
-pub use resolve::{at_text, Unresolved};
+pub use resolve::{at_text, Unresolved, ALONG_BLOCKS};
 pub use spec::{
     At, Bound, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, TestKind, Trend,
 };

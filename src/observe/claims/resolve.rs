@@ -2,7 +2,7 @@
 //! checked by field (a point the campaign lacks, a result the scene does not compute, a fit
 //! parameter the model lacks), and the statistic that reads them.
 
-use super::data::{result_key, select, PointData, SceneConstants};
+use super::data::{result_key, select, PointData, SceneConstants, CHUTE_BED_ONLY};
 use super::fit_value::GroupValue;
 use super::spec::{At, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, Trend};
 use super::statistic::{short, Cell, Kind, SeriesShape, Side, Statistic, XOf};
@@ -201,16 +201,50 @@ fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
             "blocks are chute heights; a silo result has none".into(),
         ));
     }
-    let side = Side::of(&t.bound())
-        .ok_or_else(|| unresolved(&f, "expected exactly one of below, above, within".into()))?;
+    let side = Side::of(&t.bound()).ok_or_else(|| {
+        unresolved(
+            &f,
+            "expected exactly one of below, above, within, outside".into(),
+        )
+    })?;
+    check_block(&t.result, t.block, &f)?;
     let key = result_key(&t.result, t.block);
     let a = one_point(points, &t.at, &format!("{f}.at"))?;
     let mut cells = vec![Cell {
         point: a,
         key: key.clone(),
     }];
-    match (&t.against, t.value) {
-        (Some(other), None) => {
+    let given = [
+        t.against.is_some(),
+        t.value.is_some(),
+        t.against_block.is_some(),
+        t.against_result.is_some(),
+    ];
+    if given.iter().filter(|g| **g).count() != 1 {
+        return Err(unresolved(
+            &f,
+            "expected exactly one of 'against' (another point), 'against_block', 'against_result' and 'value'"
+                .into(),
+        ));
+    }
+    if let Some(other) = &t.against_result {
+        let field = format!("{f}.against_result");
+        check_result(other, results, &field)?;
+        check_block(other, t.block, &f)?;
+        if *other == t.result {
+            return Err(unresolved(
+                &field,
+                format!("is '{other}', the result compared; expected another result"),
+            ));
+        }
+        cells.push(Cell {
+            point: a,
+            key: result_key(other, t.block),
+        });
+    }
+    match (&t.against, t.value, t.against_block) {
+        (_, _, _) if t.against_result.is_some() => {}
+        (Some(other), None, None) => {
             let b = one_point(points, other, &format!("{f}.against"))?;
             if b == a {
                 return Err(unresolved(
@@ -220,23 +254,41 @@ fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
             }
             cells.push(Cell { point: b, key });
         }
-        (None, Some(_)) => {}
-        _ => {
-            return Err(unresolved(
-                &f,
-                "expected exactly one of 'against' (another point) and 'value'".into(),
-            ))
+        (None, Some(_), None) => {}
+        (None, None, Some(k)) => {
+            let field = format!("{f}.against_block");
+            if silo {
+                return Err(unresolved(
+                    &field,
+                    "blocks are chute heights; a silo result has none".into(),
+                ));
+            }
+            check_block(&t.result, Some(k), &f)?;
+            if t.block == Some(k) {
+                return Err(unresolved(
+                    &field,
+                    format!("is block {k}, the block compared; expected another block"),
+                ));
+            }
+            cells.push(Cell {
+                point: a,
+                key: result_key(&t.result, Some(k)),
+            });
         }
+        _ => unreachable!("exactly one was given"),
     }
     let ratio = t.compare_as == CompareAs::Ratio;
     Ok(Statistic {
         cells,
         side,
-        what: format!(
-            "{} {}",
-            t.result,
-            if ratio { "ratio" } else { "difference" }
-        ),
+        what: match &t.against_result {
+            Some(other) => format!("{} {} {}", t.result, if ratio { "/" } else { "−" }, other),
+            None => format!(
+                "{} {}",
+                t.result,
+                if ratio { "ratio" } else { "difference" }
+            ),
+        },
         kind: Kind::Compare {
             ratio,
             fixed: t.value,
@@ -270,6 +322,10 @@ fn trend(t: &Trend, cx: &Scope) -> Result<Statistic, Unresolved> {
         }
         None => check_result(&t.result, results, &format!("{f}.result"))?,
     }
+    check_block(&t.result, t.block, &f)?;
+    if t.along == ALONG_BLOCKS {
+        return trend_up_blocks(t, cx, &f);
+    }
     let (xs, groups) = along_groups(points, &t.at, &t.along, t.range, &f)?;
     if xs.len() < 2 {
         return Err(unresolved(
@@ -301,6 +357,82 @@ fn trend(t: &Trend, cx: &Scope) -> Result<Statistic, Unresolved> {
     })
 }
 
+/// A trend's `along` that runs up the heights of one chute point instead of across points.
+pub const ALONG_BLOCKS: &str = "block";
+
+/// `trend` along "block": the result in blocks range[0]..=range[1] of the one point `at` picks,
+/// as a series over the block index (z / L).
+fn trend_up_blocks(t: &Trend, cx: &Scope, f: &str) -> Result<Statistic, Unresolved> {
+    if cx.silo {
+        return Err(unresolved(
+            &format!("{f}.along"),
+            "blocks are chute heights; a silo point has none".into(),
+        ));
+    }
+    if t.block.is_some() {
+        return Err(unresolved(
+            &format!("{f}.block"),
+            "a trend along the blocks reads every block of 'range'; expected no 'block'".into(),
+        ));
+    }
+    check_block(&t.result, Some(0), f)?;
+    let Some([lo, hi]) = t.range else {
+        return Err(unresolved(
+            &format!("{f}.range"),
+            "a trend along the blocks needs the first and last block, e.g. [3, 12]".into(),
+        ));
+    };
+    let whole = |v: f64| v.fract() == 0.0 && v >= 0.0;
+    if !whole(lo) || !whole(hi) || hi < lo + 1.0 {
+        return Err(unresolved(
+            &format!("{f}.range"),
+            format!(
+                "expected two block indices, first < last, got [{}, {}]",
+                short(lo),
+                short(hi)
+            ),
+        ));
+    }
+    let point = one_point(cx.points, &t.at, &format!("{f}.at"))?;
+    let (lo, hi) = (lo as i64, hi as i64);
+    let xs: Vec<f64> = (lo..=hi).map(|k| k as f64).collect();
+    let cells: Vec<Cell> = (lo..=hi)
+        .map(|k| Cell {
+            point,
+            key: result_key(&t.result, Some(k)),
+        })
+        .collect();
+    let groups = (0..cells.len()).map(|g| vec![g]).collect();
+    let side = match t.direction {
+        Direction::Rising => Side::Above(0.0),
+        Direction::Falling => Side::Below(0.0),
+    };
+    Ok(Statistic {
+        cells,
+        side,
+        what: format!("slope of {} along the blocks / mean", t.result),
+        kind: Kind::Series {
+            xs,
+            groups,
+            per_group: GroupValue::One,
+            shape: SeriesShape::Trend(t.direction),
+        },
+    })
+}
+
+/// A result given over the bed only (no block) is not read in a block.
+fn check_block(result: &str, block: Option<i64>, f: &str) -> Result<(), Unresolved> {
+    if block.is_some() && CHUTE_BED_ONLY.contains(&result) {
+        return Err(unresolved(
+            &format!("{f}.block"),
+            format!(
+                "'{result}' is a value over part of the bed, not of one block; expected no block"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn minimum_inside(t: &MinimumInside, cx: &Scope) -> Result<Statistic, Unresolved> {
     let Scope {
         path,
@@ -311,6 +443,7 @@ fn minimum_inside(t: &MinimumInside, cx: &Scope) -> Result<Statistic, Unresolved
     } = *cx;
     let f = format!("{path}.minimum_inside");
     check_result(&t.result, results, &format!("{f}.result"))?;
+    check_block(&t.result, t.block, &f)?;
     let (xs, groups) = along_groups(points, &t.at, &t.along, None, &f)?;
     let interior: Vec<usize> = (1..xs.len().saturating_sub(1))
         .filter(|&k| {
@@ -346,8 +479,12 @@ fn fit(t: &Fit, cx: &Scope) -> Result<Statistic, Unresolved> {
     } = *cx;
     let f = format!("{path}.fit");
     check_param(t.model, &t.parameter, &format!("{f}.parameter"))?;
-    let side = Side::of(&t.bound())
-        .ok_or_else(|| unresolved(&f, "expected exactly one of below, above, within".into()))?;
+    let side = Side::of(&t.bound()).ok_or_else(|| {
+        unresolved(
+            &f,
+            "expected exactly one of below, above, within, outside".into(),
+        )
+    })?;
     let chosen: Vec<usize> = select(points, &t.at)
         .into_iter()
         .filter(|&i| !points[i].clogged)
@@ -404,6 +541,8 @@ fn fit(t: &Fit, cx: &Scope) -> Result<Statistic, Unresolved> {
                 ));
             };
             check_result(yn, results, &format!("{f}.y"))?;
+            check_block(yn, t.block, &f)?;
+            check_block(xn, t.block, &f)?;
             let x_is_result = results.contains(&xn.as_str());
             for &i in &chosen {
                 if x_is_result {

@@ -78,13 +78,14 @@ impl Claim {
 /// Parameter values that pick points: every point whose parameters equal these.
 pub type At = BTreeMap<String, f64>;
 
-/// What a value is held against: exactly one of `below`, `above`, `within` (the fields of
-/// `compare` and `fit`).
+/// What a value is held against: exactly one of `below`, `above`, `within`, `outside` (the
+/// fields of `compare` and `fit`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bound {
     pub below: Option<f64>,
     pub above: Option<f64>,
     pub within: Option<[f64; 2]>,
+    pub outside: Option<[f64; 2]>,
 }
 
 /// How two values are compared.
@@ -110,16 +111,24 @@ pub struct Compare {
     pub block: Option<i64>,
     /// The point.
     pub at: At,
-    /// The other point (the same result there); or give `value`.
+    /// The other point (the same result there); or give `value`, `against_block` or
+    /// `against_result`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub against: Option<At>,
-    /// A fixed value in the result's unit; or give `against`.
+    /// Chute: the same result of the same point in block k (the base against the centre).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub against_block: Option<i64>,
+    /// Another result of the same point, in the same block (the gap at the base against the
+    /// gap in the centre).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub against_result: Option<String>,
+    /// A fixed value in the result's unit; or give `against`, `against_block` or `against_result`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
     /// "ratio" (default) or "difference".
     #[serde(default, rename = "as")]
     pub compare_as: CompareAs,
-    /// The claim holds when the value is below this (or give `above` or `within`).
+    /// The claim holds when the value is below this (or give `above`, `within` or `outside`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub below: Option<f64>,
     /// The claim holds when the value is above this.
@@ -128,6 +137,9 @@ pub struct Compare {
     /// The claim holds when the value is inside [lo, hi].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within: Option<[f64; 2]>,
+    /// The claim holds when the value is outside [lo, hi] (a skewness "far from zero").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outside: Option<[f64; 2]>,
 }
 
 /// Rising or falling.
@@ -140,7 +152,8 @@ pub enum Direction {
 
 /// `trend`: Q rises with f at D = 2.6 d. Decided by the least-squares slope of the result
 /// against the parameter (its sign) and by every step between neighbouring points (none may go
-/// significantly the other way).
+/// significantly the other way). Chute: `along: "block"` runs up the blocks of the one point
+/// `at` picks, over the blocks `range` names (the correlation length grows towards the surface).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Trend {
@@ -149,13 +162,14 @@ pub struct Trend {
     pub result: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub block: Option<i64>,
-    /// The swept parameter the trend runs along.
+    /// The swept parameter the trend runs along, or "block" (chute heights, one point).
     pub along: String,
     /// The other parameters, fixed.
     #[serde(default)]
     pub at: At,
     pub direction: Direction,
-    /// Only the points with `along` in [lo, hi]; absent: all.
+    /// Only the points with `along` in [lo, hi]; absent: all. Along "block": the first and last
+    /// block, required.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub range: Option<[f64; 2]>,
 }
@@ -245,7 +259,7 @@ pub struct Fit {
     /// Chute: the block the results are read in; absent: the bulk.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub block: Option<i64>,
-    /// The claim holds when the value is below this (or give `above` or `within`).
+    /// The claim holds when the value is below this (or give `above`, `within` or `outside`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub below: Option<f64>,
     /// The claim holds when the value is above this.
@@ -254,6 +268,9 @@ pub struct Fit {
     /// The claim holds when the value is inside [lo, hi].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within: Option<[f64; 2]>,
+    /// The claim holds when the value is outside [lo, hi] (a skewness "far from zero").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outside: Option<[f64; 2]>,
 }
 
 impl Compare {
@@ -262,6 +279,7 @@ impl Compare {
             below: self.below,
             above: self.above,
             within: self.within,
+            outside: self.outside,
         }
     }
 }
@@ -272,6 +290,7 @@ impl Fit {
             below: self.below,
             above: self.above,
             within: self.within,
+            outside: self.outside,
         }
     }
 }

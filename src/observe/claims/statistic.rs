@@ -20,14 +20,16 @@ pub enum Side {
     Below(f64),
     Above(f64),
     Within(f64, f64),
+    Outside(f64, f64),
 }
 
 impl Side {
     pub fn of(b: &Bound) -> Option<Side> {
-        match (b.below, b.above, b.within) {
-            (Some(t), None, None) => Some(Side::Below(t)),
-            (None, Some(t), None) => Some(Side::Above(t)),
-            (None, None, Some([lo, hi])) => Some(Side::Within(lo, hi)),
+        match (b.below, b.above, b.within, b.outside) {
+            (Some(t), None, None, None) => Some(Side::Below(t)),
+            (None, Some(t), None, None) => Some(Side::Above(t)),
+            (None, None, Some([lo, hi]), None) => Some(Side::Within(lo, hi)),
+            (None, None, None, Some([lo, hi])) => Some(Side::Outside(lo, hi)),
             _ => None,
         }
     }
@@ -38,6 +40,7 @@ impl Side {
             Side::Below(t) => format!("< {}", short(*t)),
             Side::Above(t) => format!("> {}", short(*t)),
             Side::Within(a, b) => format!("in [{}, {}]", short(*a), short(*b)),
+            Side::Outside(a, b) => format!("outside [{}, {}]", short(*a), short(*b)),
         }
     }
 }

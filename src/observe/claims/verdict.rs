@@ -82,7 +82,7 @@ impl Verdict {
         let v = self.value;
         match self.side {
             Side::Below(t) | Side::Above(t) => (v - t).abs(),
-            Side::Within(a, b) => (v - a).abs().min((v - b).abs()),
+            Side::Within(a, b) | Side::Outside(a, b) => (v - a).abs().min((v - b).abs()),
         }
     }
 
@@ -230,6 +230,8 @@ pub fn decide(stat: &Statistic, points: &[PointData], level: f64, seed: u64) -> 
         Side::Above(t) if hi < t => Decision::Contradicted,
         Side::Within(a, b) if lo > a && hi < b => Decision::Supported,
         Side::Within(a, b) if hi < a || lo > b => Decision::Contradicted,
+        Side::Outside(a, b) if hi < a || lo > b => Decision::Supported,
+        Side::Outside(a, b) if lo > a && hi < b => Decision::Contradicted,
         _ => Decision::Undecided,
     };
     let mut note = String::new();
