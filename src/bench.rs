@@ -67,7 +67,7 @@ fn silo_bed(n: usize, seed: u64) -> BenchScene {
         .cbrt()
         .max(5.0 * d);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut s = State::new(true, crate::engine::cpu::HISTORY_SLOTS);
+    let mut s = State::new(true, crate::engine::history::HISTORY_SLOTS);
     // A simple cubic bed compressed by 0.05 % of d: every inner particle has six contacts, about
     // the coordination of a settled random bed, with contact forces of the order of the weight.
     let a = 0.9995 * d;
@@ -161,7 +161,7 @@ fn chute_bed(n: usize, seed: u64) -> BenchScene {
     let k = ((n as f64 / 20.0).sqrt().ceil() as usize).max(4);
     let side = k as f64 * a;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut s = State::new(true, crate::engine::cpu::HISTORY_SLOTS);
+    let mut s = State::new(true, crate::engine::history::HISTORY_SLOTS);
     let mut id = 0u32;
     // Rough base: fixed spheres of radius L/2 at random on z = 0, about one per L².
     let nb = ((side / d).powi(2) * 1.2) as usize;
@@ -246,7 +246,7 @@ fn chute_rods(n: usize, seed: u64) -> BenchScene {
     let scene = ChuteScene { p, dt };
     let (lx, ly) = scene.p.box_size();
     let rb = scene.base_radius();
-    let mut s = State::new_oriented(crate::engine::cpu::HISTORY_SLOTS);
+    let mut s = State::new_oriented(crate::engine::history::HISTORY_SLOTS);
     let base = crate::scene::fill_rods::base_monolayer(lx, ly, rb, 0.0, 0.5, seed);
     for (id, c) in base.iter().enumerate() {
         s.push_sphere(

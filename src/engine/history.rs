@@ -96,6 +96,11 @@ pub struct Rows<'a, R: Real> {
 /// Largest number of simultaneous contacts per particle the table can hold.
 pub const MAX_SLOTS: usize = 16;
 
+/// History slots per particle that scenes and the CPU engine allocate (spheres rarely exceed 12
+/// contacts plus walls): the width of the state's table, so of checkpoints and GPU uploads.
+pub const HISTORY_SLOTS: usize = 16;
+const _: () = assert!(HISTORY_SLOTS <= MAX_SLOTS);
+
 impl<'a, R: Real> Rows<'a, R> {
     pub fn open(partner: &'a mut [u32], spring: &'a mut [V3<R>]) -> Self {
         // Rows are kept packed (contacts first, then EMPTY), so the old contacts are a prefix.

@@ -4,7 +4,7 @@
 //! It counts, per particle, in the run's precision (`real_bytes` = 4 or 8):
 //! - the state (`state.rs`): id, position, velocity, force, radius, mass, 1/m, angular velocity,
 //!   torque, 1/I (spheres) or orientation, angular momentum, body 1/I and half length (oriented
-//!   particles), and the contact-history table of `cpu::HISTORY_SLOTS` (partner id, spring);
+//!   particles), and the contact-history table of `history::HISTORY_SLOTS` (partner id, spring);
 //! - the CPU engine's scratch (`cpu/`, `grid.rs`): spheres: the packed kinematics (16 reals),
 //!   constants, new force and torque, flags, the wall springs of up to `WALLS` walls, the half
 //!   list (start, reference position, and per entry partner, owner, reverse slot and owner, pair
@@ -19,7 +19,7 @@
 //! stride of 32), so the estimate errs high by design. Observers' own per-particle memory (the
 //! chute's MSD rings) is added by the caller; GPU memory is not counted here.
 
-use super::cpu::HISTORY_SLOTS;
+use super::history::HISTORY_SLOTS;
 
 /// Half-list entries per sphere assumed (the real count is about 5 in a settled bed).
 pub const HALF_ENTRIES: u64 = 8;

@@ -73,7 +73,7 @@ impl ChuteScene {
         let (lx, ly) = p.box_size();
         let rb = self.base_radius();
         let slots = if p.friction > 0.0 {
-            crate::engine::cpu::HISTORY_SLOTS
+            crate::engine::history::HISTORY_SLOTS
         } else {
             0
         };

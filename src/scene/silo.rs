@@ -302,7 +302,7 @@ impl SiloScene {
         let mut s = State::new(
             rotation,
             if rotation {
-                crate::engine::cpu::HISTORY_SLOTS
+                crate::engine::history::HISTORY_SLOTS
             } else {
                 0
             },

@@ -26,7 +26,7 @@ use crate::common::fit::{fit_circle, slope, unwrap};
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::cpu::HISTORY_SLOTS;
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
 

@@ -22,7 +22,7 @@ use crate::common::Noise;
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::cpu::HISTORY_SLOTS;
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, Real, State};
 

@@ -44,8 +44,8 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::cpu::HISTORY_SLOTS;
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::history::{wall_key, EMPTY};
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};

@@ -59,11 +59,12 @@ use crate::common::Noise;
 
 use std::collections::{BTreeSet, HashMap};
 
-use sweep::engine::cpu::{Watchdog, HISTORY_SLOTS};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::history::{wall_key, EMPTY};
 use sweep::engine::shape::{contact_spherocylinders, Quat, Spherocylinder};
 use sweep::engine::walls::{Wall, WallShape};
+use sweep::engine::watchdog::Watchdog;
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State, V3};
 use sweep::scene::{ChuteParams, ChuteScene};
 

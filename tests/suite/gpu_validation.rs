@@ -48,8 +48,8 @@ use crate::common;
 use std::f64::consts::PI;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::cpu::HISTORY_SLOTS;
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
 use sweep::observe::discharge::DischargeSettings;

@@ -363,3 +363,40 @@ fn imports_follow_the_layers() {
         problems.join("\n  ")
     );
 }
+
+/// The engine's rooms (`docs/design.md`, after the layers): the root keeps the model both
+/// backends share and imports neither; `engine/cpu` and `engine/gpu` import the root, never
+/// each other. `engine/mod.rs` declares the rooms and re-exports their engines.
+#[test]
+fn the_backends_sit_on_the_shared_engine_model() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (src, mut files) = (root.join("src"), Vec::new());
+    rust_files(&src, "", &mut files);
+    let room = |f: &str| -> Option<&'static str> {
+        let rest = f.strip_prefix("engine/")?;
+        Some(if rest.starts_with("cpu/") {
+            "cpu"
+        } else if rest.starts_with("gpu/") || rest == "gpu.rs" {
+            "gpu"
+        } else {
+            "root"
+        })
+    };
+    let mut wrong = Vec::new();
+    for ((a, b), (line, path)) in import_edges(&src, &files) {
+        if a == "engine/mod.rs" {
+            continue;
+        }
+        let (Some(ra), Some(rb)) = (room(&a), room(&b)) else {
+            continue;
+        };
+        if ra != rb && rb != "root" {
+            wrong.push(format!("src/{a}:{line} {path} -> src/{b} ({ra} -> {rb})"));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "imports across the engine's rooms:\n{}",
+        wrong.join("\n")
+    );
+}

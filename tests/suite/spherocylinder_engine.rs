@@ -19,7 +19,7 @@ use crate::common::rods::{shape, stiffness, G, L, RHO};
 use crate::common::Noise;
 
 use sweep::checkpoint::{self, Header};
-use sweep::engine::cpu::HISTORY_SLOTS;
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::real::V3;
 use sweep::engine::shape::{contact_spherocylinders, rotational_energy, Quat, Spherocylinder};
 use sweep::engine::walls::{Wall, WallShape};

@@ -12,7 +12,7 @@ use crate::common::linear_law as law;
 use crate::common::rods::{shape, stiffness, L, RHO};
 
 use sweep::engine::contact::beta;
-use sweep::engine::cpu::HISTORY_SLOTS;
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::real::V3;
 use sweep::engine::shape::Quat;
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};

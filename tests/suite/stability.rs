@@ -30,10 +30,11 @@ use std::f64::consts::PI;
 use std::sync::OnceLock;
 
 use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
-use sweep::engine::cpu::{Watchdog, HISTORY_SLOTS};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::shape::{contact_spherocylinders, Quat};
 use sweep::engine::walls::{Wall, WallRotation, WallShape};
+use sweep::engine::watchdog::Watchdog;
 use sweep::engine::{Backend, CpuEngine, EngineConfig, EngineError, State, V3};
 
 const G: f64 = 9.81;

@@ -3,11 +3,11 @@
 
 use rayon::prelude::*;
 
+use super::force_gather::ForceContext;
+use super::particle::Status;
 use super::{CpuEngine, MIN_LEN};
 use crate::engine::contact::{elastic_energy, ContactRecord};
-use crate::engine::force_gather::ForceContext;
 use crate::engine::history::Rows;
-use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 
 impl<R: Real> CpuEngine<R> {

@@ -3,14 +3,14 @@
 
 use rayon::prelude::*;
 
+use super::kinematics;
+use super::pair_pass::PairSlot;
+use super::particle::{Props, Status};
 use super::passes::{block_bounds, scaled, split_blocks};
 use super::{CpuEngine, MIN_LEN};
 use crate::engine::backend::EngineError;
 use crate::engine::grid;
 use crate::engine::history::{wall_key, History, EMPTY};
-use crate::engine::kinematics;
-use crate::engine::pair_pass::PairSlot;
-use crate::engine::particle::{Props, Status};
 use crate::engine::real::{Real, V3};
 
 impl<R: Real> CpuEngine<R> {

@@ -28,34 +28,46 @@
 //! `rod_lists.rs` the rods' half lists and history; `rod_passes.rs` the rod step's passes.
 
 mod contacts;
+mod force_gather;
 mod half_lists;
+mod kick;
+mod kinematics;
+mod oriented;
+mod pair_lanes;
+mod pair_pass;
+mod particle;
 mod passes;
+mod rod_kick;
+mod rod_lanes;
 mod rod_lists;
+mod rod_pass;
 mod rod_passes;
 mod rods;
+#[cfg(target_arch = "x86_64")]
+mod simd;
+mod skin;
 mod spheres;
+mod team;
+mod verlet;
 mod watchdog;
 
+use self::kinematics::Kin;
+use self::pair_pass::{PairScratch, PairSlot};
+use self::particle::{Props, Status};
+use self::rod_pass::{RodKin, RodScratch};
+use self::team::Team;
 use super::backend::{Backend, BackendInfo, ChunkReport, EngineError, SinkEvent};
 use super::config::EngineConfig;
 use super::contact::{ContactRecord, LawKernel};
 use super::grid::{self, HalfList, NeighbourList, Periodic};
-use super::history::MAX_SLOTS;
-use super::kinematics::Kin;
-use super::pair_pass::{PairScratch, PairSlot};
-use super::particle::{Props, Status};
 use super::real::{Real, V3};
-use super::rod_pass::{RodKin, RodScratch};
 use super::state::State;
-use super::team::Team;
 use super::walls::WallKernel;
 pub use super::watchdog::Watchdog;
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
 
-/// Number of history slots per particle (spheres rarely exceed 12 contacts plus walls).
-pub const HISTORY_SLOTS: usize = 16;
 /// The near margin, as a fraction of the skin: the pair pass tests only the half-list entries
 /// whose pair was within this margin of touching at the last pick (`pick_pairs`). A smaller
 /// margin skips more entries in a settled bed but makes a flowing one pick so often, and
@@ -65,7 +77,6 @@ const NEAR: f64 = 0.25;
 /// The pick is renewed once a particle has moved this fraction of the near margin (a little
 /// under half, so that rounding in the exact measurement cannot let a pair through).
 const NEAR_LIMIT: f64 = 0.45;
-const _: () = assert!(HISTORY_SLOTS <= MAX_SLOTS);
 
 /// The CPU engine in precision `R`.
 pub struct CpuEngine<R: Real> {

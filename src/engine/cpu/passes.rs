@@ -1,10 +1,10 @@
 //! The sphere step's passes over fixed blocks of particles: the pair pass, the near-pair pick,
 //! the per-particle sums fused with the kick and drift, the exact skin test; block helpers.
 
+use super::kick::{Kick, KickBlock};
+use super::pair_pass::{PairBlock, PairContext, PairScratch, SumContext, BLOCK};
+use super::particle::Status;
 use super::{CpuEngine, NEAR};
-use crate::engine::kick::{Kick, KickBlock};
-use crate::engine::pair_pass::{PairBlock, PairContext, PairScratch, SumContext, BLOCK};
-use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
 
 impl<R: Real> CpuEngine<R> {

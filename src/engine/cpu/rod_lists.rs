@@ -3,14 +3,14 @@
 //! (each row: the touching partners in ascending order with the pair's canonical spring, then
 //! the touching walls; what the full-list gather of `oriented.rs` wrote).
 
+use super::oriented::OrientedContext;
+use super::pair_pass::PairSlot;
+use super::particle::Status;
+use super::rod_pass::RodKin;
 use super::CpuEngine;
 use crate::engine::grid;
 use crate::engine::history::{wall_key, History, EMPTY};
-use crate::engine::oriented::OrientedContext;
-use crate::engine::pair_pass::PairSlot;
-use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
-use crate::engine::rod_pass::RodKin;
 
 impl<R: Real> CpuEngine<R> {
     /// Re-sorts the rods by cell and rebuilds the half lists; each entry's and wall's spring

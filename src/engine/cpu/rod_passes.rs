@@ -2,18 +2,18 @@
 //! the per-particle sums (pairs, then walls) fused with the next step's kick, rotation and drift
 //! and its skin tests.
 
+use super::oriented;
+use super::pair_pass::{PairSlot, BLOCK};
+use super::particle::Status;
 use super::passes::{block_bounds, scaled, split_blocks};
+use super::rod_kick::{self, RotLanes, LANES};
+use super::rod_pass::{RodContext, RodKin, RodMotion, RodScratch, RodSum};
+use super::verlet;
 use super::{CpuEngine, NEAR, NEAR_LIMIT};
 use crate::engine::contact::Inertial;
 use crate::engine::grid::Periodic;
-use crate::engine::oriented;
-use crate::engine::pair_pass::{PairSlot, BLOCK};
-use crate::engine::particle::Status;
 use crate::engine::real::{Real, V3};
-use crate::engine::rod_kick::{self, RotLanes, LANES};
-use crate::engine::rod_pass::{RodContext, RodKin, RodMotion, RodScratch, RodSum};
 use crate::engine::shape::{Quat, Spherocylinder};
-use crate::engine::verlet;
 
 /// What a rod block's sums, kick and drift found.
 #[derive(Clone, Copy)]

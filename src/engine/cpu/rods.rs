@@ -10,13 +10,13 @@
 
 use rayon::prelude::*;
 
+use super::oriented;
+use super::particle::Status;
+use super::verlet;
 use super::{CpuEngine, MIN_LEN};
 use crate::engine::backend::{ChunkReport, EngineError};
 use crate::engine::history::History;
-use crate::engine::oriented;
-use crate::engine::particle::Status;
 use crate::engine::real::Real;
-use crate::engine::verlet;
 use crate::engine::watchdog::EnergyBudget;
 
 impl<R: Real> CpuEngine<R> {

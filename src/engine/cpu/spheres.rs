@@ -3,13 +3,13 @@
 
 use rayon::prelude::*;
 
+use super::kinematics;
+use super::particle::Status;
+use super::skin::DisplacementBound;
+use super::verlet;
 use super::{CpuEngine, MIN_LEN, NEAR, NEAR_LIMIT};
 use crate::engine::backend::{ChunkReport, EngineError};
-use crate::engine::kinematics;
-use crate::engine::particle::Status;
 use crate::engine::real::Real;
-use crate::engine::skin::DisplacementBound;
-use crate::engine::verlet;
 use crate::engine::watchdog::EnergyBudget;
 
 impl<R: Real> CpuEngine<R> {

@@ -1,9 +1,9 @@
 //! What the CPU engine hands the watchdog: the energy budget at a chunk's start and the
 //! check that every live particle's motion is finite.
 
+use super::particle::Status;
 use super::CpuEngine;
 use crate::engine::backend::EngineError;
-use crate::engine::particle::Status;
 use crate::engine::real::Real;
 use crate::engine::watchdog::{wall_speed, EnergyBudget};
 

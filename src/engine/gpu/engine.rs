@@ -40,9 +40,9 @@ use super::status::{read_chunk, ChunkContext};
 use crate::engine::backend::{Backend, BackendInfo, ChunkReport, DispatchCount, EngineError};
 use crate::engine::config::EngineConfig;
 use crate::engine::contact::ContactRecord;
-use crate::engine::cpu::Watchdog;
 use crate::engine::history::MAX_SLOTS;
 use crate::engine::state::State;
+use crate::engine::watchdog::Watchdog;
 
 mod chunk;
 mod compaction;

@@ -33,7 +33,7 @@ pub fn head_on_phased(
     let mut s = State::<f64>::new(
         friction,
         if friction {
-            sweep::engine::cpu::HISTORY_SLOTS
+            sweep::engine::history::HISTORY_SLOTS
         } else {
             0
         },

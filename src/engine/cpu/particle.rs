@@ -2,7 +2,7 @@
 //! (`kick.rs`) and the oriented gather (`oriented.rs`) share. A leaf: it imports only `real`,
 //! so none of those modules needs to import another for them.
 
-use super::real::Real;
+use crate::engine::real::Real;
 
 /// A particle's liveness in the CPU engine. One byte per particle (`#[repr(u8)]`), as the
 /// `u8` flags it replaces.

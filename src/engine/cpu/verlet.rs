@@ -1,9 +1,9 @@
 //! Velocity Verlet's two moves of a particle's centre, written once for every path (the f32
 //! SIMD kick in `kick.rs` does the same operations in the same order on 4-wide registers).
 
-use super::grid::Periodic;
-use super::position;
-use super::real::{Real, V3};
+use crate::engine::grid::Periodic;
+use crate::engine::position;
+use crate::engine::real::{Real, V3};
 
 /// The kick: velocity by (force/m + g) over `kick` (half a step or a whole one).
 #[inline(always)]

@@ -9,11 +9,11 @@
 
 use multiversion::multiversion;
 
-use super::contact::LawKernel;
 use super::kinematics::Kin;
-use super::real::{Real, V3};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{self, F32x4};
+use crate::engine::contact::LawKernel;
+use crate::engine::real::{Real, V3};
 
 /// Pairs per group.
 pub(super) const LANES: usize = 8;

@@ -7,8 +7,8 @@
 
 use multiversion::multiversion;
 
-use super::real::{Real, V3};
-use super::shape::{
+use crate::engine::real::{Real, V3};
+use crate::engine::shape::{
     angular_velocity, is_small_angle, rotate_symmetric_with, sin_cos_poly, symmetric_angles, Quat,
 };
 

@@ -14,16 +14,18 @@
 //! symmetric top (`shape::rigid`); ω = R I⁻¹ Rᵀ L is refreshed after every change of q or L, and is
 //! what contacts read.
 
-use super::contact::{
+use super::particle::Status;
+use super::rod_pass::inertial;
+use crate::engine::contact::{
     contact_force, elastic_energy, pair_effective_mass, wall_effective_mass, ContactInput,
     ContactRecord,
 };
-use super::history::{wall_key, Rows};
-use super::particle::Status;
-use super::real::{Real, V3};
-use super::rod_pass::inertial;
-use super::shape::{angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder};
-use super::state::State;
+use crate::engine::history::{wall_key, Rows};
+use crate::engine::real::{Real, V3};
+use crate::engine::shape::{
+    angular_velocity, contact_spherocylinders, rotate_free, Spherocylinder,
+};
+use crate::engine::state::State;
 
 /// Per-particle output of the gather: force, torque, largest overlap ratio, contacts, table full.
 pub(super) type Gathered<R> = (V3<R>, V3<R>, R, u32, bool);
@@ -33,7 +35,7 @@ pub(super) type Gathered<R> = (V3<R>, V3<R>, R, u32, bool);
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn kick_rotate<R: Real>(
-    q: &mut super::shape::Quat<R>,
+    q: &mut crate::engine::shape::Quat<R>,
     l: &mut V3<R>,
     w: &mut V3<R>,
     torque: V3<R>,
@@ -83,10 +85,10 @@ pub(super) struct OrientedContext<'a, R: Real> {
     /// list's earlier partners, then the later ones).
     pub neighbours: [&'a [u32]; 2],
     pub alive: &'a [Status],
-    pub law_pp: &'a super::contact::LawKernel<R>,
-    pub law_pw: &'a super::contact::LawKernel<R>,
-    pub walls: &'a [super::walls::WallKernel<R>],
-    pub periodic: &'a super::grid::Periodic<R>,
+    pub law_pp: &'a crate::engine::contact::LawKernel<R>,
+    pub law_pw: &'a crate::engine::contact::LawKernel<R>,
+    pub walls: &'a [crate::engine::walls::WallKernel<R>],
+    pub periodic: &'a crate::engine::grid::Periodic<R>,
     pub dt: R,
 }
 

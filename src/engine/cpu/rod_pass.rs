@@ -9,18 +9,18 @@
 //! own entries), then its walls. Each pair is evaluated in one canonical order, the lower id as
 //! "a" (`oriented.rs`), and its spring is that of a's view.
 
-use super::contact::{
-    contact_force, pair_effective_mass, wall_effective_mass, ContactInput, Inertial, LawKernel,
-};
-use super::grid::Image;
 use super::pair_pass::{PairSlot, Reaction, BLOCK};
 use super::particle::Status;
-use super::position::separation;
-use super::real::{Real, V3};
 use super::rod_lanes::{self, RodLaneInput, RodLaneOutput, LANES};
-use super::shape::{axis_distance2, contact_spherocylinders, Spherocylinder};
-use super::state::State;
-use super::walls::WallKernel;
+use crate::engine::contact::{
+    contact_force, pair_effective_mass, wall_effective_mass, ContactInput, Inertial, LawKernel,
+};
+use crate::engine::grid::Image;
+use crate::engine::position::separation;
+use crate::engine::real::{Real, V3};
+use crate::engine::shape::{axis_distance2, contact_spherocylinders, Spherocylinder};
+use crate::engine::state::State;
+use crate::engine::walls::WallKernel;
 
 /// Particle k as the effective mass of its contacts sees it.
 #[inline(always)]

@@ -5,12 +5,12 @@
 //! the state's arrays are stale; `CpuEngine` copies them back before anything else reads the
 //! state (a re-sort, the chunk's end, an error report).
 
-use super::grid::Image;
-use super::position;
-use super::real::{Real, V3};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{self, F32x4};
-use super::state::State;
+use crate::engine::grid::Image;
+use crate::engine::position;
+use crate::engine::real::{Real, V3};
+use crate::engine::state::State;
 
 /// One sphere's motion, and the two constants the pair pass needs of a partner. Radius, mass
 /// and a pad fill the fourth place of the three 4-vectors (48 bytes in f32), so that a list

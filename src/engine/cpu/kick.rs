@@ -4,11 +4,11 @@
 
 use multiversion::multiversion;
 
-use super::grid::Periodic;
 use super::kinematics::Kin;
 use super::particle::{Props, Status};
-use super::real::{Real, V3};
 use super::verlet;
+use crate::engine::grid::Periodic;
+use crate::engine::real::{Real, V3};
 
 /// What every particle's kick and drift reads besides its own arrays.
 #[derive(Clone, Copy)]
@@ -50,7 +50,7 @@ impl<R: Real> Kick<R> {
     /// becomes `Dying` and stops interacting (`Kin::bury`).
     pub(super) fn block(&self, b: KickBlock<'_, R>) -> Kicked<R> {
         #[cfg(target_arch = "x86_64")]
-        if crate::engine::simd::is_f32::<R>() {
+        if super::simd::is_f32::<R>() {
             /// SAFETY: only for R = f32: each cast is then to the type the value has.
             unsafe fn cast<R: Real>(b: KickBlock<'_, R>) -> KickBlock<'_, f32> {
                 unsafe {
@@ -178,9 +178,9 @@ fn each<R: Real, const ROT: bool, const DRIFT: bool>(
 mod quads {
     use multiversion::multiversion;
 
+    use super::verlet;
     use super::{Kick, KickBlock, Kicked};
-    use crate::engine::simd::F32x4;
-    use crate::engine::verlet;
+    use crate::engine::cpu::simd::F32x4;
 
     /// `kick_in` for f32. Compiled also for AVX2 (three-operand forms), like the generic loop.
     #[multiversion(targets("x86_64+avx2+avx"))]

@@ -9,9 +9,9 @@
 
 use multiversion::multiversion;
 
-use super::contact::{pair_effective_mass, Inertial, LawKernel};
-use super::real::{Real, V3};
-use super::shape::{PARALLEL_SIN, POINT_LEN2};
+use crate::engine::contact::{pair_effective_mass, Inertial, LawKernel};
+use crate::engine::real::{Real, V3};
+use crate::engine::shape::{PARALLEL_SIN, POINT_LEN2};
 
 /// Pairs per group.
 pub(super) const LANES: usize = 8;

@@ -2,13 +2,13 @@
 //! evaluation per pair of the half lists, then a fixed-order sum per particle (`cpu/passes.rs`).
 //! The per-particle gather over full lists is `force_gather.rs`.
 
-use super::contact::{contact_force, LawKernel};
-use super::grid::Periodic;
 use super::kinematics::{Kin, Separation};
 use super::pair_lanes::{self, LaneInput, LaneOutput, CHUNK, LANES};
 use super::particle::Props;
-use super::real::{Real, V3};
-use super::walls::WallKernel;
+use crate::engine::contact::{contact_force, LawKernel};
+use crate::engine::grid::Periodic;
+use crate::engine::real::{Real, V3};
+use crate::engine::walls::WallKernel;
 use multiversion::multiversion;
 
 /// One entry of the half list as the pair pass keeps it: the pair's tangential spring (i's view;

@@ -9,7 +9,7 @@ use std::any::TypeId;
 use std::arch::x86_64::*;
 use std::ops::{Add, BitAnd, Mul, Sub};
 
-use super::real::{Real, V3};
+use crate::engine::real::{Real, V3};
 
 /// Whether the engine's precision `R` is f32: the sites with a 4-wide f32 path test it (a
 /// constant after monomorphisation) and cast their values to the f32 types.

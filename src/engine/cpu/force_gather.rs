@@ -1,13 +1,15 @@
 //! The per-particle force gather over full lists: contact records, elastic energy, rods.
 
-use super::contact::{contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel};
-use super::grid::{NeighbourList, Periodic};
-use super::history::{wall_key, Rows};
 use super::oriented::OrientedContext;
 use super::particle::Status;
-use super::real::{Real, V3};
-use super::state::State;
-use super::walls::WallKernel;
+use crate::engine::contact::{
+    contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel,
+};
+use crate::engine::grid::{NeighbourList, Periodic};
+use crate::engine::history::{wall_key, Rows};
+use crate::engine::real::{Real, V3};
+use crate::engine::state::State;
+use crate::engine::walls::WallKernel;
 
 /// Everything the per-particle force gather reads.
 pub(super) struct ForceContext<'a, R: Real> {
