@@ -209,6 +209,23 @@ impl Default for ChuteParams {
 impl ChuteParams {
     /// Checks ranges; returns every problem found.
     pub fn validate(&self) -> Vec<FieldError> {
+        let mut e = self.positive_problems();
+        e.extend(super::placement_checks::origin_problem(self.origin_m));
+        e.extend(super::placement_checks::gravity_problem(
+            self.gravity_m_per_s2,
+        ));
+        e.extend(self.range_problems());
+        e.extend(self.steady_problems());
+        e.extend(self.box_problems());
+        e.extend(self.warm_start_problems());
+        if e.is_empty() {
+            e.extend(self.time_step_problems());
+        }
+        e
+    }
+
+    /// Lengths, densities, stiffness and times that must be finite and positive.
+    fn positive_problems(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
         let mut pos = |field: &str, v: f64, what: &str| {
             if !(v > 0.0 && v.is_finite()) {
@@ -246,10 +263,12 @@ impl ChuteParams {
         pos("steady_window_s", self.steady_window_s, "seconds");
         pos("measure_time_s", self.measure_time_s, "seconds");
         pos("skin_ratio", self.skin_ratio, "a fraction of d");
-        e.extend(super::placement_checks::origin_problem(self.origin_m));
-        e.extend(super::placement_checks::gravity_problem(
-            self.gravity_m_per_s2,
-        ));
+        e
+    }
+
+    /// The particle, the incline and the contact law's parameters in their ranges.
+    fn range_problems(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
         let mut err = |field: &str, message: String| {
             e.push(FieldError {
                 field: field.into(),
@@ -309,6 +328,18 @@ impl ChuteParams {
                 "\"cylinder_length\" is undefined for ξ = 1 (l = 0): use \"total_length\"".into(),
             );
         }
+        e
+    }
+
+    /// The steady-flow test's tolerances, batches and time window.
+    fn steady_problems(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let mut err = |field: &str, message: String| {
+            e.push(FieldError {
+                field: field.into(),
+                message,
+            })
+        };
         for (field, tol) in [
             ("steady_kinetic_tolerance", self.steady_kinetic_tolerance),
             ("steady_velocity_tolerance", self.steady_velocity_tolerance),
@@ -348,6 +379,18 @@ impl ChuteParams {
                 ),
             );
         }
+        e
+    }
+
+    /// A periodic box wide enough that no particle meets its own image.
+    fn box_problems(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        let mut err = |field: &str, message: String| {
+            e.push(FieldError {
+                field: field.into(),
+                message,
+            })
+        };
         for (field, v) in [
             ("box_x_lengths", self.box_x_lengths),
             ("box_y_lengths", self.box_y_lengths),
@@ -361,10 +404,6 @@ impl ChuteParams {
                     ),
                 );
             }
-        }
-        e.extend(self.warm_start_problems());
-        if e.is_empty() {
-            e.extend(self.time_step_problems());
         }
         e
     }

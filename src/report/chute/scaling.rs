@@ -70,35 +70,8 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let (lo, hi) = CENTRAL_BED;
-    let mut points = Vec::new();
-    let mut left_out = 0usize;
     let groups = group_points(&jobs);
-    for group in &groups {
-        let point = combine_point(conn, group)?;
-        let (l, h) = (point.total_length_m, point.bed_height_m);
-        let label = point.label();
-        for b in &point.blocks {
-            if !(b.z_m > lo * h && b.z_m < hi * h) {
-                continue;
-            }
-            let shear = b.shear_rate.mean;
-            match b.diffusion {
-                Some(d) if shear > 0.0 && d.mean.is_finite() => points.push(ScalingPoint {
-                    job: point.pooled[0],
-                    label: label.clone(),
-                    block: b.block,
-                    z_over_l: b.z_m / l,
-                    z_over_h: b.z_m / h,
-                    d_perp_sq: (point.d_perp_m / l).powi(2),
-                    d: d.mean / (l * l),
-                    d_ci: Some(d.ci95 / (l * l)).filter(|c| c.is_finite()),
-                    shear,
-                    replicas: d.replicas,
-                }),
-                _ => left_out += 1,
-            }
-        }
-    }
+    let (points, left_out) = central_points(conn, &groups)?;
     let max_replicas = points.iter().map(|p| p.replicas).max().unwrap_or(0);
     let h_over_l = jobs.iter().map(|j| j.bed_height_m / j.total_length_m);
     let (h_min, h_max) = h_over_l.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -207,6 +180,71 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         GREY,
     ));
 
+    let fits = fits_table(&fit_a, &fit_b);
+    let csv = points_csv(&points, &y_a, &x_b);
+    let fig = Figure {
+        title: Some(caption(
+            conn,
+            campaign,
+            format!(
+                "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}{}",
+                campaign.name,
+                replicas_caption(max_replicas)
+            ),
+        )?),
+        panels: vec![a, b],
+        columns: 2,
+        panel_size: (800, 640),
+    };
+    text.push_str(&per_xi.to_text());
+    text.push_str("\nleast-squares lines y = slope x + intercept (no fit with < 2 distinct x)\n");
+    text.push_str(&fits.to_text());
+    Ok(Drawn {
+        text,
+        files: write_all(&fig, &csv, out_dir, "chute_fig6")?,
+    })
+}
+
+/// The central blocks (0.3 H < z < 0.7 H) of every point with a D and a positive shear rate,
+/// lengths in L; and how many central blocks lacked them.
+fn central_points<'a>(
+    conn: &Connection,
+    groups: &[Vec<&'a ChuteJob>],
+) -> Result<(Vec<ScalingPoint<'a>>, usize)> {
+    let (lo, hi) = CENTRAL_BED;
+    let mut points = Vec::new();
+    let mut left_out = 0usize;
+    for group in groups {
+        let point = combine_point(conn, group)?;
+        let (l, h) = (point.total_length_m, point.bed_height_m);
+        let label = point.label();
+        for b in &point.blocks {
+            if !(b.z_m > lo * h && b.z_m < hi * h) {
+                continue;
+            }
+            let shear = b.shear_rate.mean;
+            match b.diffusion {
+                Some(d) if shear > 0.0 && d.mean.is_finite() => points.push(ScalingPoint {
+                    job: point.pooled[0],
+                    label: label.clone(),
+                    block: b.block,
+                    z_over_l: b.z_m / l,
+                    z_over_h: b.z_m / h,
+                    d_perp_sq: (point.d_perp_m / l).powi(2),
+                    d: d.mean / (l * l),
+                    d_ci: Some(d.ci95 / (l * l)).filter(|c| c.is_finite()),
+                    shear,
+                    replicas: d.replicas,
+                }),
+                _ => left_out += 1,
+            }
+        }
+    }
+    Ok((points, left_out))
+}
+
+/// The two panels' least-squares lines.
+fn fits_table(fit_a: &Option<LinearFit>, fit_b: &Option<LinearFit>) -> Table {
     let mut fits = Table::new(&["panel", "y", "x", "slope", "intercept", "R", "n"]);
     for (name, y, x, fit) in [
         ("a", "D/shear_L2", "d_perp^2_L2", &fit_a),
@@ -222,6 +260,11 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             fit.map_or(0, |f| f.n).to_string(),
         ]);
     }
+    fits
+}
+
+/// One CSV row per central block: (a)'s y and (b)'s x as drawn.
+fn points_csv(points: &[ScalingPoint], y_a: &[f64], x_b: &[f64]) -> Table {
     let mut csv = Table::new(&[
         "label",
         "xi",
@@ -254,27 +297,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             p.replicas.to_string(),
         ]);
     }
-    let fig = Figure {
-        title: Some(caption(
-            conn,
-            campaign,
-            format!(
-                "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}{}",
-                campaign.name,
-                replicas_caption(max_replicas)
-            ),
-        )?),
-        panels: vec![a, b],
-        columns: 2,
-        panel_size: (800, 640),
-    };
-    text.push_str(&per_xi.to_text());
-    text.push_str("\nleast-squares lines y = slope x + intercept (no fit with < 2 distinct x)\n");
-    text.push_str(&fits.to_text());
-    Ok(Drawn {
-        text,
-        files: write_all(&fig, &csv, out_dir, "chute_fig6")?,
-    })
+    csv
 }
 
 #[cfg(test)]

@@ -119,59 +119,139 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);
     let fits = janda_rows(&points);
-
-    let mut q_panel = Panel::new(Axis::linear("D (mm)"), Axis::linear("Q (kg/s)"));
-    q_panel.title = Some("Q vs D; lines: Q = C (1 − α1 e^(−D/α2)) D^(5/2)".into());
-    let mut dmin_panel = Panel::new(
-        Axis::linear("f (Hz)"),
-        Axis::linear("D_min = α2 ln α1 (mm)"),
-    );
-    dmin_panel.title = Some("D_min vs f".into());
-    dmin_panel.legend = Legend::Outside;
-    let mut fit_table = Table::new(&[
-        "f_Hz",
-        "n_D",
-        "C_kg/(s·m^2.5)",
-        "alpha1",
-        "alpha2_mm",
-        "D_min_mm",
-        "D_min/d",
-        "rms_kg/s",
-        "D_min_ci95_mm",
-        "alpha2_ci95_mm",
-        "weights",
-    ]);
-    let mut q_table = Table::new(&[
-        "f_Hz",
-        "D_mm",
-        "D/d",
-        "Q_kg/s",
-        "ci95_kg/s",
-        "ci95_from",
-        "replicas",
-        "clogged",
-        "Q_fit_kg/s",
-    ]);
-    let mut csv = Table::new(&[
-        "rotation_frequency_hz",
-        "orifice_diameter_m",
-        "particle_diameter_m",
-        "q_kg_per_s",
-        "q_ci95_kg_per_s",
-        "q_ci95_source",
-        "replicas",
-        "clogged_runs",
-        "janda_q_kg_per_s",
-        "janda_c",
-        "janda_alpha1",
-        "janda_alpha2_m",
-        "janda_d_min_m",
-        "janda_d_min_ci95_lo_m",
-        "janda_d_min_ci95_hi_m",
-    ]);
-    let (mut dmin_f, mut dmin_mm, mut dmin_iv) = (Vec::new(), Vec::new(), Vec::new());
-    let mut refused_f = Vec::new();
+    let mut f3 = Fig3::new();
     for (color, row) in fits.iter().enumerate() {
+        f3.add(color, row);
+    }
+    mark_clogged(
+        &mut f3.q_panel,
+        &clogged,
+        &fits,
+        &mut f3.q_table,
+        &mut f3.csv,
+    );
+    if points.iter().any(|p| p.replicas > 1) {
+        f3.q_panel.notes.push(REPLICA_NOTE.into());
+    }
+    f3.q_panel
+        .notes
+        .extend(crate::pooled::silo::target_note(conn, campaign.id)?);
+    let dmin_label = (!f3.dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
+    f3.dmin_panel
+        .series
+        .push(Series::points(dmin_label, 0, f3.dmin_f, f3.dmin_mm).with_intervals(f3.dmin_iv));
+    if !f3.refused_f.is_empty() {
+        f3.dmin_panel.series.push(
+            Series::axis_marks(Some("no D_min (see notes)".into()), 3, f3.refused_f, 0)
+                .with_marker(Marker::Cross),
+        );
+    }
+    let fig = Figure {
+        title: Some(format!(
+            "Fig. 3: flow rate vs orifice diameter, campaign {}",
+            campaign.name
+        )),
+        panels: vec![f3.q_panel, f3.dmin_panel],
+        columns: 2,
+        panel_size: (900, 640),
+    };
+    let mut text = String::from(
+        "Janda fit Q = C (1 - alpha1 exp(-D/alpha2)) D^(5/2), per rotation frequency\n",
+    );
+    text.push_str(&f3.fit_table.to_text());
+    text.push_str(
+        "\nflow rates over replicas: ci95_from 'pooled blocks' (every replica's blocks pooled, \
+         weighted by their count), 'replica spread' (>= 3 replicas that scatter more than their \
+         blocks say), 'replicas' (Student t over >= 2 replicas without block counts), 'job' \
+         (one run's own); replicas = runs with Q, clogged = runs without\n",
+    );
+    text.push_str(&f3.q_table.to_text());
+    text.push('\n');
+    text.push_str(&beverloo_line(&rows, &points));
+    Ok(Drawn {
+        text,
+        files: write_all(&fig, &f3.csv, out_dir, "fig3")?,
+    })
+}
+
+/// What Fig. 3 gathers over the rotation frequencies: its two panels, the fit and flow-rate
+/// tables, the CSV, and the D_min panel's points (and the frequencies without one).
+struct Fig3 {
+    q_panel: Panel,
+    dmin_panel: Panel,
+    fit_table: Table,
+    q_table: Table,
+    csv: Table,
+    dmin_f: Vec<f64>,
+    dmin_mm: Vec<f64>,
+    dmin_iv: Vec<Option<(f64, f64)>>,
+    refused_f: Vec<f64>,
+}
+
+impl Fig3 {
+    fn new() -> Self {
+        let mut q_panel = Panel::new(Axis::linear("D (mm)"), Axis::linear("Q (kg/s)"));
+        q_panel.title = Some("Q vs D; lines: Q = C (1 − α1 e^(−D/α2)) D^(5/2)".into());
+        let mut dmin_panel = Panel::new(
+            Axis::linear("f (Hz)"),
+            Axis::linear("D_min = α2 ln α1 (mm)"),
+        );
+        dmin_panel.title = Some("D_min vs f".into());
+        dmin_panel.legend = Legend::Outside;
+        Fig3 {
+            q_panel,
+            dmin_panel,
+            fit_table: Table::new(&[
+                "f_Hz",
+                "n_D",
+                "C_kg/(s·m^2.5)",
+                "alpha1",
+                "alpha2_mm",
+                "D_min_mm",
+                "D_min/d",
+                "rms_kg/s",
+                "D_min_ci95_mm",
+                "alpha2_ci95_mm",
+                "weights",
+            ]),
+            q_table: Table::new(&[
+                "f_Hz",
+                "D_mm",
+                "D/d",
+                "Q_kg/s",
+                "ci95_kg/s",
+                "ci95_from",
+                "replicas",
+                "clogged",
+                "Q_fit_kg/s",
+            ]),
+            csv: Table::new(&[
+                "rotation_frequency_hz",
+                "orifice_diameter_m",
+                "particle_diameter_m",
+                "q_kg_per_s",
+                "q_ci95_kg_per_s",
+                "q_ci95_source",
+                "replicas",
+                "clogged_runs",
+                "janda_q_kg_per_s",
+                "janda_c",
+                "janda_alpha1",
+                "janda_alpha2_m",
+                "janda_d_min_m",
+                "janda_d_min_ci95_lo_m",
+                "janda_d_min_ci95_hi_m",
+            ]),
+            dmin_f: Vec::new(),
+            dmin_mm: Vec::new(),
+            dmin_iv: Vec::new(),
+            refused_f: Vec::new(),
+        }
+    }
+
+    /// One rotation frequency: its Q points and fitted curve, its D_min (or why none), its
+    /// fit's row and its points' rows.
+    fn add(&mut self, color: usize, row: &JandaRow) {
         let fit = row.fit.as_ref();
         let d_mm: Vec<f64> = row.points.iter().map(|p| p.d_m * 1e3).collect();
         let q: Vec<f64> = row.points.iter().map(|p| p.q).collect();
@@ -182,8 +262,8 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             .iter()
             .map(|p| replica_label(p.replicas))
             .collect();
-        q_panel.series.push(
-            Series::points(Some(label), color, d_mm.clone(), q)
+        self.q_panel.series.push(
+            Series::points(Some(label), color, d_mm, q)
                 .with_errors(err)
                 .with_point_labels(counts),
         );
@@ -195,63 +275,28 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 .filter(|p| p.1 >= 0.0)
                 .collect();
             let (x, y) = curve.into_iter().unzip();
-            q_panel.series.push(Series::line(None, color, x, y));
+            self.q_panel.series.push(Series::line(None, color, x, y));
         }
         match (row.d_min_refused(), fit.and_then(|f| f.d_min_m)) {
             (None, Some(d_min)) => {
-                dmin_f.push(row.f_hz);
-                dmin_mm.push(d_min * 1e3);
+                self.dmin_f.push(row.f_hz);
+                self.dmin_mm.push(d_min * 1e3);
                 let iv = row.intervals.and_then(|i| i.d_min_m);
-                dmin_iv.push(iv.map(|(lo, hi)| (lo * 1e3, hi * 1e3)));
+                self.dmin_iv.push(iv.map(|(lo, hi)| (lo * 1e3, hi * 1e3)));
             }
             (Some(why), _) => {
-                refused_f.push(row.f_hz);
+                self.refused_f.push(row.f_hz);
                 if fit.is_none() {
-                    q_panel.notes.push(why.clone());
+                    self.q_panel.notes.push(why.clone());
                 }
-                dmin_panel.notes.push(why);
+                self.dmin_panel.notes.push(why);
             }
             (None, None) => {}
         }
-        let particle_d = row.points.first().map(|p| p.particle_d_m);
-        fit_table.push(vec![
-            short(row.f_hz),
-            row.points.len().to_string(),
-            sci(fit.map(|f| f.c), 4),
-            fixed(fit.map(|f| f.alpha1), 4),
-            fixed(fit.map(|f| f.alpha2_m * 1e3), 4),
-            fixed(fit.and_then(|f| f.d_min_m).map(|d| d * 1e3), 3),
-            fixed(
-                fit.and_then(|f| f.d_min_m)
-                    .zip(particle_d)
-                    .map(|(a, b)| a / b),
-                3,
-            ),
-            sci(fit.map(|f| f.rms_residual_kg_per_s), 2),
-            interval_mm(row.intervals.and_then(|i| i.d_min_m)),
-            interval_mm(row.intervals.map(|i| i.alpha2_m)),
-            match (fit, row.weighted) {
-                (None, _) => format!(
-                    "no fit ({} D for {JANDA_PARAMETERS} parameters)",
-                    row.points.len()
-                ),
-                (Some(f), weighted) => {
-                    let mut w = String::from(if weighted { "1/ci95^2" } else { "equal" });
-                    // An α2 at the end of its search range is not determined by the data.
-                    if f.alpha2_at_bound {
-                        w += "; alpha2 at its search bound";
-                    }
-                    match row.intervals {
-                        Some(i) => w += &format!("; bootstrap {}/{BOOTSTRAP_DRAWS}", i.draws),
-                        None => w += "; no bootstrap",
-                    }
-                    w
-                }
-            },
-        ]);
+        self.fit_table.push(fit_row(row));
         for p in &row.points {
             let q_fit = fit.map(|f| f.predict(p.d_m));
-            q_table.push(vec![
+            self.q_table.push(vec![
                 short(p.f_hz),
                 mm(p.d_m),
                 fixed(Some(p.d_over_particle()), 2),
@@ -262,7 +307,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 p.clogged_replicas.to_string(),
                 sci(q_fit, 4),
             ]);
-            csv.push(vec![
+            self.csv.push(vec![
                 csv_num(Some(p.f_hz)),
                 csv_num(Some(p.d_m)),
                 csv_num(Some(p.particle_d_m)),
@@ -281,49 +326,47 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             ]);
         }
     }
-    mark_clogged(&mut q_panel, &clogged, &fits, &mut q_table, &mut csv);
-    if points.iter().any(|p| p.replicas > 1) {
-        q_panel.notes.push(REPLICA_NOTE.into());
-    }
-    q_panel
-        .notes
-        .extend(crate::pooled::silo::target_note(conn, campaign.id)?);
-    let dmin_label = (!dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
-    dmin_panel
-        .series
-        .push(Series::points(dmin_label, 0, dmin_f, dmin_mm).with_intervals(dmin_iv));
-    if !refused_f.is_empty() {
-        dmin_panel.series.push(
-            Series::axis_marks(Some("no D_min (see notes)".into()), 3, refused_f, 0)
-                .with_marker(Marker::Cross),
-        );
-    }
-    let fig = Figure {
-        title: Some(format!(
-            "Fig. 3: flow rate vs orifice diameter, campaign {}",
-            campaign.name
-        )),
-        panels: vec![q_panel, dmin_panel],
-        columns: 2,
-        panel_size: (900, 640),
-    };
-    let mut text = String::from(
-        "Janda fit Q = C (1 - alpha1 exp(-D/alpha2)) D^(5/2), per rotation frequency\n",
-    );
-    text.push_str(&fit_table.to_text());
-    text.push_str(
-        "\nflow rates over replicas: ci95_from 'pooled blocks' (every replica's blocks pooled, \
-         weighted by their count), 'replica spread' (>= 3 replicas that scatter more than their \
-         blocks say), 'replicas' (Student t over >= 2 replicas without block counts), 'job' \
-         (one run's own); replicas = runs with Q, clogged = runs without\n",
-    );
-    text.push_str(&q_table.to_text());
-    text.push('\n');
-    text.push_str(&beverloo_line(&rows, &points));
-    Ok(Drawn {
-        text,
-        files: write_all(&fig, &csv, out_dir, "fig3")?,
-    })
+}
+
+/// The fit table's row of one rotation frequency.
+fn fit_row(row: &JandaRow) -> Vec<String> {
+    let fit = row.fit.as_ref();
+    let particle_d = row.points.first().map(|p| p.particle_d_m);
+    vec![
+        short(row.f_hz),
+        row.points.len().to_string(),
+        sci(fit.map(|f| f.c), 4),
+        fixed(fit.map(|f| f.alpha1), 4),
+        fixed(fit.map(|f| f.alpha2_m * 1e3), 4),
+        fixed(fit.and_then(|f| f.d_min_m).map(|d| d * 1e3), 3),
+        fixed(
+            fit.and_then(|f| f.d_min_m)
+                .zip(particle_d)
+                .map(|(a, b)| a / b),
+            3,
+        ),
+        sci(fit.map(|f| f.rms_residual_kg_per_s), 2),
+        interval_mm(row.intervals.and_then(|i| i.d_min_m)),
+        interval_mm(row.intervals.map(|i| i.alpha2_m)),
+        match (fit, row.weighted) {
+            (None, _) => format!(
+                "no fit ({} D for {JANDA_PARAMETERS} parameters)",
+                row.points.len()
+            ),
+            (Some(f), weighted) => {
+                let mut w = String::from(if weighted { "1/ci95^2" } else { "equal" });
+                // An α2 at the end of its search range is not determined by the data.
+                if f.alpha2_at_bound {
+                    w += "; alpha2 at its search bound";
+                }
+                match row.intervals {
+                    Some(i) => w += &format!("; bootstrap {}/{BOOTSTRAP_DRAWS}", i.draws),
+                    None => w += "; no bootstrap",
+                }
+                w
+            }
+        },
+    ]
 }
 
 /// Crosses on the D axis for the (D, f) where every run clogged (in the colour of its f), a
