@@ -96,7 +96,7 @@ pub fn report(
     let (scale, rows, spent) = match sweep::report::claims::stored_claims(conn, c.id, &c.scene)? {
         Some(x) => x,
         None => {
-            let ev = match sweep::runner::adaptive::evaluate(conn, c.id) {
+            let ev = match sweep::runner::evaluation::evaluate(conn, c.id) {
                 Ok(ev) if !ev.file.claims.is_empty() => ev,
                 _ => {
                     eprintln!(

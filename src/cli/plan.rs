@@ -309,7 +309,7 @@ fn target_forecast(
         );
         return Ok(());
     };
-    let ev = sweep::runner::adaptive::evaluate_for(conn, campaign.id, Some(t))?;
+    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
     if ev.open > 0 {
         println!(
             "  ({} job(s) of the campaign not ended: the estimate uses the ended ones)",
@@ -386,7 +386,7 @@ fn claims_forecast(
         );
         return Ok(());
     };
-    let ev = sweep::runner::adaptive::evaluate_for(conn, campaign.id, Some(t))?;
+    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
     if ev.open > 0 {
         println!(
             "  ({} job(s) of the campaign not ended: the verdicts use the ended ones)",

@@ -18,7 +18,7 @@ use crate::pooled::replica_results::chute_replica_results;
 use crate::pooled::silo::gravity_m_per_s2;
 use crate::store::chute_reads::{blocks, done_chute_jobs};
 
-use super::adaptive::Evaluation;
+use super::evaluation::Evaluation;
 
 /// The points of `ev` (in its order) with their results, and the silo's constants (particle
 /// diameter, bulk density, gravity) for the fits that need them.

@@ -21,8 +21,8 @@ use crate::observe::fits::{Pooled, PooledFrom};
 use crate::store::claims::{self, VerdictRow};
 use crate::store::targets::WorkRow;
 
-use super::adaptive::{register_work, Evaluation, RoundOutcome};
 use super::claim_points::claim_points;
+use super::evaluation::{register_work, Evaluation};
 
 /// The smallest fraction of a point's variance one round aims to keep (a round at most
 /// quadruples the point's measurement).
@@ -334,7 +334,7 @@ pub fn next_claims_round(
     conn: &mut Connection,
     campaign_id: i64,
     ev: Evaluation,
-) -> Result<RoundOutcome> {
+) -> Result<ClaimsRound> {
     let l = look(conn, campaign_id, &ev)?;
     let undecided = l
         .claims
@@ -378,14 +378,14 @@ pub fn next_claims_round(
     claims::save_verdicts(&tx, campaign_id, &rows)?;
     let work = register_work(&tx, campaign_id, &ev.file, ev.rounds_done + 1, planned)?;
     tx.commit()?;
-    Ok(RoundOutcome::Claims(ClaimsRound {
+    Ok(ClaimsRound {
         look: l.look,
         verdicts: rows,
         work,
         stop,
         spent: l.spent,
         max_core_hours: t.max_core_hours,
-    }))
+    })
 }
 
 /// A campaign with claims and no target: once its jobs have ended, its claims are looked at
@@ -394,7 +394,7 @@ pub fn next_claims_round(
 /// # Errors
 /// Database errors.
 pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<VerdictRow>>> {
-    let ev = super::adaptive::evaluate(conn, campaign_id)?;
+    let ev = super::evaluation::evaluate(conn, campaign_id)?;
     if ev.open > 0 || ev.file.claims.is_empty() {
         return Ok(None);
     }

@@ -11,6 +11,7 @@ pub mod backend;
 pub mod chute_job;
 pub mod claim_points;
 pub mod claim_rounds;
+pub mod evaluation;
 pub mod gpu_batch;
 pub mod gpu_variants;
 pub mod job;

@@ -14,9 +14,7 @@ use std::path::Path;
 const KNOWN: &[&str] = &[
     "cli/launch.rs <-> cli/run_args.rs <-> cli/shared.rs <-> cli/submit.rs",
     "engine/grid.rs <-> engine/state.rs",
-    "report/chute/mod.rs <-> report/chute/profiles.rs <-> report/chute/scaling.rs <-> report/chute/velocity.rs",
     "report/drawn.rs <-> report/plot/mod.rs <-> report/raster.rs",
-    "runner/adaptive.rs <-> runner/claim_points.rs <-> runner/claim_rounds.rs",
     "store/jobs.rs <-> store/lookup.rs <-> store/requeue.rs",
 ];
 

@@ -14,7 +14,7 @@ use crate::pooled::chute::{combine_point, group_points, replicas_caption};
 use crate::pooled::chute_jobs::{closest, done_chute_jobs, ChuteJob};
 use crate::pooled::silo::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::{caption, color, empty_panel, preface};
+use crate::report::chute::common::{caption, color, empty_panel, preface};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, sci, short, Table};

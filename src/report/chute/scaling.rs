@@ -14,7 +14,7 @@ use crate::pooled::chute::{combine_point, group_points, replicas_caption};
 use crate::pooled::chute_jobs::{done_chute_jobs, ChuteJob};
 use crate::pooled::silo::{distinct, same_value};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::{caption, color, preface, GREY};
+use crate::report::chute::common::{caption, color, preface, GREY};
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, sci, short, Table};

@@ -13,7 +13,7 @@ use crate::pooled::chute::{combine_point, replicas_caption, replicas_of};
 use crate::pooled::chute_jobs::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::{
+use crate::report::chute::common::{
     caption, case_name, color, empty_panel, preface, showcase_jobs, showcase_note, shown_indices,
     GREY,
 };
