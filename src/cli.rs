@@ -11,6 +11,7 @@ mod export;
 mod fields;
 mod forget;
 mod info;
+mod interrupt;
 mod launch;
 mod plan;
 mod report;

@@ -26,7 +26,7 @@ pub struct Arguments {
     #[arg(long, default_value = "f32")]
     pub precision: String,
     /// Engine threads (0: all cores).
-    #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, super::run_args::MAX_THREADS))]
+    #[arg(long, default_value_t = 0, value_parser = super::run_args::bounded(0, super::run_args::MAX_THREADS))]
     pub threads: usize,
     /// Runs from the same start (each with its own warm-up): the median is reported and stored,
     /// with the best and every run. On a shared or virtual machine single runs scatter by tens

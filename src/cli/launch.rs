@@ -2,8 +2,7 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use sweep::campaign::ExecutorKind;
 use sweep::runner::backend::{announce_auto, BackendChoice};
@@ -14,28 +13,6 @@ use sweep::store::slurm_tasks;
 
 use super::run_args::{Arguments, ResumeArguments, RunArgs};
 use super::shared::{print_report, register, work_dir, EXIT_PAUSED};
-
-/// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
-/// One flag for the whole process: a signal handler can be set only once, and a target's
-/// rounds run their jobs in later pools that must see the same interrupt.
-pub fn interrupt_flag() -> Arc<AtomicBool> {
-    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag = Arc::new(AtomicBool::new(false));
-        let f = flag.clone();
-        let _ = ctrlc::set_handler(move || {
-            if f.swap(true, Ordering::SeqCst) {
-                eprintln!("sweep: second interrupt, exiting without checkpoint");
-                std::process::exit(130);
-            }
-            eprintln!(
-                "sweep: interrupt: writing checkpoints, then stopping (again to exit at once)"
-            );
-        });
-        flag
-    })
-    .clone()
-}
 
 /// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
 fn run_jobs(
@@ -61,7 +38,7 @@ fn run_jobs(
         batch: r.batch,
         checkpoint_interval_s,
         max_attempts,
-        interrupt: interrupt_flag(),
+        interrupt: super::interrupt::interrupt_flag(),
         bars: std::io::stderr().is_terminal(),
     };
     // A failure of the machinery (the disk full, the store unwritable) is a failed run, not bad

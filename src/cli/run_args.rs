@@ -23,10 +23,10 @@ pub struct RunArgs {
     #[command(flatten)]
     pub gpu: GpuArgs,
     /// Jobs run at the same time (at least 1).
-    #[arg(long, default_value_t = 1, value_parser = super::shared::bounded(1, MAX_THREADS))]
+    #[arg(long, default_value_t = 1, value_parser = bounded(1, MAX_THREADS))]
     pub parallel: usize,
     /// Engine threads per job (0: cores / parallel; at most 1024).
-    #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, MAX_THREADS))]
+    #[arg(long, default_value_t = 0, value_parser = bounded(0, MAX_THREADS))]
     pub threads: usize,
     /// GPU jobs running at the same time (--parallel) share one engine, up to J per batch
     /// (1 to 32; auto: all of them, as the device's buffer limits allow). Each job's results are
@@ -173,4 +173,9 @@ impl ExecutorArgs {
         }
         v
     }
+}
+
+/// A clap parser of a whole number in [lo, hi] (thread and job counts).
+pub fn bounded(lo: u64, hi: usize) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi as u64)
 }

@@ -20,7 +20,7 @@ pub struct Arguments {
     #[command(flatten)]
     pub gpu: super::run_args::GpuArgs,
     /// Engine threads (0: SLURM_CPUS_PER_TASK, else 1).
-    #[arg(long, default_value_t = 0, value_parser = super::shared::bounded(0, super::run_args::MAX_THREADS))]
+    #[arg(long, default_value_t = 0, value_parser = super::run_args::bounded(0, super::run_args::MAX_THREADS))]
     pub threads: usize,
 }
 

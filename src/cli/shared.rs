@@ -29,7 +29,7 @@ pub fn register(
     jobs: &sweep::campaign::Jobs,
 ) -> anyhow::Result<Result<(i64, i64, usize), i32>> {
     let path = a.file.display().to_string();
-    let stop = super::launch::interrupt_flag();
+    let stop = super::interrupt::interrupt_flag();
     let stop = || stop.load(std::sync::atomic::Ordering::SeqCst);
     match jobs::register_until(conn, &path, file, jobs, a.new_version, &stop)? {
         jobs::Registration::Interrupted { added, .. } => {
@@ -59,11 +59,6 @@ pub fn register(
             Ok(Err(2))
         }
     }
-}
-
-/// A clap parser of a whole number in [lo, hi] (thread and job counts).
-pub fn bounded(lo: u64, hi: usize) -> clap::builder::RangedU64ValueParser<usize> {
-    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi as u64)
 }
 
 /// One line per job whose state changed, and a warning when Slurm could not be asked.

@@ -3,8 +3,8 @@
 //! (velocity Verlet's first half-kick needs them) and the contact-history table. Scratch buffers
 //! (neighbour lists, cell grid) live in the backend, not here.
 
-use super::grid::Periodic;
 use super::history::History;
+use super::periodic::Periodic;
 use super::position::{separation, split_v3, to_f64_v3};
 use super::real::{Real, V3};
 use super::shape::{angular_momentum, angular_velocity, Quat, Spherocylinder};

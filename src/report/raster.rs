@@ -306,7 +306,7 @@ impl DrawingBackend for SupersampledPng<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::plot::ensure_font;
+    use crate::report::font::ensure_font;
 
     /// The first column (in image pixels) with ink in the fine canvas.
     fn first_ink_column(b: &SupersampledPng) -> Option<usize> {

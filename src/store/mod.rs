@@ -20,6 +20,7 @@ pub mod fields;
 pub mod forget;
 pub mod job_counts;
 pub mod jobs;
+mod lease;
 mod lookup;
 pub mod meta;
 pub mod numerics;

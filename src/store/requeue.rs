@@ -4,7 +4,7 @@
 
 use rusqlite::{params, Connection, TransactionBehavior};
 
-use super::jobs::{owner_place, OwnerPlace};
+use super::lease::{owner_place, OwnerPlace};
 use super::now;
 
 /// A job that is not done and that `resume` looked at.

@@ -3,7 +3,6 @@
 //! database or about any paper.
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use anyhow::{anyhow, Context, Result};
 use plotters::coord::Shift;
@@ -13,15 +12,10 @@ mod draw;
 
 use draw::{draw_panel, plot_err};
 
-use super::drawn::Output;
+pub(crate) use super::font::ensure_font;
+use super::font::{FONT, FONT_BYTES};
+use super::output::Output;
 use super::raster::SupersampledPng;
-
-/// The font used for every text of a figure, bundled so PNGs need no system font.
-const FONT_BYTES: &[u8] = include_bytes!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/assets/DejaVuSans.ttf"
-));
-const FONT: &str = "sans-serif";
 
 /// Categorical colours (Tableau 10): distinguishable and readable on white.
 const PALETTE: [RGBColor; 10] = [
@@ -457,18 +451,3 @@ impl Figure {
 const TITLE_HEIGHT: u32 = 40;
 /// Width of one character of the title (size 26, an em of 21 px), with a margin, in pixels.
 const TITLE_CHAR_PX: u32 = 13;
-
-/// Registers the bundled font with plotters once per process.
-pub(crate) fn ensure_font() -> Result<()> {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let ok = *REGISTERED.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()
-    });
-    if ok {
-        Ok(())
-    } else {
-        Err(anyhow!(
-            "the bundled font assets/DejaVuSans.ttf could not be loaded"
-        ))
-    }
-}
