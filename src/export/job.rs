@@ -84,47 +84,7 @@ pub fn export_job(
     let dir = job_dir(work_dir, &hash);
     let mut report = ExportReport::default();
 
-    // Particles: the frames, every k-th, or the latest checkpoint.
-    let listed = list_frames(&snapshot_dir(&dir));
-    let mut frames: Vec<(Frame, String)> = Vec::new();
-    for (_, path) in listed.iter().step_by(opts.every.max(1)) {
-        match read_frame(path, Some(&hash)) {
-            Ok(f) => {
-                let file = format!("particles/frame-{:012}.vtu", f.chunk);
-                frames.push((f, file));
-            }
-            Err(e) => report.refused.push(format!("refused snapshot frame {e}")),
-        }
-    }
-    if listed.is_empty() {
-        let (found, refused) = checkpoint::load_latest(&dir, &hash);
-        report.refused.extend(refused);
-        if let Some((path, _, s, extra)) = found {
-            // The job's clock, as snapshot frames are stamped; a checkpoint from before it was
-            // recorded has only the engine's.
-            let job_time = serde_json::from_str::<serde_json::Value>(&extra)
-                .ok()
-                .and_then(|v| v.get("job_time_s").and_then(serde_json::Value::as_f64));
-            let (t, clock) = match job_time {
-                Some(t) => (t, "the job's clock, as snapshot frames"),
-                None => (
-                    s.time,
-                    "the engine's clock: the checkpoint predates the job's",
-                ),
-            };
-            report.notes.push(format!(
-                "job {job_id} has no snapshot frames (set observers.snapshots.interval_s to record them): exported its latest checkpoint {} (t = {t:.4} s, {clock}) as one frame",
-                path.display(),
-            ));
-            let f = Frame::of_state(&s, &hash, 0, t);
-            frames.push((f, format!("particles/checkpoint-{:012}.vtu", s.step)));
-        } else {
-            report.notes.push(format!(
-                "job {job_id} has no snapshot frames and no valid checkpoint in {}: no particles exported",
-                dir.display()
-            ));
-        }
-    }
+    let frames = particle_frames(&dir, &hash, job_id, opts, &mut report);
 
     // Stored field sets (arrays loaded one set at a time), then the chute's z profiles.
     let mut sets: Vec<(FieldSet, Option<Vec<FieldArray>>)> = list_field_sets(conn, job_id)
@@ -146,40 +106,108 @@ pub fn export_job(
             job_dir: dir,
         });
     }
-    let write = |path: &Path, text: &str| {
-        std::fs::write(path, text).map_err(|source| ExportError::Write {
-            path: path.to_path_buf(),
-            source,
-        })
-    };
-    let make_dir = |path: &Path| {
-        std::fs::create_dir_all(path).map_err(|source| ExportError::Write {
-            path: path.to_path_buf(),
-            source,
-        })
-    };
     make_dir(out)?;
-
     if !frames.is_empty() {
-        let pdir = out.join("particles");
-        make_dir(&pdir)?;
-        remove_stale(&pdir, &["frame-", "checkpoint-"], ".vtu");
-        let mut entries = Vec::new();
-        for (f, file) in &frames {
-            let path = out.join(file);
-            write(&path, &frame_to_vtu(f, opts.encoding))?;
-            report.frames.push(path);
-            entries.push(PvdEntry {
-                time_s: f.job_time_s,
-                file: file.clone(),
-                name: "particles".into(),
-            });
-        }
-        let pvd = out.join("particles.pvd");
-        write(&pvd, &collection(&entries))?;
-        report.particles_pvd = Some(pvd);
+        write_frames(out, &frames, opts, &mut report)?;
     }
+    write_fields(conn, out, sets, job_id, opts, &mut report)?;
+    Ok(report)
+}
 
+/// The particles to export: the snapshot frames (every `opts.every`-th), or else the latest
+/// valid checkpoint as one frame; each with its file under `out`. Refused frames and
+/// checkpoints, and what was chosen, go to `report`.
+fn particle_frames(
+    dir: &Path,
+    hash: &str,
+    job_id: i64,
+    opts: &ExportOptions,
+    report: &mut ExportReport,
+) -> Vec<(Frame, String)> {
+    let listed = list_frames(&snapshot_dir(dir));
+    let mut frames: Vec<(Frame, String)> = Vec::new();
+    for (_, path) in listed.iter().step_by(opts.every.max(1)) {
+        match read_frame(path, Some(hash)) {
+            Ok(f) => {
+                let file = format!("particles/frame-{:012}.vtu", f.chunk);
+                frames.push((f, file));
+            }
+            Err(e) => report.refused.push(format!("refused snapshot frame {e}")),
+        }
+    }
+    if listed.is_empty() {
+        let (found, refused) = checkpoint::load_latest(dir, hash);
+        report.refused.extend(refused);
+        if let Some((path, _, s, extra)) = found {
+            // The job's clock, as snapshot frames are stamped; a checkpoint from before it was
+            // recorded has only the engine's.
+            let job_time = serde_json::from_str::<serde_json::Value>(&extra)
+                .ok()
+                .and_then(|v| v.get("job_time_s").and_then(serde_json::Value::as_f64));
+            let (t, clock) = match job_time {
+                Some(t) => (t, "the job's clock, as snapshot frames"),
+                None => (
+                    s.time,
+                    "the engine's clock: the checkpoint predates the job's",
+                ),
+            };
+            report.notes.push(format!(
+            "job {job_id} has no snapshot frames (set observers.snapshots.interval_s to record them): exported its latest checkpoint {} (t = {t:.4} s, {clock}) as one frame",
+            path.display(),
+        ));
+            let f = Frame::of_state(&s, hash, 0, t);
+            frames.push((f, format!("particles/checkpoint-{:012}.vtu", s.step)));
+        } else {
+            report.notes.push(format!(
+            "job {job_id} has no snapshot frames and no valid checkpoint in {}: no particles exported",
+            dir.display()
+        ));
+        }
+    }
+    frames
+}
+
+/// Writes `frames` as VTU files under `out/particles/` and their collection `particles.pvd`.
+fn write_frames(
+    out: &Path,
+    frames: &[(Frame, String)],
+    opts: &ExportOptions,
+    report: &mut ExportReport,
+) -> Result<(), ExportError> {
+    let pdir = out.join("particles");
+    make_dir(&pdir)?;
+    remove_stale(&pdir, &["frame-", "checkpoint-"], ".vtu");
+    let mut entries = Vec::new();
+    for (f, file) in frames {
+        let path = out.join(file);
+        write(&path, &frame_to_vtu(f, opts.encoding))?;
+        report.frames.push(path);
+        entries.push(PvdEntry {
+            time_s: f.job_time_s,
+            file: file.clone(),
+            name: "particles".into(),
+        });
+    }
+    let pvd = out.join("particles.pvd");
+    write(&pvd, &collection(&entries))?;
+    report.particles_pvd = Some(pvd);
+    Ok(())
+}
+
+/// Writes the field sets (arrays loaded one set at a time unless given) as VTI files under
+/// `out/fields/` and the collection `fields.pvd` of those that are moments of the run.
+fn write_fields(
+    conn: &Connection,
+    out: &Path,
+    sets: Vec<(FieldSet, Option<Vec<FieldArray>>)>,
+    job_id: i64,
+    opts: &ExportOptions,
+    report: &mut ExportReport,
+) -> Result<(), ExportError> {
+    let store = |e: &dyn std::fmt::Display| ExportError::Store {
+        job_id,
+        message: e.to_string(),
+    };
     if sets.is_empty() {
         report.notes.push(format!(
             "job {job_id} has no coarse-grained field sets or profiles"
@@ -227,7 +255,21 @@ pub fn export_job(
             report.fields_pvd = Some(pvd);
         }
     }
-    Ok(report)
+    Ok(())
+}
+
+fn write(path: &Path, text: &str) -> Result<(), ExportError> {
+    std::fs::write(path, text).map_err(|source| ExportError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn make_dir(path: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(path).map_err(|source| ExportError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// A field set's name as a file name: letters, digits, '.', '-' and '_' kept, others '_'.

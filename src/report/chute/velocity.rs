@@ -10,7 +10,9 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, replicas_caption, replicas_of};
-use crate::pooled::chute_jobs::{block_curves, blocks, done_chute_jobs, BlockRow, CurveTable};
+use crate::pooled::chute_jobs::{
+    block_curves, blocks, done_chute_jobs, BlockRow, ChuteJob, CurveTable,
+};
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{
@@ -77,87 +79,9 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     skew.legend = Legend::Outside;
     let mut max_replicas = 0;
     for (k, job) in shown.iter().enumerate() {
-        let l = job.total_length_m;
-        let rows = blocks(conn, job.job_id)?;
-        let curves = block_curves(conn, job.job_id, CurveTable::VzPdf)?;
-        let picked = shown_indices(curves.len());
-        let mut panel = Panel::new(Axis::linear("(v_z − ⟨v_z⟩) / σ"), Axis::log("PDF"));
-        panel.title = Some(case_name(job));
-        panel.legend = Legend::Outside;
-        let mut x_extent: f64 = 0.0;
-        for (i, c) in curves.iter().enumerate() {
-            let row = rows.iter().find(|r| r.block == c.block);
-            let drawn = picked.contains(&i);
-            table.push(vec![
-                short(job.aspect_ratio),
-                short(job.inclination_deg),
-                c.block.to_string(),
-                fixed(row.map(|r| r.z_m / l), 2),
-                c.points.len().to_string(),
-                fixed(Some(area(&c.points)), 3),
-                sci(row.and_then(|r| r.vz_std_m_per_s).map(|s| s / l), 3),
-                fixed(row.and_then(|r| r.vz_skewness), 3),
-                if drawn { "yes" } else { "no" }.into(),
-            ]);
-            if !drawn {
-                continue;
-            }
-            for &(x, p) in &c.points {
-                csv.push(vec![
-                    job.label.clone(),
-                    csv_num(Some(job.aspect_ratio)),
-                    csv_num(Some(job.inclination_deg)),
-                    c.block.to_string(),
-                    csv_num(row.map(|r| r.z_m / l)),
-                    csv_num(Some(x)),
-                    csv_num(Some(p)),
-                    String::new(),
-                ]);
-                x_extent = x_extent.max(x.abs());
-            }
-            let (x, p) = c.points.iter().copied().unzip();
-            let n = panel.series.len();
-            let label = block_label(row, c.block, l);
-            panel.series.push(Series::line(Some(label), color(n), x, p));
-        }
-        if panel.series.is_empty() {
-            panel.title = Some(format!("{}: no v_z PDF rows", case_name(job)));
-        } else {
-            panel.series.push(gaussian(x_extent.max(1.0)));
-        }
-        panels.push(panel);
-        // The skewness over the replicas of the job's point (its steady ones).
-        let point = combine_point(conn, &replicas_of(&jobs, job))?;
-        let pts: Vec<(f64, f64, Option<f64>, usize)> = point
-            .blocks
-            .iter()
-            .filter_map(|b| {
-                let s = b.vz_skewness?;
-                Some((b.z_m / point.total_length_m, s.mean, s.ci95, s.replicas))
-            })
-            .collect();
-        max_replicas = max_replicas.max(point.pooled.len());
-        for &(z, s, _, _) in &pts {
-            csv.push(vec![
-                job.label.clone(),
-                csv_num(Some(job.aspect_ratio)),
-                csv_num(Some(job.inclination_deg)),
-                String::new(),
-                csv_num(Some(z)),
-                String::new(),
-                String::new(),
-                csv_num(Some(s)),
-            ]);
-        }
-        let z: Vec<f64> = pts.iter().map(|p| p.0).collect();
-        let s: Vec<f64> = pts.iter().map(|p| p.1).collect();
-        skew.series
-            .push(Series::line(None, color(k), z.clone(), s.clone()));
-        skew.series.push(
-            Series::points(Some(case_name(job)), color(k), z, s)
-                .with_errors(pts.iter().map(|p| p.2).collect())
-                .with_point_labels(pts.iter().map(|p| replica_label(p.3)).collect()),
-        );
+        panels.push(pdf_panel(conn, job, &mut table, &mut csv)?);
+        let replicas = skewness_series(conn, &jobs, job, color(k), &mut skew, &mut csv)?;
+        max_replicas = max_replicas.max(replicas);
     }
     if let Some(z) = skew
         .series
@@ -203,6 +127,109 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         text,
         files: write_all(&fig, &csv, out_dir, "chute_fig5")?,
     })
+}
+
+/// One showcase job's panel: its standardised v_z PDFs (up to 8 blocks) and the Gaussian; every
+/// block listed in `table`, the drawn ones' bins in `csv`.
+fn pdf_panel(
+    conn: &Connection,
+    job: &ChuteJob,
+    table: &mut Table,
+    csv: &mut Table,
+) -> Result<Panel> {
+    let l = job.total_length_m;
+    let rows = blocks(conn, job.job_id)?;
+    let curves = block_curves(conn, job.job_id, CurveTable::VzPdf)?;
+    let picked = shown_indices(curves.len());
+    let mut panel = Panel::new(Axis::linear("(v_z − ⟨v_z⟩) / σ"), Axis::log("PDF"));
+    panel.title = Some(case_name(job));
+    panel.legend = Legend::Outside;
+    let mut x_extent: f64 = 0.0;
+    for (i, c) in curves.iter().enumerate() {
+        let row = rows.iter().find(|r| r.block == c.block);
+        let drawn = picked.contains(&i);
+        table.push(vec![
+            short(job.aspect_ratio),
+            short(job.inclination_deg),
+            c.block.to_string(),
+            fixed(row.map(|r| r.z_m / l), 2),
+            c.points.len().to_string(),
+            fixed(Some(area(&c.points)), 3),
+            sci(row.and_then(|r| r.vz_std_m_per_s).map(|s| s / l), 3),
+            fixed(row.and_then(|r| r.vz_skewness), 3),
+            if drawn { "yes" } else { "no" }.into(),
+        ]);
+        if !drawn {
+            continue;
+        }
+        for &(x, p) in &c.points {
+            csv.push(vec![
+                job.label.clone(),
+                csv_num(Some(job.aspect_ratio)),
+                csv_num(Some(job.inclination_deg)),
+                c.block.to_string(),
+                csv_num(row.map(|r| r.z_m / l)),
+                csv_num(Some(x)),
+                csv_num(Some(p)),
+                String::new(),
+            ]);
+            x_extent = x_extent.max(x.abs());
+        }
+        let (x, p) = c.points.iter().copied().unzip();
+        let n = panel.series.len();
+        let label = block_label(row, c.block, l);
+        panel.series.push(Series::line(Some(label), color(n), x, p));
+    }
+    if panel.series.is_empty() {
+        panel.title = Some(format!("{}: no v_z PDF rows", case_name(job)));
+    } else {
+        panel.series.push(gaussian(x_extent.max(1.0)));
+    }
+    Ok(panel)
+}
+
+/// The skewness vs height of `job`'s point (its steady replicas), drawn in colour `c` on `skew`
+/// and listed in `csv`; returns how many replicas were pooled.
+fn skewness_series(
+    conn: &Connection,
+    jobs: &[ChuteJob],
+    job: &ChuteJob,
+    c: usize,
+    skew: &mut Panel,
+    csv: &mut Table,
+) -> Result<usize> {
+    // The skewness over the replicas of the job's point (its steady ones).
+    let point = combine_point(conn, &replicas_of(jobs, job))?;
+    let pts: Vec<(f64, f64, Option<f64>, usize)> = point
+        .blocks
+        .iter()
+        .filter_map(|b| {
+            let s = b.vz_skewness?;
+            Some((b.z_m / point.total_length_m, s.mean, s.ci95, s.replicas))
+        })
+        .collect();
+    for &(z, s, _, _) in &pts {
+        csv.push(vec![
+            job.label.clone(),
+            csv_num(Some(job.aspect_ratio)),
+            csv_num(Some(job.inclination_deg)),
+            String::new(),
+            csv_num(Some(z)),
+            String::new(),
+            String::new(),
+            csv_num(Some(s)),
+        ]);
+    }
+    let z: Vec<f64> = pts.iter().map(|p| p.0).collect();
+    let s: Vec<f64> = pts.iter().map(|p| p.1).collect();
+    skew.series
+        .push(Series::line(None, c, z.clone(), s.clone()));
+    skew.series.push(
+        Series::points(Some(case_name(job)), c, z, s)
+            .with_errors(pts.iter().map(|p| p.2).collect())
+            .with_point_labels(pts.iter().map(|p| replica_label(p.3)).collect()),
+    );
+    Ok(point.pooled.len())
 }
 
 /// The standard normal density on [−extent, extent].

@@ -98,49 +98,25 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
     let mut any_clogged = false;
     for (k, &d) in ds.iter().enumerate() {
         let fs = distinct(jobs.iter().filter(|j| same_value(j.d_m, d)).map(|j| j.f_hz));
-        let mut pts = Vec::new();
+        let OrificePoints {
+            pts,
+            clogged,
+            no_grid,
+        } = orifice_points(conn, &jobs, d, &fs)?;
         let mut clogged_fs = Vec::new();
-        let mut no_grid = false;
-        for &f in &fs {
-            let mut per_job = Vec::new();
-            let mut samples = 0;
-            let mut clogged_runs = 0;
-            for j in jobs
-                .iter()
-                .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
-            {
-                match orifice_pk(conn, j)? {
-                    JobPk::Value(m, ci, n) => {
-                        per_job.push((m, ci));
-                        samples += n;
-                    }
-                    JobPk::Clogged => clogged_runs += 1,
-                    JobPk::NoGridPoint => no_grid = true,
-                }
-            }
-            if per_job.is_empty() {
-                if clogged_runs > 0 {
-                    clogged_fs.push(f);
-                    csv.push(vec![
-                        csv_num(Some(d)),
-                        short(f),
-                        String::new(),
-                        String::new(),
-                        "0".into(),
-                        "0".into(),
-                        String::new(),
-                        String::new(),
-                        clogged_runs.to_string(),
-                    ]);
-                }
-                continue;
-            }
-            let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
-            let (mean, ci) = match mean_ci95(&values) {
-                Some((m, ci)) => (m, Some(ci)),
-                None => (values[0], per_job[0].1),
-            };
-            pts.push((f, mean, ci, per_job.len(), samples, clogged_runs));
+        for (f, runs) in clogged {
+            clogged_fs.push(f);
+            csv.push(vec![
+                csv_num(Some(d)),
+                short(f),
+                String::new(),
+                String::new(),
+                "0".into(),
+                "0".into(),
+                String::new(),
+                String::new(),
+                runs.to_string(),
+            ]);
         }
         if no_grid {
             let note = format!(
@@ -168,24 +144,7 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
         let mut ry = Vec::new();
         let mut re = Vec::new();
         for p in &pts {
-            let (ratio, err) = match reference {
-                Some((r, rci)) if r > 0.0 => {
-                    let ratio = p.1 / r;
-                    // Relative CIs in quadrature; the reference point itself is 1 by construction.
-                    let err = if same_value(p.0, f_ref) {
-                        Some(0.0)
-                    } else {
-                        match (p.2, rci) {
-                            (Some(e), Some(er)) => {
-                                Some(ratio * ((e / p.1).powi(2) + (er / r).powi(2)).sqrt())
-                            }
-                            _ => None,
-                        }
-                    };
-                    (Some(ratio), err)
-                }
-                _ => (None, None),
-            };
+            let (ratio, err) = ratio_to(p, reference, f_ref);
             if let Some(r) = ratio {
                 rx.push(p.0);
                 ry.push(r);
@@ -246,4 +205,90 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
         text: csv.to_text(),
         files,
     })
+}
+
+/// One (D, f) with a value: (f, ⟨p^k⟩ over its replicas, its 95 % CI, replicas, samples,
+/// clogged runs).
+type PkPoint = (f64, f64, Option<f64>, usize, usize, usize);
+
+/// An orifice's frequencies: those with a value, those whose runs all clogged (with how many
+/// runs), and whether a job had no grid point in the orifice cylinder.
+struct OrificePoints {
+    pts: Vec<PkPoint>,
+    clogged: Vec<(f64, usize)>,
+    no_grid: bool,
+}
+
+/// The ⟨p^k⟩ of orifice `d` at each of `fs`, its replicas combined (their mean, the CI of their
+/// spread when there are several, else the one job's own).
+fn orifice_points(
+    conn: &Connection,
+    jobs: &[FieldJob],
+    d: f64,
+    fs: &[f64],
+) -> Result<OrificePoints> {
+    let mut out = OrificePoints {
+        pts: Vec::new(),
+        clogged: Vec::new(),
+        no_grid: false,
+    };
+    for &f in fs {
+        let mut per_job = Vec::new();
+        let mut samples = 0;
+        let mut clogged_runs = 0;
+        for j in jobs
+            .iter()
+            .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
+        {
+            match orifice_pk(conn, j)? {
+                JobPk::Value(m, ci, n) => {
+                    per_job.push((m, ci));
+                    samples += n;
+                }
+                JobPk::Clogged => clogged_runs += 1,
+                JobPk::NoGridPoint => out.no_grid = true,
+            }
+        }
+        if per_job.is_empty() {
+            if clogged_runs > 0 {
+                out.clogged.push((f, clogged_runs));
+            }
+            continue;
+        }
+        let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
+        let (mean, ci) = match mean_ci95(&values) {
+            Some((m, ci)) => (m, Some(ci)),
+            None => (values[0], per_job[0].1),
+        };
+        out.pts
+            .push((f, mean, ci, per_job.len(), samples, clogged_runs));
+    }
+    Ok(out)
+}
+
+/// `p` over the reference (the value at `f_ref` and its CI) and the ratio's CI: relative CIs
+/// in quadrature, the reference point itself 1 by construction; None without a positive
+/// reference.
+fn ratio_to(
+    p: &PkPoint,
+    reference: Option<(f64, Option<f64>)>,
+    f_ref: f64,
+) -> (Option<f64>, Option<f64>) {
+    match reference {
+        Some((r, rci)) if r > 0.0 => {
+            let ratio = p.1 / r;
+            let err = if same_value(p.0, f_ref) {
+                Some(0.0)
+            } else {
+                match (p.2, rci) {
+                    (Some(e), Some(er)) => {
+                        Some(ratio * ((e / p.1).powi(2) + (er / r).powi(2)).sqrt())
+                    }
+                    _ => None,
+                }
+            };
+            (Some(ratio), err)
+        }
+        _ => (None, None),
+    }
 }
