@@ -56,47 +56,19 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     } else {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     };
-    // The bench scene that resembles the campaign's: a settled Hertz bed for the silo (the
-    // random bed of `--settle` where there is one, else the lattice start), flowing
-    // spherocylinders over a rough base for the chute (flowing spheres, chute-bed, when every
-    // job is ξ = 1: those run on the sphere engine).
-    let (bench_scene, settled) = match file.scene {
-        SceneKind::Silo => ("silo-bed", sweep::bench::settled_name("silo-bed")),
-        SceneKind::Chute if jobs.points().iter().all(|j| j.chute().spheres()) => {
-            ("chute-bed", None)
-        }
-        SceneKind::Chute => ("chute-rods", None),
-    };
+    let (bench_scene, settled) = bench_scene_of(&file, &jobs);
     let conn = if a.db.db.exists() {
         Some(sweep::store::open(&a.db.db)?)
     } else {
         None
     };
-    // Each job's throughput from the newest bench of its scene, engine and precision (a job
-    // without a fixed backend is estimated on `--backend`, the CPU by default, where `auto` puts
-    // it without a hardware GPU); the GPU's rate does not depend on CPU threads.
-    let default_backend = a.backend.clone();
-    let mut rates: std::collections::BTreeMap<(String, String), Option<f64>> = Default::default();
-    let mut rate_of = |j: &sweep::campaign::JobSpec| -> Option<f64> {
-        let backend = j
-            .backend
-            .map_or(default_backend.as_str(), |b| b.name())
-            .to_string();
-        let precision = j.precision.name().to_string();
-        *rates
-            .entry((backend.clone(), precision.clone()))
-            .or_insert_with(|| {
-                sweep::store::bench_runs::newest_rate(
-                    conn.as_ref()?,
-                    &sweep::store::bench_runs::RateQuery {
-                        scene: bench_scene,
-                        settled_scene: settled.as_deref().unwrap_or(bench_scene),
-                        backend: &backend,
-                        precision: &precision,
-                        threads: threads as i64,
-                    },
-                )
-            })
+    let mut rates = Rates {
+        conn: conn.as_ref(),
+        scene: bench_scene,
+        settled: settled.as_deref().unwrap_or(bench_scene).to_string(),
+        default_backend: a.backend.clone(),
+        threads,
+        found: Default::default(),
     };
     let source = match settled {
         Some(_) => {
@@ -134,7 +106,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             SceneKind::Silo => silo_cost(point, fills.insert(point.fill_key().0))?,
         };
         total_ps += cost.particle_steps * replicas as f64;
-        let rate = rate_of(point);
+        let rate = rates.of(point);
         total_wall = total_wall
             .zip(rate)
             .map(|(w, r)| w + cost.particle_steps / r * replicas as f64);
@@ -190,7 +162,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     );
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.
-        let bench_rate = rates.values().flatten().next().copied();
+        let bench_rate = rates.found.values().flatten().next().copied();
         target_forecast(conn.as_ref(), &file.name, t, bench_rate)?;
     } else if !file.claims.is_empty() {
         claims_forecast(
@@ -199,16 +171,78 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             &sweep::campaign::Target::claims_looked_at_once(),
         )?;
     }
-    for ((backend, precision), r) in &rates {
-        if r.is_none() {
-            println!(
-                "no `sweep bench` result for {bench_scene}/{backend}/{precision}{}: run `sweep bench --scene {bench_scene} --backend {backend} --precision {precision}{}` for wall-time estimates (\"?\" above)",
-                if backend == "cpu" { format!("/{threads} threads") } else { String::new() },
-                if backend == "cpu" { format!(" --threads {threads}") } else { String::new() },
-            );
+    rates.print_missing();
+    Ok(0)
+}
+
+/// The bench scene that resembles the campaign's, and the name of its settled bed: a settled
+/// Hertz bed for the silo (the random bed of `--settle` where there is one, else the lattice
+/// start), flowing spherocylinders over a rough base for the chute (flowing spheres, chute-bed,
+/// when every job is ξ = 1: those run on the sphere engine).
+fn bench_scene_of(
+    file: &sweep::campaign::CampaignFile,
+    jobs: &sweep::campaign::Jobs,
+) -> (&'static str, Option<String>) {
+    match file.scene {
+        SceneKind::Silo => ("silo-bed", sweep::bench::settled_name("silo-bed")),
+        SceneKind::Chute if jobs.points().iter().all(|j| j.chute().spheres()) => {
+            ("chute-bed", None)
+        }
+        SceneKind::Chute => ("chute-rods", None),
+    }
+}
+
+/// Each job's throughput from the newest bench of its scene, engine and precision (a job
+/// without a fixed backend is estimated on `--backend`, the CPU by default, where `auto` puts
+/// it without a hardware GPU); the GPU's rate does not depend on CPU threads.
+struct Rates<'a> {
+    conn: Option<&'a rusqlite::Connection>,
+    scene: &'static str,
+    settled: String,
+    default_backend: String,
+    threads: usize,
+    /// By (backend, precision): the rate found, or None.
+    found: std::collections::BTreeMap<(String, String), Option<f64>>,
+}
+
+impl Rates<'_> {
+    fn of(&mut self, j: &sweep::campaign::JobSpec) -> Option<f64> {
+        let backend = j
+            .backend
+            .map_or(self.default_backend.as_str(), |b| b.name())
+            .to_string();
+        let precision = j.precision.name().to_string();
+        let (conn, scene, settled, threads) = (self.conn, self.scene, &self.settled, self.threads);
+        *self
+            .found
+            .entry((backend.clone(), precision.clone()))
+            .or_insert_with(|| {
+                sweep::store::bench_runs::newest_rate(
+                    conn?,
+                    &sweep::store::bench_runs::RateQuery {
+                        scene,
+                        settled_scene: settled,
+                        backend: &backend,
+                        precision: &precision,
+                        threads: threads as i64,
+                    },
+                )
+            })
+    }
+
+    /// The bench to run for each engine and precision that had no rate.
+    fn print_missing(&self) {
+        let (bench_scene, threads) = (self.scene, self.threads);
+        for ((backend, precision), r) in &self.found {
+            if r.is_none() {
+                println!(
+                    "no `sweep bench` result for {bench_scene}/{backend}/{precision}{}: run `sweep bench --scene {bench_scene} --backend {backend} --precision {precision}{}` for wall-time estimates (\"?\" above)",
+                    if backend == "cpu" { format!("/{threads} threads") } else { String::new() },
+                    if backend == "cpu" { format!(" --threads {threads}") } else { String::new() },
+                );
+            }
         }
     }
-    Ok(0)
 }
 
 /// What one job of a point costs: its time step, steps and particle-steps.
