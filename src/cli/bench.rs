@@ -42,61 +42,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if let Some(j) = a.batch {
         return super::bench_batch::run(&a, &sc, &scene_name, j as usize);
     }
-    let mut rates = Vec::new();
-    let mut last = None;
-    let mut dispatches = None;
-    // The steps timed: --steps, or as many chunks of it as the first run needed to last
-    // --min-seconds.
-    let mut timed_steps = None;
-    for _ in 0..a.repeat {
-        let config = sc.config.clone();
-        let mut engine = backend::build_with(
-            a.backend,
-            &a.gpu.select(),
-            precision,
-            config,
-            &sc.state,
-            a.threads,
-        )?;
-        engine
-            .advance(100)
-            .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
-        let d0 = engine.dispatches();
-        let t0 = Instant::now();
-        let mut r = engine
-            .advance(a.steps)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let mut done = a.steps;
-        while timed_steps.map_or(t0.elapsed().as_secs_f64() < a.min_seconds, |n| done < n) {
-            let more = engine
-                .advance(a.steps)
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-            r.particle_steps += more.particle_steps;
-            r.list_builds += more.list_builds;
-            r.contacts_per_particle = more.contacts_per_particle;
-            done += a.steps;
-        }
-        timed_steps = Some(done);
-        let secs = t0.elapsed().as_secs_f64();
-        dispatches = engine.dispatches().zip(d0).map(|(d1, d0)| since(&d1, &d0));
-        rates.push((r.particle_steps as f64 / secs, secs));
-        let sum = sweep::bench::checksum(&engine.download());
-        if let Some((_, _, _, first)) = &last {
-            anyhow::ensure!(
-                *first == sum,
-                "bench: run {} ended in state {sum}, the first in {first}: the engine is not deterministic",
-                rates.len()
-            );
-        }
-        last = Some((engine, r, secs, sum));
-    }
-    let (mut engine, r, _, sum) = last.expect("at least one run");
-    let steps = timed_steps.expect("at least one run");
-    let runs: Vec<f64> = rates.iter().map(|x| x.0).collect();
-    rates.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // The median run's rate and time (the upper one of an even count).
-    let (rate, secs) = rates[rates.len() / 2];
-    let best = rates[rates.len() - 1].0;
+    let Timed {
+        mut engine,
+        report: r,
+        checksum: sum,
+        steps,
+        runs,
+        rate,
+        secs,
+        best,
+        dispatches,
+    } = timed_runs(&a, &sc, precision)?;
     let info = engine.describe();
     let state = engine.download();
     let mobile = state.inv_mass.iter().filter(|&&m| m > 0.0).count();
@@ -188,6 +144,94 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         )?;
     }
     Ok(0)
+}
+
+/// The timed runs of `--repeat`: the last run's engine, report and end-state checksum (every
+/// run must end in the same one), the steps timed, each run's rate, the median run's rate and
+/// time (the upper one of an even count), the best rate, and the dispatches of the last run.
+struct Timed {
+    engine: Box<dyn sweep::engine::Backend>,
+    report: sweep::engine::ChunkReport,
+    checksum: String,
+    steps: u64,
+    runs: Vec<f64>,
+    rate: f64,
+    secs: f64,
+    best: f64,
+    dispatches: Option<sweep::engine::DispatchCount>,
+}
+
+fn timed_runs(
+    a: &Arguments,
+    sc: &sweep::bench::BenchScene,
+    precision: Precision,
+) -> anyhow::Result<Timed> {
+    let mut rates = Vec::new();
+    let mut last = None;
+    let mut dispatches = None;
+    // The steps timed: --steps, or as many chunks of it as the first run needed to last
+    // --min-seconds.
+    let mut timed_steps = None;
+    for _ in 0..a.repeat {
+        let config = sc.config.clone();
+        let mut engine = backend::build_with(
+            a.backend,
+            &a.gpu.select(),
+            precision,
+            config,
+            &sc.state,
+            a.threads,
+        )?;
+        engine
+            .advance(100)
+            .map_err(|e| anyhow::anyhow!("warm-up: {e}"))?;
+        let d0 = engine.dispatches();
+        let t0 = Instant::now();
+        let mut r = engine
+            .advance(a.steps)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut done = a.steps;
+        while timed_steps.map_or(t0.elapsed().as_secs_f64() < a.min_seconds, |n| done < n) {
+            let more = engine
+                .advance(a.steps)
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            r.particle_steps += more.particle_steps;
+            r.list_builds += more.list_builds;
+            r.contacts_per_particle = more.contacts_per_particle;
+            done += a.steps;
+        }
+        timed_steps = Some(done);
+        let secs = t0.elapsed().as_secs_f64();
+        dispatches = engine.dispatches().zip(d0).map(|(d1, d0)| since(&d1, &d0));
+        rates.push((r.particle_steps as f64 / secs, secs));
+        let sum = sweep::bench::checksum(&engine.download());
+        if let Some((_, _, _, first)) = &last {
+            anyhow::ensure!(
+                *first == sum,
+                "bench: run {} ended in state {sum}, the first in {first}: the engine is not deterministic",
+                rates.len()
+            );
+        }
+        last = Some((engine, r, secs, sum));
+    }
+    let (engine, r, _, sum) = last.expect("at least one run");
+    let steps = timed_steps.expect("at least one run");
+    let runs: Vec<f64> = rates.iter().map(|x| x.0).collect();
+    rates.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The median run's rate and time (the upper one of an even count).
+    let (rate, secs) = rates[rates.len() / 2];
+    let best = rates[rates.len() - 1].0;
+    Ok(Timed {
+        engine,
+        report: r,
+        checksum: sum,
+        steps,
+        runs,
+        rate,
+        secs,
+        best,
+        dispatches,
+    })
 }
 
 /// The settled bed for `--settle`: read from `bench-beds/` beside the database when a valid one
