@@ -189,82 +189,11 @@ pub fn run<S: Study>(
     let started = Instant::now();
     // This process holds the job's lock: temp files of a killed writer are leftovers.
     checkpoint::remove_leftovers(&dir);
-    // A checkpoint past the job's end (left by a longer run of the same job, its database
-    // since deleted) would end the job at once with a longer run's results: skip it.
-    let (found, refused) = checkpoint::load_latest_where(&dir, &job.hash, |(_, _, _, extra)| {
-        let Ok(p) = serde_json::from_str::<S::Progress>(extra) else {
-            return Ok(());
-        };
-        let (t, end) = (S::ledger(&p).job_time_s, study.end_time(&p));
-        if t > end + 1e-9 {
-            Err(format!(
-                "it is at t = {t:.3} s, past this job's end ({end:.3} s)"
-            ))
-        } else {
-            Ok(())
-        }
-    });
-    for r in refused {
-        (ctx.log)(format!("job {}: {r}", job.id));
-    }
-    let (state, mut prog) = match found {
-        Some((path, _, s, extra)) => {
-            let prog = serde_json::from_str::<S::Progress>(&extra)
-                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
-            (ctx.log)(format!(
-                "job {}: resuming from {} ({})",
-                job.id,
-                path.display(),
-                study.describe_resume(&s, &prog)
-            ));
-            (s, prog)
-        }
-        None => {
-            if job.sim_time_s > 0.0 {
-                (ctx.log)(format!(
-                    "job {}: no valid checkpoint; restarting from the beginning",
-                    job.id
-                ));
-            }
-            let run = JobRun {
-                conn,
-                job,
-                lease,
-                ctx,
-            };
-            match study.start(&run)? {
-                Start::Ready(s, p) => (*s, p),
-                Start::Paused => return Ok(Outcome::Paused),
-            }
-        }
+    let Some((state, mut prog)) = resume_or_start(conn, job, lease, ctx, study, &dir)? else {
+        return Ok(Outcome::Paused);
     };
     let spec = study.spec();
-    let origin = spec.origin_m();
-    let built = if origin == [0.0; 3] {
-        backend::build_shared(
-            backend::for_job(spec, ctx.backend),
-            &ctx.gpu,
-            ctx.batches.as_deref(),
-            spec.precision,
-            study.engine_config(),
-            &state,
-            ctx.threads,
-        )
-    } else {
-        backend::build_shared(
-            backend::for_job(spec, ctx.backend),
-            &ctx.gpu,
-            ctx.batches.as_deref(),
-            spec.precision,
-            translated::config(&study.engine_config(), origin),
-            &translated::state(&state, origin),
-            ctx.threads,
-        )
-        .map(|b| backend::Built {
-            engine: Box::new(Translated::new(b.engine, origin)) as Box<dyn Backend>,
-            note: b.note,
-        })
-    };
+    let built = build_engine(ctx, study, &state);
     let (mut engine, note) = match built {
         Ok(b) => (b.engine, b.note),
         Err(e) => return Ok(Outcome::Failed(format!("{e:#}"))),
@@ -368,4 +297,101 @@ pub fn run<S: Study>(
     S::ledger_mut(&mut prog).wall_time_s = wall0 + started.elapsed().as_secs_f64();
     study.finish(conn, job, ctx, prog, t_end)?;
     Ok(Outcome::Done)
+}
+
+/// The job's state and progress: from its latest valid checkpoint in `dir` (a checkpoint past
+/// the job's end is skipped), else from the study's start; None when the start was interrupted
+/// before the job had a state of its own.
+fn resume_or_start<S: Study>(
+    conn: &mut Connection,
+    job: &JobRow,
+    lease: &Lease,
+    ctx: &JobContext,
+    study: &S,
+    dir: &Path,
+) -> anyhow::Result<Option<(State<f64>, S::Progress)>> {
+    // A checkpoint past the job's end (left by a longer run of the same job, its database
+    // since deleted) would end the job at once with a longer run's results: skip it.
+    let (found, refused) = checkpoint::load_latest_where(dir, &job.hash, |(_, _, _, extra)| {
+        let Ok(p) = serde_json::from_str::<S::Progress>(extra) else {
+            return Ok(());
+        };
+        let (t, end) = (S::ledger(&p).job_time_s, study.end_time(&p));
+        if t > end + 1e-9 {
+            Err(format!(
+                "it is at t = {t:.3} s, past this job's end ({end:.3} s)"
+            ))
+        } else {
+            Ok(())
+        }
+    });
+    for r in refused {
+        (ctx.log)(format!("job {}: {r}", job.id));
+    }
+    Ok(Some(match found {
+        Some((path, _, s, extra)) => {
+            let prog = serde_json::from_str::<S::Progress>(&extra)
+                .with_context(|| format!("{}: progress record unreadable", path.display()))?;
+            (ctx.log)(format!(
+                "job {}: resuming from {} ({})",
+                job.id,
+                path.display(),
+                study.describe_resume(&s, &prog)
+            ));
+            (s, prog)
+        }
+        None => {
+            if job.sim_time_s > 0.0 {
+                (ctx.log)(format!(
+                    "job {}: no valid checkpoint; restarting from the beginning",
+                    job.id
+                ));
+            }
+            let run = JobRun {
+                conn,
+                job,
+                lease,
+                ctx,
+            };
+            match study.start(&run)? {
+                Start::Ready(s, p) => (*s, p),
+                Start::Paused => return Ok(None),
+            }
+        }
+    }))
+}
+
+/// The job's engine on its backend, translated to the scene's origin when it has one.
+fn build_engine<S: Study>(
+    ctx: &JobContext,
+    study: &S,
+    state: &State<f64>,
+) -> anyhow::Result<backend::Built> {
+    let spec = study.spec();
+    let origin = spec.origin_m();
+    if origin == [0.0; 3] {
+        backend::build_shared(
+            backend::for_job(spec, ctx.backend),
+            &ctx.gpu,
+            ctx.batches.as_deref(),
+            spec.precision,
+            study.engine_config(),
+            state,
+            ctx.threads,
+        )
+    } else {
+        backend::build_shared(
+            backend::for_job(spec, ctx.backend),
+            &ctx.gpu,
+            ctx.batches.as_deref(),
+            spec.precision,
+            translated::config(&study.engine_config(), origin),
+            &translated::state(state, origin),
+            ctx.threads,
+        )
+        .map(|b| backend::Built {
+            engine: Box::new(Translated::new(b.engine, origin)) as Box<dyn Backend>,
+            note: b.note,
+        })
+    }
 }

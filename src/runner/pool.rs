@@ -84,123 +84,16 @@ pub fn run_pending(
     };
     let batches = Some(Arc::new(super::gpu_batch::GpuBatches::new(capacity)));
     for _ in 0..parallel {
-        let opts = opts.clone();
-        let batches = batches.clone();
-        let multi = multi.clone();
-        let overall = overall.clone();
-        let summary = summary.clone();
-        let done_count = done_count.clone();
-        handles.push(std::thread::spawn(move || -> anyhow::Result<()> {
-            let mut conn = crate::store::open(&opts.db)?;
-            let lease = Lease::new();
-            loop {
-                if opts.interrupt.load(Ordering::SeqCst) {
-                    return Ok(());
-                }
-                // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
-                // requeue waits for that transaction) never sees it running and unlocked.
-                let claimed =
-                    jobs::claim(&mut conn, opts.campaign, &lease, opts.max_attempts, |j| {
-                        Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?)
-                    })?;
-                let Some((job, _lock)) = claimed else {
-                    return Ok(());
-                };
-                let _beat = Heartbeat::start(&opts.db, job.id, &lease.owner);
-                let bar = multi.add(ProgressBar::new(1000));
-                bar.set_style(
-                    ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
-                        .expect("template")
-                        .progress_chars("=> "),
-                );
-                bar.set_prefix(job.id.to_string());
-                let label = job.label.clone();
-                let b2 = bar.clone();
-                let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> =
-                    Arc::new(move |t, target, rate| {
-                        b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
-                        let eta = if rate > 0.0 {
-                            format!("{:.1e} particle-steps/s", rate)
-                        } else {
-                            String::new()
-                        };
-                        b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
-                    });
-                let bars = opts.bars;
-                let m2 = multi.clone();
-                let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
-                    if bars {
-                        let _ = m2.println(s);
-                    } else {
-                        eprintln!("{s}");
-                    }
-                });
-                let ctx = JobContext {
-                    work_dir: opts.work_dir.clone(),
-                    backend: opts.backend,
-                    gpu: opts.gpu,
-                    batches: batches.clone(),
-                    threads,
-                    checkpoint_interval_s: checkpoint_interval(&conn, job.id)
-                        .unwrap_or(opts.checkpoint_interval_s),
-                    interrupt: opts.interrupt.clone(),
-                    progress: Some(progress),
-                    log: log.clone(),
-                };
-                if !bars {
-                    println!("job {} started: {}", job.id, job.label);
-                }
-                let scene = serde_json::from_str::<serde_json::Value>(&job.params_json)
-                    .ok()
-                    .and_then(|v| v["scene"].as_str().map(String::from));
-                let run = match scene.as_deref() {
-                    Some("chute") => super::chute_job::run_chute_job,
-                    _ => run_silo_job,
-                };
-                // A panic fails the job (with its message) instead of killing the worker.
-                let attempt = std::panic::AssertUnwindSafe(|| run(&mut conn, &job, &lease, &ctx));
-                let outcome = match std::panic::catch_unwind(attempt) {
-                    Ok(Ok(o)) => o,
-                    Ok(Err(e)) => Outcome::Failed(format!("{e:#}")),
-                    Err(panic) => Outcome::Failed(format!(
-                        "the job panicked: {}",
-                        panic
-                            .downcast_ref::<String>()
-                            .map(String::as_str)
-                            .or_else(|| panic.downcast_ref::<&str>().copied())
-                            .unwrap_or("(no message)")
-                    )),
-                };
-                bar.finish_and_clear();
-                let mut s = summary.lock().expect("summary");
-                match outcome {
-                    Outcome::Done => {
-                        s.done += 1;
-                        let n = done_count.fetch_add(1, Ordering::SeqCst) + 1;
-                        overall.set_position(n as u64);
-                        let line = describe_done(&conn, job.id).unwrap_or_default();
-                        if bars {
-                            log(format!("job {} done: {} {}", job.id, job.label, line));
-                        } else {
-                            println!("job {} done: {} {}", job.id, job.label, line);
-                        }
-                    }
-                    Outcome::Paused => {
-                        s.paused += 1;
-                        jobs::release(&conn, job.id, &lease, "paused", None)?;
-                        log(format!(
-                            "job {} paused at its checkpoint; `sweep resume` continues it",
-                            job.id
-                        ));
-                    }
-                    Outcome::Failed(e) => {
-                        s.failed += 1;
-                        jobs::release(&conn, job.id, &lease, "failed", Some(&e))?;
-                        log(format!("job {} failed: {e}", job.id));
-                    }
-                }
-            }
-        }));
+        let w = Worker {
+            opts: opts.clone(),
+            batches: batches.clone(),
+            multi: multi.clone(),
+            overall: overall.clone(),
+            summary: summary.clone(),
+            done_count: done_count.clone(),
+            threads,
+        };
+        handles.push(std::thread::spawn(move || worker(w)));
     }
     let mut first_err = None;
     for h in handles {
@@ -222,6 +115,150 @@ pub fn run_pending(
     }
     let s = *summary.lock().expect("summary");
     Ok(s)
+}
+
+/// What one worker thread of the pool shares with the others.
+struct Worker {
+    opts: PoolOptions,
+    batches: Option<Arc<super::gpu_batch::GpuBatches>>,
+    multi: MultiProgress,
+    overall: ProgressBar,
+    summary: Arc<Mutex<PoolSummary>>,
+    done_count: Arc<AtomicUsize>,
+    /// Engine threads per job.
+    threads: usize,
+}
+
+/// One worker: claims pending jobs one at a time and runs each to its end, a pause or a
+/// failure, until none is left or an interrupt arrives.
+fn worker(w: Worker) -> anyhow::Result<()> {
+    let Worker {
+        opts,
+        batches,
+        multi,
+        overall,
+        summary,
+        done_count,
+        threads,
+    } = w;
+    let mut conn = crate::store::open(&opts.db)?;
+    let lease = Lease::new();
+    loop {
+        if opts.interrupt.load(Ordering::SeqCst) {
+            return Ok(());
+        }
+        // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
+        // requeue waits for that transaction) never sees it running and unlocked.
+        let claimed = jobs::claim(&mut conn, opts.campaign, &lease, opts.max_attempts, |j| {
+            Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?)
+        })?;
+        let Some((job, _lock)) = claimed else {
+            return Ok(());
+        };
+        let _beat = Heartbeat::start(&opts.db, job.id, &lease.owner);
+        let bar = multi.add(ProgressBar::new(1000));
+        bar.set_style(
+            ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
+                .expect("template")
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(job.id.to_string());
+        let label = job.label.clone();
+        let b2 = bar.clone();
+        let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> =
+            Arc::new(move |t, target, rate| {
+                b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
+                let eta = if rate > 0.0 {
+                    format!("{:.1e} particle-steps/s", rate)
+                } else {
+                    String::new()
+                };
+                b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
+            });
+        let bars = opts.bars;
+        let m2 = multi.clone();
+        let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
+            if bars {
+                let _ = m2.println(s);
+            } else {
+                eprintln!("{s}");
+            }
+        });
+        let ctx = JobContext {
+            work_dir: opts.work_dir.clone(),
+            backend: opts.backend,
+            gpu: opts.gpu,
+            batches: batches.clone(),
+            threads,
+            checkpoint_interval_s: checkpoint_interval(&conn, job.id)
+                .unwrap_or(opts.checkpoint_interval_s),
+            interrupt: opts.interrupt.clone(),
+            progress: Some(progress),
+            log: log.clone(),
+        };
+        if !bars {
+            println!("job {} started: {}", job.id, job.label);
+        }
+        let outcome = run_caught(&mut conn, &job, &lease, &ctx);
+        bar.finish_and_clear();
+        let mut s = summary.lock().expect("summary");
+        match outcome {
+            Outcome::Done => {
+                s.done += 1;
+                let n = done_count.fetch_add(1, Ordering::SeqCst) + 1;
+                overall.set_position(n as u64);
+                let line = describe_done(&conn, job.id).unwrap_or_default();
+                if bars {
+                    log(format!("job {} done: {} {}", job.id, job.label, line));
+                } else {
+                    println!("job {} done: {} {}", job.id, job.label, line);
+                }
+            }
+            Outcome::Paused => {
+                s.paused += 1;
+                jobs::release(&conn, job.id, &lease, "paused", None)?;
+                log(format!(
+                    "job {} paused at its checkpoint; `sweep resume` continues it",
+                    job.id
+                ));
+            }
+            Outcome::Failed(e) => {
+                s.failed += 1;
+                jobs::release(&conn, job.id, &lease, "failed", Some(&e))?;
+                log(format!("job {} failed: {e}", job.id));
+            }
+        }
+    }
+}
+
+/// Runs `job` with the study of its scene; a panic fails the job (with its message) instead of
+/// killing the worker.
+fn run_caught(
+    conn: &mut rusqlite::Connection,
+    job: &jobs::JobRow,
+    lease: &Lease,
+    ctx: &JobContext,
+) -> Outcome {
+    let scene = serde_json::from_str::<serde_json::Value>(&job.params_json)
+        .ok()
+        .and_then(|v| v["scene"].as_str().map(String::from));
+    let run = match scene.as_deref() {
+        Some("chute") => super::chute_job::run_chute_job,
+        _ => run_silo_job,
+    };
+    let attempt = std::panic::AssertUnwindSafe(|| run(conn, job, lease, ctx));
+    match std::panic::catch_unwind(attempt) {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => Outcome::Failed(format!("{e:#}")),
+        Err(panic) => Outcome::Failed(format!(
+            "the job panicked: {}",
+            panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("(no message)")
+        )),
+    }
 }
 
 fn describe_done(conn: &rusqlite::Connection, job: i64) -> anyhow::Result<String> {

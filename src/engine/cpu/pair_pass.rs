@@ -195,6 +195,56 @@ impl<R: Real> PairContext<'_, R> {
     }
 }
 
+/// Hands a partner's share over to the pass of its block (`jl` counted from this block's first
+/// particle), counted from the block after this one; `reach` is how many blocks got one.
+#[inline(always)]
+fn hand_over<R: Real>(
+    handed: &mut Vec<Vec<Reaction<R>>>,
+    reach: &mut usize,
+    jl: usize,
+    r: Reaction<R>,
+) {
+    let later = jl / BLOCK - 1;
+    if later >= handed.len() {
+        handed.resize_with(later + 1, Vec::new);
+    }
+    *reach = (*reach).max(later + 1);
+    handed[later].push(r);
+}
+
+/// Dense blocks: a pair that does not touch holds no spring and `h` < 0, so every picked slot
+/// of the chunk is reset; the touching pairs' are written after the contact law.
+#[inline(always)]
+fn reset_picked(slots: &mut [PairSlot<impl Real>], pick: &[[u32; 3]]) {
+    for &[e, ..] in pick {
+        slots[e as usize] = PairSlot::default();
+    }
+}
+
+impl<R: Real> PairScratch<R> {
+    /// Zeroes a block's sums and empties the reactions it handed over last time. The sums are
+    /// then indexed unchecked by the picked owners (inside the block, asserted in `block_in`)
+    /// and by partners in the block (tested): every sum holds as many places as `force`.
+    #[inline(always)]
+    fn open_sums(&mut self, rot: bool, force: &mut [V3<R>], torque: &mut [V3<R>], nc: &mut [u32]) {
+        let count = force.len();
+        assert!(nc.len() == count && (!rot || torque.len() == count));
+        if self.entry.len() < CHUNK {
+            self.entry.resize(CHUNK, 0);
+        }
+        for l in 0..count {
+            force[l] = V3::zero();
+            if rot {
+                torque[l] = V3::zero();
+            }
+            nc[l] = 0;
+        }
+        for h in &mut self.handed[..self.reach] {
+            h.clear();
+        }
+    }
+}
+
 /// `PairContext::block`, with `PERIODIC` for whether any axis is periodic and `SPARSE` for
 /// `scratch.sparse`. Compiled also for AVX2 and chosen at run time: three-operand instructions
 /// need fewer register copies and spills than the generic form. No AVX-512 clone, unlike the
@@ -215,6 +265,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
     } = b;
     let rot = ctx.rotation;
     let count = force.len();
+    scratch.open_sums(rot, force, torque, nc);
     // The picked entries only (`PairContext::pick`).
     let pick = &scratch.pick[..];
     let entries = pick.len();
@@ -226,22 +277,6 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             && scratch.picked_for == (first..first + count)
             && pick.last().is_none_or(|&[e, ..]| (e as usize) < slots_len)
     );
-    // The sums below are indexed unchecked by the picked owners (inside the block, asserted
-    // above) and by partners in the block (tested): every sum holds `count` places.
-    assert!(nc.len() == count && (!rot || torque.len() == count));
-    if scratch.entry.len() < CHUNK {
-        scratch.entry.resize(CHUNK, 0);
-    }
-    for l in 0..count {
-        force[l] = V3::zero();
-        if rot {
-            torque[l] = V3::zero();
-        }
-        nc[l] = 0;
-    }
-    for h in &mut scratch.handed[..scratch.reach] {
-        h.clear();
-    }
     let (mut touched, mut reach) = (0usize, 0usize);
     let handed = &mut scratch.handed;
     // The scratch as slices of exactly CHUNK places, indexed through a mask that changes
@@ -304,11 +339,7 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
             }
         }
         if !SPARSE {
-            // A pair that does not touch holds no spring and `h` < 0: every picked slot of the
-            // chunk reset; the touching pairs' are written below.
-            for &[e, ..] in &pick[c0..c1] {
-                slots[e as usize] = PairSlot::default();
-            }
+            reset_picked(slots, &pick[c0..c1]);
         }
         // 2. The contacts, LANES at a time (lanes past the end hold stale inputs; their
         // results are ignored); 3. their forces summed in entry order.
@@ -348,17 +379,12 @@ fn block_in<R: Real, const PERIODIC: bool, const SPARSE: bool>(
                         *nc.get_unchecked_mut(jl) += 1;
                     }
                 } else {
-                    // j's block, counted from the one after this.
-                    let later = jl / BLOCK - 1;
-                    if later >= handed.len() {
-                        handed.resize_with(later + 1, Vec::new);
-                    }
-                    reach = reach.max(later + 1);
-                    handed[later].push(Reaction {
+                    let r = Reaction {
                         f: -fc,
                         t: get(&out.tj),
                         j,
-                    });
+                    };
+                    hand_over(handed, &mut reach, jl, r);
                 }
                 max_ov = max_ov.max(out.ratio[k]);
             }
