@@ -134,6 +134,16 @@ mod tests {
         }
     }
 
+    /// D peaks at block 0 (4), γ̇ at block 3 (8); blocks 1 and 2 lie in the central bed.
+    fn four_blocks() -> [BlockRow; 4] {
+        [
+            row(0, 0.1, 4.0, 4.0),
+            row(1, 0.4, 1.0, 2.0),
+            row(2, 0.5, 2.0, 6.0),
+            row(3, 0.9, 1.0, 8.0),
+        ]
+    }
+
     #[test]
     fn a_replica_gives_bulk_means_and_block_values() {
         // H = 1 m: blocks centred at 0.1, 0.3 and 0.9 m are outside the central bed (0.3 H,
@@ -177,13 +187,7 @@ mod tests {
     fn profiles_are_normalised_by_the_replicas_own_maxima() {
         // D peaks at 4 and γ̇ at 8. Central blocks (z = 0.4, 0.5): D/D_max = 0.25, 0.5 and
         // γ̇/γ̇_max = 0.25, 0.75, so gaps 0 and −0.25; the base block (z = 0.1): 1 − 0.5.
-        let rows = [
-            row(0, 0.1, 4.0, 4.0),
-            row(1, 0.4, 1.0, 2.0),
-            row(2, 0.5, 2.0, 6.0),
-            row(3, 0.9, 1.0, 8.0),
-        ];
-        let v = chute_replica_results(&rows, 1.0, 0.1);
+        let v = chute_replica_results(&four_blocks(), 1.0, 0.1);
         assert_eq!(v["D_norm@0"], 1.0);
         assert_eq!(v["shear_rate_norm@3"], 1.0);
         assert_eq!(v["profile_gap@1"], 0.0);
@@ -195,13 +199,7 @@ mod tests {
 
     #[test]
     fn every_result_claims_name_is_given() {
-        let rows = [
-            row(0, 0.1, 4.0, 4.0),
-            row(1, 0.4, 1.0, 2.0),
-            row(2, 0.5, 2.0, 6.0),
-            row(3, 0.9, 1.0, 8.0),
-        ];
-        let v = chute_replica_results(&rows, 1.0, 0.1);
+        let v = chute_replica_results(&four_blocks(), 1.0, 0.1);
         for name in CHUTE_RESULTS {
             assert!(v.contains_key(*name), "no bed value of {name}");
             if !CHUTE_BED_ONLY.contains(name) {

@@ -269,12 +269,7 @@ impl ChuteParams {
     /// The particle, the incline and the contact law's parameters in their ranges.
     fn range_problems(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
-        let mut err = |field: &str, message: String| {
-            e.push(FieldError {
-                field: field.into(),
-                message,
-            })
-        };
+        let mut err = |field: &str, message: String| e.push(FieldError::new(field, message));
         if !(self.aspect_ratio >= 1.0 && self.aspect_ratio.is_finite()) {
             err(
                 "aspect_ratio",
@@ -334,12 +329,7 @@ impl ChuteParams {
     /// The steady-flow test's tolerances, batches and time window.
     fn steady_problems(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
-        let mut err = |field: &str, message: String| {
-            e.push(FieldError {
-                field: field.into(),
-                message,
-            })
-        };
+        let mut err = |field: &str, message: String| e.push(FieldError::new(field, message));
         for (field, tol) in [
             ("steady_kinetic_tolerance", self.steady_kinetic_tolerance),
             ("steady_velocity_tolerance", self.steady_velocity_tolerance),
@@ -385,12 +375,7 @@ impl ChuteParams {
     /// A periodic box wide enough that no particle meets its own image.
     fn box_problems(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
-        let mut err = |field: &str, message: String| {
-            e.push(FieldError {
-                field: field.into(),
-                message,
-            })
-        };
+        let mut err = |field: &str, message: String| e.push(FieldError::new(field, message));
         for (field, v) in [
             ("box_x_lengths", self.box_x_lengths),
             ("box_y_lengths", self.box_y_lengths),

@@ -121,6 +121,15 @@ pub struct FieldError {
     pub message: String,
 }
 
+impl FieldError {
+    pub fn new(field: &str, message: String) -> Self {
+        FieldError {
+            field: field.into(),
+            message,
+        }
+    }
+}
+
 impl SiloParams {
     fn elasticity(&self) -> Elasticity {
         match (self.shear_modulus_pa, self.poisson_ratio) {
