@@ -48,6 +48,7 @@ mod simd;
 mod skin;
 mod spheres;
 mod team;
+mod thread_room;
 mod verlet;
 mod watchdog;
 
@@ -163,6 +164,9 @@ impl<R: Real> CpuEngine<R> {
                 "cannot start {threads} CPU engine thread(s): {e} (a limit on processes or threads, `ulimit -u` or a cgroup's pids.max, or on memory for their stacks, `ulimit -v`; ask for fewer with --threads)"
             )
         };
+        if let Some(why) = thread_room::lacking_room(threads) {
+            return Err(refused(&why));
+        }
         let pool: std::sync::Arc<rayon::ThreadPool> = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()

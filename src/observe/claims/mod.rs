@@ -4,10 +4,12 @@
 //! store, build [`PointData`], and call this.
 
 mod data;
+mod fit_resolve;
 mod fit_value;
 #[cfg(test)]
 mod profile_tests;
 mod resolve;
+mod scope;
 mod spec;
 mod statistic;
 #[cfg(test)]
@@ -18,7 +20,8 @@ pub use data::{
     matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_BED_ONLY,
     CHUTE_RESULTS, SILO_RESULTS,
 };
-pub use resolve::{at_text, Unresolved, ALONG_BLOCKS};
+pub use resolve::ALONG_BLOCKS;
+pub use scope::{at_text, Unresolved};
 pub use spec::{
     At, Bound, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, TestKind, Trend,
 };

@@ -2,59 +2,13 @@
 //! checked by field (a point the campaign lacks, a result the scene does not compute, a fit
 //! parameter the model lacks), and the statistic that reads them.
 
-use super::data::{result_key, select, PointData, SceneConstants, CHUTE_BED_ONLY};
+use super::data::{result_key, select, PointData, SceneConstants};
 use super::fit_value::GroupValue;
-use super::spec::{At, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, Trend};
-use super::statistic::{short, Cell, Kind, SeriesShape, Side, Statistic, XOf};
-
-/// Why a claim cannot be resolved against the points (a validation problem: the field and
-/// what was expected).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Unresolved {
-    pub field: String,
-    pub message: String,
-}
-
-fn unresolved(field: &str, message: String) -> Unresolved {
-    Unresolved {
-        field: field.into(),
-        message,
-    }
-}
-
-/// The single point matching `at`, or why not.
-fn one_point(points: &[PointData], at: &At, field: &str) -> Result<usize, Unresolved> {
-    let found = select(points, at);
-    match found.as_slice() {
-        [i] => Ok(*i),
-        [] => Err(unresolved(
-            field,
-            format!(
-                "no point of the campaign has {}; expected values the campaign sweeps",
-                at_text(at)
-            ),
-        )),
-        many => Err(unresolved(
-            field,
-            format!(
-                "{} points have {} ({} …); expected the parameters that pick one point",
-                many.len(),
-                at_text(at),
-                points[many[0]].label
-            ),
-        )),
-    }
-}
-
-pub fn at_text(at: &At) -> String {
-    if at.is_empty() {
-        return "(any)".into();
-    }
-    at.iter()
-        .map(|(k, v)| format!("{k}={}", short(*v)))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
+use super::scope::{
+    at_text, check_block, check_param, check_result, one_point, unresolved, Scope, Unresolved,
+};
+use super::spec::{At, Claim, Compare, CompareAs, Direction, FitModel, MinimumInside, Trend};
+use super::statistic::{short, Cell, Kind, SeriesShape, Side, Statistic};
 
 /// The points matching `at`, grouped by their value of `along` (sorted), each group's points.
 fn along_groups(
@@ -92,35 +46,6 @@ fn along_groups(
         }
     }
     Ok((xs, groups))
-}
-
-fn check_result(result: &str, known: &[&str], field: &str) -> Result<(), Unresolved> {
-    if known.contains(&result) {
-        Ok(())
-    } else {
-        Err(unresolved(
-            field,
-            format!(
-                "'{result}' is not a result of this scene; expected one of {}",
-                known.join(", ")
-            ),
-        ))
-    }
-}
-
-fn check_param(model: FitModel, parameter: &str, field: &str) -> Result<(), Unresolved> {
-    if model.parameters().contains(&parameter) {
-        Ok(())
-    } else {
-        Err(unresolved(
-            field,
-            format!(
-                "'{parameter}' is not a parameter of the {} fit; expected one of {}",
-                model.name(),
-                model.parameters().join(", ")
-            ),
-        ))
-    }
 }
 
 impl Statistic {
@@ -172,17 +97,8 @@ impl Statistic {
         if let Some(t) = &c.minimum_inside {
             return minimum_inside(t, &cx);
         }
-        fit(c.fit.as_ref().expect("one test"), &cx)
+        super::fit_resolve::fit(c.fit.as_ref().expect("one test"), &cx)
     }
-}
-
-/// What every test's resolution reads.
-struct Scope<'a> {
-    path: &'a str,
-    points: &'a [PointData],
-    results: &'a [&'a str],
-    scene: Option<SceneConstants>,
-    silo: bool,
 }
 
 fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
@@ -420,19 +336,6 @@ fn trend_up_blocks(t: &Trend, cx: &Scope, f: &str) -> Result<Statistic, Unresolv
     })
 }
 
-/// A result given over the bed only (no block) is not read in a block.
-fn check_block(result: &str, block: Option<i64>, f: &str) -> Result<(), Unresolved> {
-    if block.is_some() && CHUTE_BED_ONLY.contains(&result) {
-        return Err(unresolved(
-            &format!("{f}.block"),
-            format!(
-                "'{result}' is a value over part of the bed, not of one block; expected no block"
-            ),
-        ));
-    }
-    Ok(())
-}
-
 fn minimum_inside(t: &MinimumInside, cx: &Scope) -> Result<Statistic, Unresolved> {
     let Scope {
         path,
@@ -465,138 +368,6 @@ fn minimum_inside(t: &MinimumInside, cx: &Scope) -> Result<Statistic, Unresolved
             groups,
             per_group,
             shape: SeriesShape::MinimumInside(interior),
-        },
-    })
-}
-
-fn fit(t: &Fit, cx: &Scope) -> Result<Statistic, Unresolved> {
-    let Scope {
-        path,
-        points,
-        results,
-        scene,
-        silo,
-    } = *cx;
-    let f = format!("{path}.fit");
-    check_param(t.model, &t.parameter, &format!("{f}.parameter"))?;
-    let side = Side::of(&t.bound()).ok_or_else(|| {
-        unresolved(
-            &f,
-            "expected exactly one of below, above, within, outside".into(),
-        )
-    })?;
-    let chosen: Vec<usize> = select(points, &t.at)
-        .into_iter()
-        .filter(|&i| !points[i].clogged)
-        .collect();
-    let mut cells = Vec::new();
-    let mut x = Vec::new();
-    let mut ys = Vec::new();
-    match t.model {
-        FitModel::Janda | FitModel::Beverloo => {
-            if !silo {
-                return Err(unresolved(
-                    &format!("{f}.model"),
-                    format!(
-                        "the {} law is the silo's; expected line or proportional",
-                        t.model.name()
-                    ),
-                ));
-            }
-            if t.x.is_some() || t.y.is_some() {
-                return Err(unresolved(
-                    &f,
-                    format!(
-                        "the {} law fits Q against the orifice diameter; expected no x or y",
-                        t.model.name()
-                    ),
-                ));
-            }
-            for &i in &chosen {
-                let Some(&d) = points[i].params.get("orifice_diameter_m") else {
-                    continue;
-                };
-                x.push(XOf::Fixed(d));
-                ys.push(cells.len());
-                cells.push(Cell {
-                    point: i,
-                    key: "q".into(),
-                });
-            }
-            if t.model == FitModel::Beverloo && scene.is_none() {
-                return Err(unresolved(
-                    &f,
-                    "the Beverloo law needs the particle diameter, bulk density and gravity".into(),
-                ));
-            }
-        }
-        FitModel::Line | FitModel::Proportional => {
-            let (Some(xn), Some(yn)) = (&t.x, &t.y) else {
-                return Err(unresolved(
-                    &f,
-                    format!(
-                        "a {} fit needs x and y (results or swept parameters)",
-                        t.model.name()
-                    ),
-                ));
-            };
-            check_result(yn, results, &format!("{f}.y"))?;
-            check_block(yn, t.block, &f)?;
-            check_block(xn, t.block, &f)?;
-            let x_is_result = results.contains(&xn.as_str());
-            for &i in &chosen {
-                if x_is_result {
-                    x.push(XOf::Cell(cells.len()));
-                    cells.push(Cell {
-                        point: i,
-                        key: result_key(xn, t.block),
-                    });
-                } else {
-                    let Some(&v) = points[i].params.get(xn.as_str()) else {
-                        return Err(unresolved(
-                            &format!("{f}.x"),
-                            format!(
-                                "'{xn}' is neither a result ({}) nor a numeric parameter",
-                                results.join(", ")
-                            ),
-                        ));
-                    };
-                    x.push(XOf::Fixed(v));
-                }
-                ys.push(cells.len());
-                cells.push(Cell {
-                    point: i,
-                    key: result_key(yn, t.block),
-                });
-            }
-        }
-    }
-    let needed = match t.model {
-        FitModel::Janda => 4,
-        FitModel::Beverloo | FitModel::Line => 3,
-        FitModel::Proportional => 2,
-    };
-    if ys.len() < needed {
-        return Err(unresolved(
-            &format!("{f}.at"),
-            format!(
-                "{} point(s) have {}; a {} fit needs at least {needed}",
-                ys.len(),
-                at_text(&t.at),
-                t.model.name()
-            ),
-        ));
-    }
-    Ok(Statistic {
-        cells,
-        side,
-        what: format!("{} {}", t.model.name(), t.parameter),
-        kind: Kind::Fit {
-            model: t.model,
-            parameter: t.parameter.clone(),
-            x,
-            ys,
-            scene,
         },
     })
 }
