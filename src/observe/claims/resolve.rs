@@ -130,37 +130,8 @@ fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
         point: a,
         key: key.clone(),
     }];
-    let given = [
-        t.against.is_some(),
-        t.value.is_some(),
-        t.against_block.is_some(),
-        t.against_result.is_some(),
-    ];
-    if given.iter().filter(|g| **g).count() != 1 {
-        return Err(unresolved(
-            &f,
-            "expected exactly one of 'against' (another point), 'against_block', 'against_result' and 'value'"
-                .into(),
-        ));
-    }
-    if let Some(other) = &t.against_result {
-        let field = format!("{f}.against_result");
-        check_result(other, results, &field)?;
-        check_block(other, t.block, &f)?;
-        if *other == t.result {
-            return Err(unresolved(
-                &field,
-                format!("is '{other}', the result compared; expected another result"),
-            ));
-        }
-        cells.push(Cell {
-            point: a,
-            key: result_key(other, t.block),
-        });
-    }
-    match (&t.against, t.value, t.against_block) {
-        (_, _, _) if t.against_result.is_some() => {}
-        (Some(other), None, None) => {
+    match (&t.against, t.value, t.against_block, &t.against_result) {
+        (Some(other), None, None, None) => {
             let b = one_point(points, other, &format!("{f}.against"))?;
             if b == a {
                 return Err(unresolved(
@@ -170,8 +141,8 @@ fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
             }
             cells.push(Cell { point: b, key });
         }
-        (None, Some(_), None) => {}
-        (None, None, Some(k)) => {
+        (None, Some(_), None, None) => {}
+        (None, None, Some(k), None) => {
             let field = format!("{f}.against_block");
             if silo {
                 return Err(unresolved(
@@ -191,7 +162,29 @@ fn compare(t: &Compare, cx: &Scope) -> Result<Statistic, Unresolved> {
                 key: result_key(&t.result, Some(k)),
             });
         }
-        _ => unreachable!("exactly one was given"),
+        (None, None, None, Some(other)) => {
+            let field = format!("{f}.against_result");
+            check_result(other, results, &field)?;
+            check_block(other, t.block, &f)?;
+            if *other == t.result {
+                return Err(unresolved(
+                    &field,
+                    format!("is '{other}', the result compared; expected another result"),
+                ));
+            }
+            cells.push(Cell {
+                point: a,
+                key: result_key(other, t.block),
+            });
+        }
+        _ => {
+            return Err(unresolved(
+                &f,
+                "expected exactly one of 'against' (another point), 'against_block', \
+                 'against_result' and 'value'"
+                    .into(),
+            ))
+        }
     }
     let ratio = t.compare_as == CompareAs::Ratio;
     Ok(Statistic {
@@ -291,6 +284,7 @@ fn trend_up_blocks(t: &Trend, cx: &Scope, f: &str) -> Result<Statistic, Unresolv
             "a trend along the blocks reads every block of 'range'; expected no 'block'".into(),
         ));
     }
+    // Read in every block of the range: a bed-part result has none.
     check_block(&t.result, Some(0), f)?;
     let Some([lo, hi]) = t.range else {
         return Err(unresolved(
