@@ -23,12 +23,8 @@ pub fn chute_replica_results(
 ) -> BTreeMap<String, f64> {
     let mut out = BTreeMap::new();
     let d2 = d_perp_m * d_perp_m;
-    let finite_max = |v: &mut dyn Iterator<Item = f64>| {
-        v.filter(|x| x.is_finite() && *x > 0.0)
-            .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))))
-    };
-    let d_max = finite_max(&mut rows.iter().filter_map(|r| r.diffusion_m2_per_s));
-    let shear_max = finite_max(&mut rows.iter().map(|r| r.shear_rate_per_s));
+    let d_max = positive_max(rows.iter().filter_map(|r| r.diffusion_m2_per_s));
+    let shear_max = positive_max(rows.iter().map(|r| r.shear_rate_per_s));
     let mut bulk: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
     let mut gap_sq = (Vec::new(), Vec::new());
     for r in rows {
@@ -95,6 +91,11 @@ pub fn chute_replica_results(
         }
     }
     out
+}
+
+/// The largest finite positive value: a profile's maximum, which normalises it.
+fn positive_max(v: impl Iterator<Item = f64>) -> Option<f64> {
+    v.filter(|x| x.is_finite() && *x > 0.0).reduce(f64::max)
 }
 
 /// The lowest block: the paper's block next to the base of Fig. 5.
