@@ -13,6 +13,8 @@ CREATE TABLE IF NOT EXISTS campaigns (
     scene         TEXT NOT NULL,
     spec_json     TEXT NOT NULL,          -- the campaign file as parsed (normalised JSON)
     registered    INTEGER NOT NULL DEFAULT 1,  -- 0 while its jobs are being registered (chunk by chunk)
+    looks_carried INTEGER NOT NULL DEFAULT 0,  -- claims' looks its earlier versions took
+    alpha_carried REAL NOT NULL DEFAULT 0,     -- and the error rate they spent
     created_at    TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     UNIQUE (name, version)
 );

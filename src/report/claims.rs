@@ -131,7 +131,7 @@ pub fn claims_markdown(
     let _ = writeln!(m, "Scale: {scale}.\n");
     let _ = writeln!(
         m,
-        "Look {look}: intervals at {:.2} % per look, so that the verdicts of all looks together hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
+        "Look {look}: intervals at {:.2} % at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
         100.0 * level,
         spent.particle_steps,
         hours(spent.wall_s),

@@ -15,10 +15,12 @@ use crate::campaign::adaptive::{decide as decide_work, Decision, PointState, Wor
 use crate::campaign::claims::scene_results;
 use crate::campaign::{Allocation, JobSpec, Target};
 use crate::observe::claims::{
-    decide, look_level, seed_of, Claim, Decision as Verdictum, PointData, Statistic, Verdict,
+    decide, seed_of, spending_level, Claim, Decision as Verdictum, PointData, Statistic, Verdict,
+    ALPHA,
 };
 use crate::observe::fits::{Pooled, PooledFrom};
 use crate::store::claims::{self, VerdictRow};
+use crate::store::looks;
 use crate::store::targets::WorkRow;
 
 use super::claim_points::claim_points;
@@ -59,6 +61,8 @@ pub struct Look {
     pub spent: Spent,
     /// The campaign's throughput so far (particle-steps per wall second of its jobs).
     pub rate: Option<f64>,
+    /// Earlier looks (of this version or earlier ones) spent all of α: nothing can be decided.
+    pub no_alpha_left: bool,
 }
 
 /// Decides every claim of `ev`'s campaign on its finished results, without storing anything.
@@ -67,8 +71,11 @@ pub struct Look {
 /// Database errors.
 pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look> {
     let (points, constants) = claim_points(conn, campaign_id, ev)?;
-    let look = ev.rounds_done;
-    let level = look_level(ev.target.looks());
+    let look = ev.look();
+    let before = looks::levels_before(conn, campaign_id, look)?;
+    let spending = spending_level(ev.looks(), look, ev.carried.alpha, &before);
+    // No α left (earlier versions spent it): the claims are shown, none decided.
+    let level = spending.unwrap_or(1.0);
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
     let rate = (wall > 0.0).then_some(steps / wall);
     let results = scene_results(ev.file.scene);
@@ -77,6 +84,13 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
         let path = format!("claims[{k}]");
         let test = claim.tests().first().map_or("none", |t| t.name());
         let v = match Statistic::resolve(claim, &path, &points, results, constants) {
+            Ok(_) if spending.is_none() => Verdict {
+                note: format!(
+                    "no error rate left: the {} earlier look(s) spent α = {ALPHA}",
+                    look
+                ),
+                ..Verdict::undecided(level, test)
+            },
             Ok(stat) => decide(
                 &stat,
                 &points,
@@ -84,16 +98,8 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
                 seed_of(&ev.file.name, &claim.id, look),
             ),
             Err(e) => Verdict {
-                decision: Verdictum::Undecided,
-                value: f64::NAN,
-                lo: f64::NAN,
-                hi: f64::NAN,
-                level,
-                side: crate::observe::claims::Side::Below(f64::NAN),
-                what: test.into(),
-                points: Vec::new(),
                 note: format!("{}: {}", e.field, e.message),
-                variance_by_point: Vec::new(),
+                ..Verdict::undecided(level, test)
             },
         };
         let used_steps: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
@@ -148,6 +154,7 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
             core_hours,
         },
         rate,
+        no_alpha_left: spending.is_none(),
     })
 }
 
@@ -344,6 +351,11 @@ pub fn next_claims_round(
     let t = &ev.target;
     let mut stop = if undecided == 0 {
         Some("every claim is decided".to_string())
+    } else if l.no_alpha_left {
+        Some(format!(
+            "no error rate is left: the {} earlier look(s) spent α = {ALPHA}",
+            l.look
+        ))
     } else if ev.rounds_done >= t.max_rounds {
         Some(format!(
             "max_rounds = {} reached with {undecided} claim(s) undecided",

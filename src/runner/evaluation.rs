@@ -13,6 +13,7 @@ use crate::campaign::{point_key, CampaignFile, JobSpec, SceneKind, Target};
 use crate::observe::fits::{Pooled, PooledFrom};
 use crate::pooled::silo::{combine_replicas, CiSource, DischargeRow};
 use crate::scene::silo::SiloScene;
+use crate::store::looks;
 use crate::store::silo_reads::done_discharge_rows;
 use crate::store::targets::{self, PointRow, TargetJob, WorkRow};
 
@@ -291,7 +292,21 @@ pub struct Evaluation {
     pub open: usize,
     /// Rounds of work added so far.
     pub rounds_done: u32,
+    /// The claims' looks and α the campaign's earlier versions spent.
+    pub carried: looks::Carried,
     pub points: Vec<EvaluatedPoint>,
+}
+
+impl Evaluation {
+    /// The claims' look this evaluation is: the earlier versions' looks, then one per round.
+    pub fn look(&self) -> u32 {
+        self.carried.looks + self.rounds_done
+    }
+
+    /// How many looks the claims may have in all, the earlier versions' included.
+    pub fn looks(&self) -> u32 {
+        self.carried.looks + self.target.looks()
+    }
 }
 
 /// One point: the decision's input, its stored row, the replica it would add, and the
@@ -376,6 +391,7 @@ pub fn evaluate_for(
         target,
         open,
         rounds_done,
+        carried: looks::carried(conn, campaign_id)?,
         points,
     })
 }

@@ -21,6 +21,7 @@ pub mod forget;
 pub mod job_counts;
 pub mod jobs;
 mod lease;
+pub mod looks;
 mod lookup;
 pub mod meta;
 pub mod numerics;

@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 11;
+pub const SCHEMA_VERSION: i64 = 12;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -163,6 +163,9 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             // 10 → 11: indexes for the job lookups of a campaign of 10⁶ jobs (schema.sql), and
             // whether a campaign's registration (chunk by chunk) is complete.
             ("campaigns", "registered", "INTEGER NOT NULL DEFAULT 1"),
+            // 11 → 12: the looks and α a campaign's earlier versions spent on its claims.
+            ("campaigns", "looks_carried", "INTEGER NOT NULL DEFAULT 0"),
+            ("campaigns", "alpha_carried", "REAL NOT NULL DEFAULT 0"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

@@ -35,6 +35,8 @@ pub enum Registration {
 /// jobs or claims differ from the latest version launched under its name is refused (`Changed`, with the
 /// fields that differ) unless `new_version`, which registers it as the next version with its
 /// own jobs; jobs are shared between versions only where their resolved parameters are equal.
+/// A new version carries over the claims' looks and spent α of the one before, and the jobs
+/// its target added at the points the new one keeps (`store::looks`).
 ///
 /// # Errors
 /// Database errors.
@@ -155,6 +157,14 @@ pub fn register_until(
                 added,
             });
         }
+    }
+    if let Some(previous) = super::looks::previous_version(conn, cid)? {
+        let points = jobs
+            .points()
+            .par_iter()
+            .map(|p| crate::campaign::point_key(&p.identity().resolved_json))
+            .collect();
+        super::looks::carry(conn, previous, cid, &points)?;
     }
     conn.execute("UPDATE campaigns SET registered = 1 WHERE id = ?1", [cid])?;
     Ok(Registration::Registered {

@@ -260,3 +260,75 @@ fn a_sigterm_during_a_round_pauses_its_job() {
     );
     assert!(paused >= 1, "no round job paused");
 }
+
+/// Version 1 looks twice (its one round adds replicas), so it spends all of α; version 2 adds a
+/// frequency. It carries over the two looks, their α and the replicas at the points it keeps:
+/// its first look is look 2, and with no α left it decides nothing and adds no work.
+#[test]
+fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
+    let dir = TempDir::new().unwrap();
+    let mut v1 = tiny_claims("adaptive");
+    v1["target"] = json!({ "claims": "decided", "max_replicas": 3, "max_rounds": 1 });
+    let file = write_campaign(dir.path(), "c.json", &v1);
+    let db = dir.path().join("sweep.db");
+    let out = stdout(&launch_ok(dir.path(), &file, &db));
+    let levels = rows(
+        &db,
+        "SELECT round, MIN(level) FROM claim_verdicts WHERE campaign_id = 1 GROUP BY round",
+    );
+    assert_eq!(levels.len(), 2, "{levels:?}\n{out}");
+    let added = "SELECT j.hash FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+                 WHERE cj.campaign_id = ?1 AND cj.origin = 'target' ORDER BY j.hash";
+    let v1_added = rows(&db, &added.replace("?1", "1"));
+    assert!(!v1_added.is_empty(), "round 1 added no replica\n{out}");
+
+    let mut v2 = v1.clone();
+    v2["sweep"]["rotation_frequency_hz"] = json!([0.0, 0.5, 1.0]);
+    let file = write_campaign(dir.path(), "c.json", &v2);
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .arg("--new-version")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert_eq!(rows(&db, &added.replace("?1", "2")), v1_added);
+    let carried = rows(
+        &db,
+        "SELECT looks_carried, ABS(alpha_carried - 0.05) < 1e-12 FROM campaigns WHERE version = 2",
+    );
+    assert_eq!(carried[0][0], "int 2", "{carried:?}");
+    assert_eq!(carried[0][1], "int 1", "{carried:?}");
+    let v2_looks = rows(
+        &db,
+        "SELECT round, verdict, note FROM claim_verdicts WHERE campaign_id = 2",
+    );
+    assert_eq!(v2_looks.len(), 1, "{v2_looks:?}");
+    assert_eq!(v2_looks[0][0], "int 2", "{v2_looks:?}");
+    assert_eq!(v2_looks[0][1], "text undecided", "{v2_looks:?}");
+    assert!(
+        v2_looks[0][2].contains("no error rate left"),
+        "{v2_looks:?}"
+    );
+    assert!(
+        stdout(&o).contains("no error rate is left"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(rows(&db, "SELECT id FROM target_work WHERE campaign_id = 2").is_empty());
+    // The carried replicas are the target's, not the file's: the same file again is no change.
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+}

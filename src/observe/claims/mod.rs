@@ -26,4 +26,4 @@ pub use spec::{
     At, Bound, Claim, Compare, CompareAs, Direction, Fit, FitModel, MinimumInside, TestKind, Trend,
 };
 pub use statistic::{short, Side, Statistic};
-pub use verdict::{decide, look_level, seed_of, Decision, Verdict, ALPHA, DRAWS};
+pub use verdict::{decide, look_level, seed_of, spending_level, Decision, Verdict, ALPHA, DRAWS};

@@ -330,3 +330,46 @@ fn repeated_looks_keep_false_verdicts_at_five_percent() {
     );
     assert!(naive > split && naive > 10, "naive {naive}, split {split}");
 }
+
+/// The α that looks at `levels` spend together.
+fn alpha_of(levels: &[f64]) -> f64 {
+    levels.iter().map(|l| 1.0 - l).sum()
+}
+
+#[test]
+fn a_campaign_whose_looks_never_changed_looks_at_the_even_split() {
+    let even = look_level(9);
+    for look in 0..9 {
+        let before = vec![even; look as usize];
+        assert_eq!(spending_level(9, look, 0.0, &before), Some(even));
+    }
+}
+
+#[test]
+fn raising_the_looks_mid_campaign_spends_no_more_than_alpha() {
+    // Five looks at 9 planned, then max_rounds raised to 16 (17 looks): the rest share what
+    // the first five left, where 17 looks at the new even split would spend 6.3 %.
+    let mut levels = vec![look_level(9); 5];
+    for look in 5..17 {
+        let l = spending_level(17, look, 0.0, &levels).expect("α left");
+        assert!(l < 1.0 && l > look_level(9), "look {look}: {l}");
+        levels.push(l);
+    }
+    let spent = alpha_of(&levels);
+    assert!((spent - ALPHA).abs() < 1e-12, "spent {spent}");
+    assert!(alpha_of(&[look_level(9); 5]) + 12.0 * (1.0 - look_level(17)) > ALPHA);
+}
+
+#[test]
+fn a_new_version_spends_only_what_its_earlier_ones_left() {
+    // Version 1 took 5 of 9 looks; version 2 plans 4 more rounds (5 looks) of its own.
+    let carried = alpha_of(&[look_level(9); 5]);
+    let mut levels = Vec::new();
+    for look in 5..10 {
+        levels.push(spending_level(10, look, carried, &levels).expect("α left"));
+    }
+    assert!((carried + alpha_of(&levels) - ALPHA).abs() < 1e-12);
+    // Once α is spent, no look can decide anything.
+    assert_eq!(spending_level(12, 10, ALPHA, &[]), None);
+    assert_eq!(spending_level(12, 11, carried, &levels), None);
+}

@@ -24,6 +24,23 @@ pub fn look_level(looks: u32) -> f64 {
     1.0 - ALPHA / f64::from(looks.max(1))
 }
 
+/// The two-sided confidence of look `look` (0-based) of at most `looks`, when earlier versions
+/// of the campaign spent `carried` of α and its own looks before this one were at the levels
+/// `before`: the α still left, split evenly over the looks still to come (this one included).
+/// Looks that kept to the even split give exactly its level, so a campaign whose number of looks
+/// never changed looks as it always did; one whose `max_rounds` was raised, or that continues an
+/// earlier version, never spends more than α in all. None when no α is left.
+pub fn spending_level(looks: u32, look: u32, carried: f64, before: &[f64]) -> Option<f64> {
+    let even = look_level(looks);
+    if carried == 0.0 && before.iter().all(|&l| l == even) {
+        return Some(even);
+    }
+    let spent = carried + before.iter().map(|l| 1.0 - l).sum::<f64>();
+    let left = ALPHA - spent;
+    let looks_left = looks.saturating_sub(look).max(1);
+    (left > 1e-9).then(|| 1.0 - left / f64::from(looks_left))
+}
+
 /// A claim's standing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Decision {
@@ -76,6 +93,22 @@ pub struct Verdict {
 }
 
 impl Verdict {
+    /// Undecided without an interval (a claim that cannot be computed, or a look without α).
+    pub fn undecided(level: f64, what: &str) -> Verdict {
+        Verdict {
+            decision: Decision::Undecided,
+            value: f64::NAN,
+            lo: f64::NAN,
+            hi: f64::NAN,
+            level,
+            side: Side::Below(f64::NAN),
+            what: what.into(),
+            points: Vec::new(),
+            note: String::new(),
+            variance_by_point: Vec::new(),
+        }
+    }
+
     /// How far the value lies from the bound it must clear to be decided (value units):
     /// the half-width the interval must shrink to. 0 on the bound; NaN without a value.
     pub fn gap(&self) -> f64 {
