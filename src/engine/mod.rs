@@ -2,6 +2,7 @@
 //! backends that run them. It never touches the store; observers read downloaded state.
 
 pub mod backend;
+pub mod choice;
 pub mod config;
 pub mod contact;
 pub mod cpu;

@@ -11,6 +11,6 @@ mod record;
 
 pub use duration::{contact_time, ContactPair};
 pub use effective_mass::{pair_effective_mass, wall_effective_mass, Inertial};
-pub use hertz_mindlin::{contact_force, elastic_energy, ContactInput};
+pub use hertz_mindlin::{contact_force, contact_force_in, elastic_energy, ContactInput};
 pub use law::{beta, ContactLaw, Elasticity, LawKernel, NormalModel};
 pub use record::ContactRecord;

@@ -4,15 +4,17 @@
 //! evaluates them here in groups: inputs laid out one array per component, one branch-free loop
 //! body per lane, so that the compiler turns the loop into SIMD instructions (the square roots
 //! and divisions of several contacts in flight together instead of one latency chain after
-//! another). Each lane performs exactly the operations of `contact_force` and of the scalar pair
-//! loop it replaced, in the same order, so the results are the same bits.
+//! another). Each lane performs exactly the operations of the scalar pair loop it replaced, in
+//! the same order, and the contact law is the one law (`contact_force_in` with selects), so the
+//! results are the same bits.
 
 use multiversion::multiversion;
 
 use super::kinematics::Kin;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{self, F32x4};
-use crate::engine::contact::LawKernel;
+use crate::engine::choice::Select;
+use crate::engine::contact::{contact_force_in, ContactInput, LawKernel};
 use crate::engine::real::{Real, V3};
 
 /// Pairs per group.
@@ -180,15 +182,6 @@ fn put<R: Real>(a: &mut [[R; LANES]; 3], l: usize, v: V3<R>) {
     a[2][l] = v.z;
 }
 
-#[inline(always)]
-fn select<R: Real>(c: bool, a: V3<R>, b: V3<R>) -> V3<R> {
-    V3::new(
-        if c { a.x } else { b.x },
-        if c { a.y } else { b.y },
-        if c { a.z } else { b.z },
-    )
-}
-
 /// Evaluates the `LANES` pairs of group `g` (lanes past the last touching pair hold stale
 /// inputs, possibly of pairs that do not touch; their results, NaN or not, are ignored).
 /// Compiled also for AVX2 and AVX-512, once per contact law, and chosen at run time: the
@@ -267,7 +260,6 @@ fn contact<R: Real, const HERTZ: bool>(
     stored: V3<R>,
 ) -> PairContact<R> {
     let half = R::from_f64(0.5);
-    let three_halves = R::from_f64(1.5);
     let [d, vi, wi, vj, wj] = kin;
     let [ri, rj, mi, mj] = pair;
     let sum = ri + rj;
@@ -291,48 +283,14 @@ fn contact<R: Real, const HERTZ: bool>(
     let bi = -(n * li);
     let bj = n * lj;
     let v_rel = (vi + wi.cross(bi)) - (vj + wj.cross(bj));
-    // contact_force (contact/hertz_mindlin.rs), with its branches as selects.
-    let vn = v_rel.dot(n);
-    let sq = if HERTZ {
-        (ri * rj / sum * overlap).sqrt()
-    } else {
-        R::one()
+    let c = ContactInput {
+        overlap,
+        normal: n,
+        v_rel,
+        r_eff: ri * rj / sum,
+        m_eff,
     };
-    let (kn, sn) = if HERTZ {
-        let kn = law.kn_coef * sq;
-        (kn, kn * three_halves)
-    } else {
-        (law.kn_coef, law.kn_coef)
-    };
-    let gamma_n = law.damp_n * (sn * m_eff).sqrt();
-    let fn_mag = kn * overlap - gamma_n * vn;
-    let mut f = n * fn_mag;
-    let mut spring = stored;
-    if law.tangential {
-        let kt = law.kt_coef * sq;
-        let gamma_t = law.damp_t * (kt * m_eff).sqrt();
-        let vt = v_rel - n * vn;
-        let old = spring;
-        let old2 = old.norm2();
-        let mut s = old - n * old.dot(n);
-        let s2 = s.norm2();
-        // s · 1 is s exactly: the select keeps the scalar code's bits.
-        let keep_length = if s2 > R::zero() {
-            (old2 / s2).sqrt()
-        } else {
-            R::one()
-        };
-        s = s * keep_length;
-        s += vt * dt;
-        let ft = -(s * kt) - vt * gamma_t;
-        let limit = law.mu * fn_mag.abs();
-        let ft2 = ft.norm2();
-        let slides = ft2 > limit * limit;
-        let ft_slide = ft * (limit / ft2.sqrt());
-        let s_slide = -(ft_slide + vt * gamma_t) * (R::one() / kt);
-        spring = select(slides, s_slide, s);
-        f += select(slides, ft_slide, ft);
-    }
+    let (f, spring) = contact_force_in::<R, Select, HERTZ>(law, &c, stored, dt);
     let nf = n.cross(f);
     PairContact {
         f,

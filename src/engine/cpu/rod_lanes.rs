@@ -1,7 +1,7 @@
 //! The spherocylinder pair kernel, evaluated for `LANES` pairs at once: the segment–segment
-//! closest points (`shape::segment::closest_points`), the contact geometry
-//! (`shape::contact_spherocylinders`) and the force law (`contact::contact_force`), each
-//! branch computed and chosen by a select, one array per input component, so that the compiler
+//! closest points (`shape::closest_points_in`) and the force law (`contact::contact_force_in`),
+//! the same code as the scalar path's with selects for branches, and the contact geometry
+//! (`shape::contact_spherocylinders`), one array per input component, so that the compiler
 //! turns the loop into SIMD instructions (as `pair_lanes.rs` does for spheres). Each lane
 //! performs exactly the scalar code's operations in its order, so the results are its bits. A
 //! pair whose axes touch exactly (the normal then comes from `touching_normal`, a branchy
@@ -9,9 +9,12 @@
 
 use multiversion::multiversion;
 
-use crate::engine::contact::{pair_effective_mass, Inertial, LawKernel};
+use crate::engine::choice::Select;
+use crate::engine::contact::{
+    contact_force_in, pair_effective_mass, ContactInput, Inertial, LawKernel,
+};
 use crate::engine::real::{Real, V3};
-use crate::engine::shape::{PARALLEL_SIN, POINT_LEN2};
+use crate::engine::shape::closest_points_in;
 
 /// Pairs per group.
 pub(super) const LANES: usize = 8;
@@ -111,100 +114,6 @@ fn put<R: Real>(a: &mut [Col<R>; 3], l: usize, v: V3<R>) {
     a[2][l] = v.z;
 }
 
-#[inline(always)]
-fn sel<R: Real>(c: bool, a: R, b: R) -> R {
-    if c {
-        a
-    } else {
-        b
-    }
-}
-
-#[inline(always)]
-fn sel3<R: Real>(c: bool, a: V3<R>, b: V3<R>) -> V3<R> {
-    V3::new(sel(c, a.x, b.x), sel(c, a.y, b.y), sel(c, a.z, b.z))
-}
-
-#[inline(always)]
-fn clamp01<R: Real>(x: R) -> R {
-    x.max(R::zero()).min(R::one())
-}
-
-/// `segment::general`, branch-free.
-#[inline(always)]
-fn general<R: Real>(s_line: R, a: R, b: R, c: R, e: R, f: R) -> (R, R) {
-    let s = clamp01(s_line);
-    let t = (b * s + f) / e;
-    let below = t < R::zero();
-    let above = t > R::one();
-    let s_lo = clamp01(-c / a);
-    let s_hi = clamp01((b - c) / a);
-    (
-        sel(below, s_lo, sel(above, s_hi, s)),
-        sel(below, R::zero(), sel(above, R::one(), t)),
-    )
-}
-
-/// `segment::parallel`, branch-free.
-#[inline(always)]
-fn parallel<R: Real>(a: R, b: R, c: R, e: R, f: R) -> (R, R) {
-    let zero = R::zero();
-    let one = R::one();
-    let s0 = -c / a;
-    let s1 = (b - c) / a;
-    let ordered = s0 <= s1;
-    let (lo, hi) = (sel(ordered, s0, s1), sel(ordered, s1, s0));
-    let (lo_in, hi_in) = (lo.max(zero), hi.min(one));
-    let overlapping = lo_in <= hi_in;
-    let s_mid = (lo_in + hi_in) * R::from_f64(0.5);
-    let t_mid = clamp01((b * s_mid + f) / e);
-    let s_end = sel(hi < zero, zero, one);
-    let t_end = clamp01((b * s_end + f) / e);
-    let s_back = clamp01((b * t_end - c) / a);
-    (
-        sel(overlapping, s_mid, s_back),
-        sel(overlapping, t_mid, t_end),
-    )
-}
-
-/// `segment::closest_points`, branch-free: (s, t, p, q, |p − q|²).
-#[inline(always)]
-fn closest<R: Real>(p1: V3<R>, d1: V3<R>, p2: V3<R>, d2: V3<R>) -> (R, R, V3<R>, V3<R>, R) {
-    let zero = R::zero();
-    let one = R::one();
-    let tiny = R::from_f64(POINT_LEN2);
-    let r = p1 - p2;
-    let a = d1.norm2();
-    let e = d2.norm2();
-    let c = d1.dot(r);
-    let f = d2.dot(r);
-    let b = d1.dot(d2);
-    let n = d1.cross(d2);
-    let n2 = n.norm2();
-    let ae = a * e;
-    let lim2 = R::from_f64(PARALLEL_SIN * PARALLEL_SIN);
-    let s_line = n.dot(d2.cross(r)) / n2;
-    let (sg, tg) = general(s_line, a, b, c, e, f);
-    let (sp, tp) = parallel(a, b, c, e, f);
-    let w = (n2 / ae).sqrt() / R::from_f64(PARALLEL_SIN) - one;
-    let s_blend = sp + (sg - sp) * w.max(zero).min(one);
-    let t_blend = clamp01((b * s_blend + f) / e);
-    let exact = n2 > R::from_f64(4.0) * lim2 * ae;
-    let flat = n2 <= lim2 * ae;
-    let s_both = sel(exact, sg, sel(flat, sp, s_blend));
-    let t_both = sel(exact, tg, sel(flat, tp, t_blend));
-    let (a_pt, e_pt) = (a <= tiny, e <= tiny);
-    let s = sel(a_pt, zero, sel(e_pt, clamp01(-c / a), s_both));
-    let t = sel(
-        a_pt & e_pt,
-        zero,
-        sel(a_pt, clamp01(f / e), sel(e_pt, zero, t_both)),
-    );
-    let p = p1 + d1 * s;
-    let q = p2 + d2 * t;
-    (s, t, p, q, (p - q).norm2())
-}
-
 /// Evaluates the group's pairs. Compiled also for AVX2 and AVX-512, once per contact law, and
 /// chosen at run time; Rust never fuses a multiply and an add, so every clone computes the
 /// same bits.
@@ -252,7 +161,8 @@ fn lane<R: Real, const HERTZ: bool>(
     let (body_a, body_b) = (inp.body(0, l), inp.body(1, l));
     let hi = ua * body_a.half_length;
     let hj = ub * body_b.half_length;
-    let (s, t, p, q, dist2) = closest(d - hi, hi + hi, -hj, hj + hj);
+    let cp = closest_points_in::<R, Select>(d - hi, hi + hi, -hj, hj + hj);
+    let (s, t, p, q, dist2) = (cp.s, cp.t, cp.p, cp.q, cp.dist2);
     let sum = ra + rb;
     out.touch[l] = dist2 < sum * sum;
     let dist = dist2.sqrt();
@@ -269,44 +179,14 @@ fn lane<R: Real, const HERTZ: bool>(
         - (get(&inp.vb, l) + get(&inp.wb, l).cross(arm_b));
     let m_eff = pair_effective_mass(body_a, body_b, arm_a, arm_b, normal);
     let r_eff = ra * rb / (ra + rb);
-    // contact_force.
-    let n = normal;
-    let vn = v_rel.dot(n);
-    let sq = if HERTZ {
-        (r_eff * overlap).sqrt()
-    } else {
-        R::one()
+    let c = ContactInput {
+        overlap,
+        normal,
+        v_rel,
+        r_eff,
+        m_eff,
     };
-    let (kn, sn) = if HERTZ {
-        let kn = law.kn_coef * sq;
-        (kn, kn * R::from_f64(1.5))
-    } else {
-        (law.kn_coef, law.kn_coef)
-    };
-    let gamma_n = law.damp_n * (sn * m_eff).sqrt();
-    let fn_mag = kn * overlap - gamma_n * vn;
-    let mut f = n * fn_mag;
-    let mut spring = get(&inp.spring, l);
-    if law.tangential {
-        let kt = law.kt_coef * sq;
-        let gamma_t = law.damp_t * (kt * m_eff).sqrt();
-        let vt = v_rel - n * vn;
-        let old = spring;
-        let old2 = old.norm2();
-        let mut sp = old - n * old.dot(n);
-        let s2 = sp.norm2();
-        // s · 1 is s exactly: the select keeps the scalar code's bits.
-        sp = sp * sel(s2 > R::zero(), (old2 / s2).sqrt(), R::one());
-        sp += vt * dt;
-        let ft = -(sp * kt) - vt * gamma_t;
-        let limit = law.mu * fn_mag.abs();
-        let ft2 = ft.norm2();
-        let slides = ft2 > limit * limit;
-        let ft_slide = ft * (limit / ft2.sqrt());
-        let s_slide = -(ft_slide + vt * gamma_t) * (R::one() / kt);
-        spring = sel3(slides, s_slide, sp);
-        f += sel3(slides, ft_slide, ft);
-    }
+    let (f, spring) = contact_force_in::<R, Select, HERTZ>(law, &c, get(&inp.spring, l), dt);
     put(&mut out.f, l, f);
     put(&mut out.ta, l, arm_a.cross(f));
     put(&mut out.tb, l, arm_b.cross(-f));

@@ -12,7 +12,8 @@ pub use rigid::{
     rotate_free_symmetric, rotate_symmetric_with, rotational_energy, symmetric_angles,
 };
 pub use segment::{
-    closest_point_on_segment, closest_points, ClosestPoints, PARALLEL_SIN, POINT_LEN2,
+    closest_point_on_segment, closest_points, closest_points_in, ClosestPoints, PARALLEL_SIN,
+    POINT_LEN2,
 };
 pub use spherocylinder::{
     axis_distance2, contact_plane, contact_sphere, contact_spherocylinders, PairContact,

@@ -19,6 +19,7 @@
 //!   distance returned exceeds the true minimum by at most ½ |d1| sin θ ≤ |d1| · 10⁻⁶ (the
 //!   distance to the other segment changes by at most sin θ per unit length along the overlap).
 
+use crate::engine::choice::{Branch, Choice};
 use crate::engine::real::{Real, V3};
 
 /// θc: two segments whose directions make an angle with sine at most this are treated as
@@ -62,39 +63,43 @@ fn clamp01<R: Real>(x: R) -> R {
 /// linear blend towards the exact pair (module doc).
 #[inline]
 pub fn closest_points<R: Real>(p1: V3<R>, d1: V3<R>, p2: V3<R>, d2: V3<R>) -> ClosestPoints<R> {
+    closest_points_in::<R, Branch>(p1, d1, p2, d2)
+}
+
+/// [`closest_points`], written once: `C` takes its choices (`Select` in the lane kernels, which
+/// give the same bits).
+#[inline(always)]
+pub fn closest_points_in<R: Real, C: Choice>(
+    p1: V3<R>,
+    d1: V3<R>,
+    p2: V3<R>,
+    d2: V3<R>,
+) -> ClosestPoints<R> {
     let zero = R::zero();
-    let one = R::one();
     let tiny = R::from_f64(POINT_LEN2);
     let r = p1 - p2;
     let a = d1.norm2();
     let e = d2.norm2();
     let c = d1.dot(r);
     let f = d2.dot(r);
-    let (s, t) = if a <= tiny && e <= tiny {
-        (zero, zero)
-    } else if a <= tiny {
-        (zero, clamp01(f / e))
-    } else if e <= tiny {
-        (clamp01(-c / a), zero)
-    } else {
-        let b = d1.dot(d2);
-        let n = d1.cross(d2);
-        let n2 = n.norm2();
-        let ae = a * e;
-        let lim2 = R::from_f64(PARALLEL_SIN * PARALLEL_SIN);
-        if n2 > R::from_f64(4.0) * lim2 * ae {
-            general(n.dot(d2.cross(r)) / n2, a, b, c, e, f)
-        } else if n2 <= lim2 * ae {
-            parallel(a, b, c, e, f)
-        } else {
-            // θc < sin θ ≤ 2θc: from the overlap's middle (w = 0) to the exact pair (w = 1).
-            let (s_mid, _) = parallel(a, b, c, e, f);
-            let (s_exact, _) = general(n.dot(d2.cross(r)) / n2, a, b, c, e, f);
-            let w = (n2 / ae).sqrt() / R::from_f64(PARALLEL_SIN) - one;
-            let s = s_mid + (s_exact - s_mid) * w.max(zero).min(one);
-            (s, clamp01((b * s + f) / e))
-        }
-    };
+    let (a_point, e_point) = (a <= tiny, e <= tiny);
+    let (s, t) = C::pick(
+        a_point & e_point,
+        || (zero, zero),
+        || {
+            C::pick(
+                a_point,
+                || (zero, clamp01(f / e)),
+                || {
+                    C::pick(
+                        e_point,
+                        || (clamp01(-c / a), zero),
+                        || segments::<R, C>(d1, d2, r, [a, c, e, f]),
+                    )
+                },
+            )
+        },
+    );
     let p = p1 + d1 * s;
     let q = p2 + d2 * t;
     ClosestPoints {
@@ -106,42 +111,75 @@ pub fn closest_points<R: Real>(p1: V3<R>, d1: V3<R>, p2: V3<R>, d2: V3<R>) -> Cl
     }
 }
 
+/// Two segments of nonzero length: exact, parallel, or the blend between (module doc).
+/// [a, c, e, f] = [|d1|², d1·r, |d2|², d2·r].
+#[inline(always)]
+fn segments<R: Real, C: Choice>(d1: V3<R>, d2: V3<R>, r: V3<R>, acef: [R; 4]) -> (R, R) {
+    let [a, c, e, f] = acef;
+    let b = d1.dot(d2);
+    let n = d1.cross(d2);
+    let n2 = n.norm2();
+    let ae = a * e;
+    let lim2 = R::from_f64(PARALLEL_SIN * PARALLEL_SIN);
+    let s_line = || n.dot(d2.cross(r)) / n2;
+    C::pick(
+        n2 > R::from_f64(4.0) * lim2 * ae,
+        || general::<R, C>(s_line(), a, b, c, e, f),
+        || {
+            C::pick(
+                n2 <= lim2 * ae,
+                || parallel::<R, C>(a, b, c, e, f),
+                || {
+                    // θc < sin θ ≤ 2θc: from the overlap's middle (w = 0) to the exact pair (w = 1).
+                    let (s_mid, _) = parallel::<R, C>(a, b, c, e, f);
+                    let (s_exact, _) = general::<R, C>(s_line(), a, b, c, e, f);
+                    let w = (n2 / ae).sqrt() / R::from_f64(PARALLEL_SIN) - R::one();
+                    let s = s_mid + (s_exact - s_mid) * w.max(R::zero()).min(R::one());
+                    (s, clamp01((b * s + f) / e))
+                },
+            )
+        },
+    )
+}
+
 /// Non-parallel segments from the line–line minimiser `s_line` (Lagrange identity form, see the
 /// module doc): s clamped, t optimal for it; if t leaves [0, 1] it is clamped and s re-solved.
 /// a = |d1|², b = d1·d2, c = d1·r, e = |d2|², f = d2·r.
 #[inline(always)]
-fn general<R: Real>(s_line: R, a: R, b: R, c: R, e: R, f: R) -> (R, R) {
+fn general<R: Real, C: Choice>(s_line: R, a: R, b: R, c: R, e: R, f: R) -> (R, R) {
     let s = clamp01(s_line);
     let t = (b * s + f) / e;
-    if t < R::zero() {
-        (clamp01(-c / a), R::zero())
-    } else if t > R::one() {
-        (clamp01((b - c) / a), R::one())
-    } else {
-        (s, t)
-    }
+    C::pick(
+        t < R::zero(),
+        || (clamp01(-c / a), R::zero()),
+        || C::pick(t > R::one(), || (clamp01((b - c) / a), R::one()), || (s, t)),
+    )
 }
 
 /// Parallel segments: the middle of the overlap of segment 2 projected on segment 1, or, when the
 /// projections are disjoint, the nearest ends. a = |d1|², b = d1·d2, c = d1·r, e = |d2|², f = d2·r.
-#[inline]
-fn parallel<R: Real>(a: R, b: R, c: R, e: R, f: R) -> (R, R) {
+#[inline(always)]
+fn parallel<R: Real, C: Choice>(a: R, b: R, c: R, e: R, f: R) -> (R, R) {
     let zero = R::zero();
     let one = R::one();
     // Where the two ends of segment 2 project on segment 1's line, in units of s.
     let s0 = -c / a;
     let s1 = (b - c) / a;
-    let (lo, hi) = if s0 <= s1 { (s0, s1) } else { (s1, s0) };
+    let (lo, hi) = C::pick(s0 <= s1, || (s0, s1), || (s1, s0));
     let (lo_in, hi_in) = (lo.max(zero), hi.min(one));
-    if lo_in <= hi_in {
-        let s = (lo_in + hi_in) * R::from_f64(0.5);
-        (s, clamp01((b * s + f) / e))
-    } else {
-        // Disjoint projections (end to end): from segment 1's nearer end to segment 2 and back.
-        let s = if hi < zero { zero } else { one };
-        let t = clamp01((b * s + f) / e);
-        (clamp01((b * t - c) / a), t)
-    }
+    C::pick(
+        lo_in <= hi_in,
+        || {
+            let s = (lo_in + hi_in) * R::from_f64(0.5);
+            (s, clamp01((b * s + f) / e))
+        },
+        || {
+            // Disjoint projections (end to end): from segment 1's nearer end to segment 2 and back.
+            let s = C::pick(hi < zero, || zero, || one);
+            let t = clamp01((b * s + f) / e);
+            (clamp01((b * t - c) / a), t)
+        },
+    )
 }
 
 /// The point of segment `p + s d` nearest to `x`: returns (s, point), s ∈ [0, 1]; a segment of
