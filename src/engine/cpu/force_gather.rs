@@ -1,10 +1,9 @@
 //! The per-particle force gather over full lists: contact records, elastic energy, rods.
 
+use super::kept_spring::gathered_force;
 use super::oriented::OrientedContext;
 use super::particle::Status;
-use crate::engine::contact::{
-    contact_force, elastic_energy, ContactInput, ContactRecord, LawKernel,
-};
+use crate::engine::contact::{elastic_energy, ContactInput, ContactRecord, LawKernel};
 use crate::engine::grid::{NeighbourList, Periodic};
 use crate::engine::history::{wall_key, Rows};
 use crate::engine::real::{Real, V3};
@@ -150,18 +149,14 @@ impl<'a, R: Real> ForceContext<'a, R> {
                 m_eff,
             };
             let key = s.id[j];
-            let fc = match rows.as_deref_mut() {
-                Some(rows) => {
-                    let mut spring = rows.get(key);
-                    let fc = contact_force(self.law_pp, &c, &mut spring, self.dt);
-                    full |= !rows.put(key, spring);
-                    fc
-                }
-                None => {
-                    let mut spring = V3::zero();
-                    contact_force(self.law_pp, &c, &mut spring, self.dt)
-                }
-            };
+            let fc = gathered_force(
+                self.law_pp,
+                &c,
+                rows.as_deref_mut(),
+                key,
+                self.dt,
+                &mut full,
+            );
             f += fc;
             t += bi.cross(fc);
             max_ov = max_ov.max(overlap / (ri.min(rj) * R::from_f64(2.0)));
@@ -182,18 +177,14 @@ impl<'a, R: Real> ForceContext<'a, R> {
                 if let Some(wc) = wall.touch_split(pi, s.lo(i), ri) {
                     let (bi, c) = wc.sphere_input(ri, mi, vi, wi);
                     let key = wall_key(w);
-                    let fc = match rows.as_deref_mut() {
-                        Some(rows) => {
-                            let mut spring = rows.get(key);
-                            let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
-                            full |= !rows.put(key, spring);
-                            fc
-                        }
-                        None => {
-                            let mut spring = V3::zero();
-                            contact_force(self.law_pw, &c, &mut spring, self.dt)
-                        }
-                    };
+                    let fc = gathered_force(
+                        self.law_pw,
+                        &c,
+                        rows.as_deref_mut(),
+                        key,
+                        self.dt,
+                        &mut full,
+                    );
                     f += fc;
                     t += bi.cross(fc);
                     max_ov = max_ov.max(wc.overlap / (ri * R::from_f64(2.0)));

@@ -30,6 +30,7 @@
 mod contacts;
 mod force_gather;
 mod half_lists;
+mod kept_spring;
 mod kick;
 mod kinematics;
 mod oriented;

@@ -14,11 +14,11 @@
 //! symmetric top (`shape::rigid`); ω = R I⁻¹ Rᵀ L is refreshed after every change of q or L, and is
 //! what contacts read.
 
+use super::kept_spring::gathered_force;
 use super::particle::Status;
 use super::rod_pass::inertial;
 use crate::engine::contact::{
-    contact_force, elastic_energy, pair_effective_mass, wall_effective_mass, ContactInput,
-    ContactRecord,
+    elastic_energy, pair_effective_mass, wall_effective_mass, ContactInput, ContactRecord,
 };
 use crate::engine::history::{wall_key, Rows};
 use crate::engine::real::{Real, V3};
@@ -205,18 +205,14 @@ impl<R: Real> OrientedContext<'_, R> {
                 m_eff,
             };
             let key = s.id[j];
-            let fc = match rows.as_deref_mut() {
-                Some(rows) => {
-                    let mut spring = rows.get(key);
-                    let fc = contact_force(self.law_pp, &c, &mut spring, self.dt);
-                    full |= !rows.put(key, spring);
-                    fc
-                }
-                None => {
-                    let mut spring = V3::zero();
-                    contact_force(self.law_pp, &c, &mut spring, self.dt)
-                }
-            };
+            let fc = gathered_force(
+                self.law_pp,
+                &c,
+                rows.as_deref_mut(),
+                key,
+                self.dt,
+                &mut full,
+            );
             let (force_i, arm_i) = if i_is_a {
                 (fc, pc.arm_i)
             } else {
@@ -256,18 +252,14 @@ impl<R: Real> OrientedContext<'_, R> {
                     m_eff: wall_effective_mass(inertial(s, i), pc.arm, pc.normal),
                 };
                 let key = wall_key(w);
-                let fc = match rows.as_deref_mut() {
-                    Some(rows) => {
-                        let mut spring = rows.get(key);
-                        let fc = contact_force(self.law_pw, &c, &mut spring, self.dt);
-                        full |= !rows.put(key, spring);
-                        fc
-                    }
-                    None => {
-                        let mut spring = V3::zero();
-                        contact_force(self.law_pw, &c, &mut spring, self.dt)
-                    }
-                };
+                let fc = gathered_force(
+                    self.law_pw,
+                    &c,
+                    rows.as_deref_mut(),
+                    key,
+                    self.dt,
+                    &mut full,
+                );
                 f += fc;
                 t += pc.arm.cross(fc);
                 max_ov = max_ov.max(pc.overlap / (shape.radius * two));

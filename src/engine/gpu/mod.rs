@@ -5,6 +5,7 @@ mod buffers;
 mod device;
 mod engine;
 mod grid;
+mod law_probe;
 mod layout;
 mod packed;
 mod pipelines;
@@ -17,5 +18,6 @@ pub use device::{
 };
 pub use engine::{GpuEngine, GpuOptions};
 pub use grid::{list_capacity, plan_grid, GridSpec};
+pub use law_probe::{probe_law, ProbeContact, ProbeResult};
 pub use layout::{MAX_JOBS, MAX_WALLS, WORKGROUP_SIZE};
 pub use packed::{pack, unpack, Packed};

@@ -27,6 +27,7 @@ const REORDER: &str = concat!(
 );
 const CONTACTS: &str = concat!(
     include_str!("shaders/common.wgsl"),
+    include_str!("shaders/law.wgsl"),
     include_str!("shaders/walls.wgsl"),
     include_str!("shaders/contacts.wgsl"),
     include_str!("shaders/rods.wgsl")

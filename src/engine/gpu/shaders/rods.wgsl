@@ -323,7 +323,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
         }
         let stored = spring;
         let fc = contact_force(params.law_pp, pc.overlap, pc.normal, v_rel, ra * rb / (ra + rb),
-                               m_eff, &spring);
+                               m_eff, spring_dt(), &spring);
         if (use_rows) {
             rows_put(i, other.id, spring);
         }
@@ -361,7 +361,8 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
             if (sh.w > 0.0) {
                 m_w = 1.0 / (v4.w + turn_term(sh.w, me.inv_inertia, wc.arm, wc.normal));
             }
-            let fc = contact_force(params.law_pw, wc.overlap, wc.normal, v_rel, ri, m_w, &spring);
+            let fc = contact_force(params.law_pw, wc.overlap, wc.normal, v_rel, ri, m_w, spring_dt(),
+                                   &spring);
             if (use_rows) {
                 rows_put(i, key, spring);
             }
