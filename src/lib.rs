@@ -13,6 +13,7 @@ pub mod export;
 pub mod lammps;
 pub mod observe;
 pub mod pooled;
+pub mod project;
 pub mod report;
 pub mod runner;
 pub mod scene;

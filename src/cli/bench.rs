@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use sweep::bench::Settling;
 use sweep::campaign::Precision;
+use sweep::project::{BenchRun, Project};
 use sweep::runner::backend::{self, BackendChoice};
-use sweep::store::bench_runs;
 
 pub use super::bench_args::Arguments;
 use super::bench_dispatches::{describe_passes, dispatch_json, since, PROFILED_STEPS};
@@ -125,23 +125,19 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     }
     if !a.no_store {
-        let conn = sweep::store::open(&a.db.db)?;
-        bench_runs::record(
-            &conn,
-            &bench_runs::BenchRun {
-                scene: &scene_name,
-                backend: &info.kind,
-                precision: &info.precision,
-                threads: info.threads as i64,
-                particles: mobile as i64,
-                steps: steps as i64,
-                dt_s: dt,
-                particle_steps_per_s: rate,
-                contacts_per_particle: r.contacts_per_particle,
-                state_checksum: &sum,
-                machine: &machine,
-            },
-        )?;
+        Project::open(&a.db.db)?.record_bench(&BenchRun {
+            scene: &scene_name,
+            backend: &info.kind,
+            precision: &info.precision,
+            threads: info.threads as i64,
+            particles: mobile as i64,
+            steps: steps as i64,
+            dt_s: dt,
+            particle_steps_per_s: rate,
+            contacts_per_particle: r.contacts_per_particle,
+            state_checksum: &sum,
+            machine: &machine,
+        })?;
     }
     Ok(0)
 }

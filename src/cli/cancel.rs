@@ -1,8 +1,8 @@
 //! `sweep cancel`: cancels a campaign's Slurm arrays; their jobs stay resumable.
 
-use sweep::store::slurm_tasks;
+use sweep::project::Project;
 
-use super::shared::{print_report, work_dir};
+use super::shared::print_report;
 use super::DbArg;
 
 #[derive(clap::Args)]
@@ -22,9 +22,9 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.db.db)?;
+    let mut project = Project::open(&a.db.db)?;
     let cid = match &a.campaign {
-        Some(name) => match sweep::store::jobs::campaign_id(&conn, name)? {
+        Some(name) => match project.campaign_id(name)? {
             Some(id) => Some(id),
             None => {
                 eprintln!(
@@ -37,15 +37,15 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         },
         None => None,
     };
-    if !slurm_tasks::any(&conn)? {
+    if !project.uses_slurm()? {
         println!("nothing to cancel: no job was handed to Slurm");
         return Ok(0);
     }
     // Results already there make their jobs done, not cancelled.
-    let work = work_dir(&conn, &a.db.db)?;
-    let r = sweep::runner::slurm::collect(&mut conn, &work)?;
+    let work = project.work_dir()?;
+    let r = sweep::runner::slurm::collect(project.conn_mut(), &work)?;
     print_report(&r);
-    let c = sweep::runner::slurm::cancel(&mut conn, cid)?;
+    let c = sweep::runner::slurm::cancel(project.conn_mut(), cid)?;
     if c.arrays.is_empty() {
         println!("nothing to cancel: no job is queued or running under Slurm");
         return Ok(0);

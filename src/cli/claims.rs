@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
+use sweep::project::{Project, VerdictRow};
 use sweep::runner::claim_rounds::ClaimsRound;
-use sweep::store::claims::VerdictRow;
 
 fn value(r: &VerdictRow) -> String {
     let s = sweep::observe::claims::short;
@@ -87,11 +87,8 @@ pub fn print_round(r: &ClaimsRound) {
 
 /// `sweep report --claims`: the campaign's claims table (its latest stored look, or a look
 /// taken now when none was stored) as claims.md and claims.csv in `out`, printed too.
-pub fn report(
-    conn: &rusqlite::Connection,
-    campaign: Option<&str>,
-    out: &Path,
-) -> anyhow::Result<i32> {
+pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::Result<i32> {
+    let conn = project.conn();
     let c = sweep::report::find_campaign(conn, campaign, None)?;
     let (scale, rows, spent) = match sweep::report::claims::stored_claims(conn, c.id, &c.scene)? {
         Some(x) => x,

@@ -1,8 +1,8 @@
 //! `sweep collect`: finished Slurm results into the database (also run by `status` and `resume`).
 
-use sweep::store::slurm_tasks;
+use sweep::project::Project;
 
-use super::shared::{print_report, work_dir};
+use super::shared::print_report;
 use super::DbArg;
 
 #[derive(clap::Args)]
@@ -19,16 +19,16 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.db.db)?;
-    if !slurm_tasks::any(&conn)? {
+    let mut project = Project::open(&a.db.db)?;
+    if !project.uses_slurm()? {
         println!(
             "no job of {} was handed to Slurm: nothing to collect",
             a.db.db.display()
         );
         return Ok(0);
     }
-    let work = work_dir(&conn, &a.db.db)?;
-    let r = sweep::runner::slurm::collect(&mut conn, &work)?;
+    let work = project.work_dir()?;
+    let r = sweep::runner::slurm::collect(project.conn_mut(), &work)?;
     print_report(&r);
     println!(
         "{} job(s) collected, {} still queued or running under Slurm, {} ended without a result, {} failed, {} not verified",

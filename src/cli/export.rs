@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use sweep::export::{export_job, Encoding, ExportOptions};
+use sweep::project::Project;
 
 use super::DbArg;
 
@@ -31,7 +32,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             a.db.db.display()
         );
     }
-    let conn = sweep::store::open(&a.db.db)?;
+    let project = Project::open(&a.db.db)?;
     let opts = ExportOptions {
         every: a.every as usize,
         encoding: if a.ascii {
@@ -40,8 +41,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             Encoding::Base64
         },
     };
-    let work = super::shared::work_dir(&conn, &a.db.db)?;
-    let r = export_job(&conn, &work, a.job, &a.vtk, &opts)?;
+    let work = project.work_dir()?;
+    let r = export_job(project.conn(), &work, a.job, &a.vtk, &opts)?;
     for n in &r.notes {
         eprintln!("sweep: {n}");
     }

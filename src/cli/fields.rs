@@ -1,6 +1,6 @@
 //! `sweep fields --job ID`: lists a job's coarse-grained field sets and their fields.
 
-use sweep::store::fields::{list_field_sets, load_field_arrays};
+use sweep::project::Project;
 
 use super::DbArg;
 
@@ -18,8 +18,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         eprintln!("sweep: no database at {}", a.db.db.display());
         return Ok(2);
     }
-    let conn = sweep::store::open(&a.db.db)?;
-    let Some(label) = sweep::store::jobs::job_label(&conn, a.job)? else {
+    let project = Project::open(&a.db.db)?;
+    let Some(label) = project.job_label(a.job)? else {
         eprintln!(
             "sweep: no job {} in {}; see `sweep status --db {}`",
             a.job,
@@ -28,7 +28,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     };
-    let sets = list_field_sets(&conn, a.job)?;
+    let sets = project.field_sets(a.job)?;
     println!("job {} ({label}): {} field set(s)", a.job, sets.len());
     if sets.is_empty() {
         println!("  none: its campaign has no observers.fields, or the job is not done");
@@ -59,7 +59,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             s.t_end_s,
             s.samples
         );
-        for f in load_field_arrays(&conn, s.id)? {
+        for f in project.field_arrays(s.id)? {
             let kind = match f.components {
                 1 => "scalar",
                 3 => "vector",

@@ -3,10 +3,9 @@
 
 use std::io::{BufRead, IsTerminal, Write};
 
+use sweep::project::{ForgetPlan, Liveness, Project};
 use sweep::runner::job::job_dir;
 use sweep::runner::job_lock;
-use sweep::store::forget::{self, ForgetPlan};
-use sweep::store::jobs::{self, Liveness};
 
 use super::DbArg;
 
@@ -32,13 +31,13 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         eprintln!("sweep: error: no database at {}", a.db.db.display());
         return Ok(2);
     }
-    let mut conn = sweep::store::open(&a.db.db)?;
-    let work = super::shared::work_dir(&conn, &a.db.db)?;
+    let mut project = Project::open(&a.db.db)?;
+    let work = project.work_dir()?;
     let plan = match (&a.job, &a.campaign) {
-        (Some(id), _) => forget::plan_job(&conn, *id),
+        (Some(id), _) => project.plan_forget_job(*id),
         (None, Some(name)) => {
             let (name, version) = sweep::report::split_version(name);
-            forget::plan_campaign(&conn, name, version)
+            project.plan_forget_campaign(name, version)
         }
         (None, None) => unreachable!("clap requires --job or --campaign"),
     };
@@ -50,7 +49,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     // A job whose process lives is not pulled from under it.
-    for j in jobs::open_jobs(&conn, None)? {
+    for j in project.open_jobs(None)? {
         if j.status == "running" && plan.jobs.iter().any(|(id, ..)| *id == j.id) {
             if let Liveness::Alive(why) = job_lock::liveness(&work, &j, 30.0) {
                 eprintln!("sweep: error: job {} is {why}: stop it first", j.id);
@@ -63,7 +62,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!("nothing forgotten");
         return Ok(1);
     }
-    forget::forget(&mut conn, &plan)?;
+    project.forget(&plan)?;
     let mut dirs = 0;
     for (_, hash, ..) in &plan.jobs {
         let dir = job_dir(&work, hash);

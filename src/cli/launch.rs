@@ -5,14 +5,13 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
 use sweep::campaign::ExecutorKind;
+use sweep::project::{PointRow, Project, WorkRow};
 use sweep::runner::backend::{announce_auto, BackendChoice};
 use sweep::runner::slurm;
 use sweep::runner::{run_pending, PoolOptions};
-use sweep::store::job_counts;
-use sweep::store::slurm_tasks;
 
 use super::run_args::{Arguments, ResumeArguments, RunArgs};
-use super::shared::{print_report, register, work_dir, EXIT_PAUSED};
+use super::shared::{print_report, register, EXIT_PAUSED};
 
 /// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
 fn run_jobs(
@@ -104,12 +103,12 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let db = &a.run.db.db;
-    let mut conn = sweep::store::open_checked(db)?;
-    let (cid, version, added) = match register(&mut conn, &a, &file, &jobs)? {
+    let mut project = Project::open_checked(db)?;
+    let (cid, version, added) = match register(&mut project, &a, &file, &jobs)? {
         Ok(x) => x,
         Err(code) => return Ok(code),
     };
-    let done = job_counts::campaign_done_count(&conn, cid)?;
+    let done = project.done_count(cid)?;
     println!(
         "campaign {}{}: {} job(s), {} new, {} already done (database {})",
         file.name,
@@ -123,8 +122,8 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         done,
         db.display()
     );
-    let work = work_dir(&conn, db)?;
-    drop(conn);
+    let work = project.work_dir()?;
+    drop(project);
     let code = run_jobs(
         &a.run,
         work.clone(),
@@ -145,8 +144,8 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
 
 /// The claims of a campaign without a target, looked at once its jobs have ended.
 fn look_once(db: &Path, cid: i64) -> anyhow::Result<()> {
-    let mut conn = sweep::store::open(db)?;
-    if let Some(rows) = sweep::runner::claim_rounds::look_once(&mut conn, cid)? {
+    let mut project = Project::open(db)?;
+    if let Some(rows) = sweep::runner::claim_rounds::look_once(project.conn_mut(), cid)? {
         super::claims::print_verdicts(&rows);
     }
     Ok(())
@@ -170,8 +169,8 @@ fn pursue_target(
             );
             return Ok(code);
         }
-        let mut conn = sweep::store::open(&r.db.db)?;
-        match next_round(&mut conn, cid)? {
+        let mut project = Project::open(&r.db.db)?;
+        match next_round(project.conn_mut(), cid)? {
             RoundOutcome::Unsettled(n) => {
                 println!("target: {n} job(s) of the campaign have not ended; not evaluated");
                 return Ok(code);
@@ -186,7 +185,7 @@ fn pursue_target(
                     return Ok(code);
                 }
                 print_work(&round.work);
-                code = run_round(r, work, &conn, cid, checkpoint_interval_s)?;
+                code = run_round(r, work, &project, cid, checkpoint_interval_s)?;
             }
             RoundOutcome::Work {
                 round: _,
@@ -195,7 +194,7 @@ fn pursue_target(
             } => {
                 print_points(&points);
                 print_work(&added);
-                code = run_round(r, work, &conn, cid, checkpoint_interval_s)?;
+                code = run_round(r, work, &project, cid, checkpoint_interval_s)?;
             }
         }
     }
@@ -205,12 +204,12 @@ fn pursue_target(
 fn run_round(
     r: &RunArgs,
     work: &Path,
-    conn: &rusqlite::Connection,
+    project: &Project,
     cid: i64,
     checkpoint_interval_s: f64,
 ) -> anyhow::Result<i32> {
-    let done = sweep::store::job_counts::campaign_done_count(conn, cid)?;
-    let total = sweep::store::targets::campaign_jobs(conn, cid)?.len();
+    let done = project.done_count(cid)?;
+    let total = project.campaign_job_count(cid)?;
     run_jobs(
         r,
         work.to_path_buf(),
@@ -223,7 +222,7 @@ fn run_round(
 }
 
 /// One line per piece of work a round added.
-fn print_work(added: &[sweep::store::targets::WorkRow]) {
+fn print_work(added: &[WorkRow]) {
     let Some(first) = added.first() else { return };
     println!(
         "target: round {}: {} piece(s) of work",
@@ -254,7 +253,7 @@ fn pct(v: Option<f64>) -> String {
 }
 
 /// One line per point of a target: its interval, replicas, time, and where it stands.
-fn print_points(points: &[sweep::store::targets::PointRow]) {
+fn print_points(points: &[PointRow]) {
     let met = points.iter().filter(|p| p.met).count();
     println!("target: {met} of {} point(s) met", points.len());
     for p in points {
@@ -280,19 +279,19 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         return Ok(2);
     }
     let db = &a.run.db.db;
-    let mut conn = sweep::store::open_checked(db)?;
-    let work = work_dir(&conn, db)?;
-    let slurm_used = slurm_tasks::any(&conn)?;
+    let mut project = Project::open_checked(db)?;
+    let work = project.work_dir()?;
+    let slurm_used = project.uses_slurm()?;
     if slurm_used {
-        let r = slurm::collect(&mut conn, &work)?;
+        let r = slurm::collect(project.conn_mut(), &work)?;
         print_report(&r);
     }
-    let released = slurm_tasks::release_stale_submissions(&conn, a.stale_after)?;
-    let decisions = sweep::store::jobs::requeue(&mut conn, a.max_attempts, |j| {
+    let released = project.release_stale_submissions(a.stale_after)?;
+    let decisions = project.requeue(a.max_attempts, |j| {
         sweep::runner::job_lock::liveness(&work, j, a.stale_after)
     })?;
     let resumed = decisions.iter().filter(|d| d.action == "pending").count();
-    let job_counts::JobTotals { total, done } = job_counts::job_totals(&conn)?;
+    let sweep::project::JobTotals { total, done } = project.totals()?;
     println!(
         "{} job(s) to resume, {done} of {total} already done",
         resumed + released
@@ -307,10 +306,10 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
             println!("  job {} {what}: {} ({})", d.job.id, d.why, d.job.label);
         }
     }
-    if let Some(code) = super::submit::resume_on_slurm(&mut conn, db, &a, slurm_used)? {
+    if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, slurm_used)? {
         return Ok(code);
     }
-    drop(conn);
+    drop(project);
     // Each job's own campaign sets its checkpoint interval; this is the fallback.
     let code = run_jobs(
         &a.run,
@@ -325,26 +324,26 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let mut code = if code == 0 && marked_failed { 1 } else { code };
     // Campaigns with a target go on with their rounds where they stopped; claims without one
     // are looked at once their jobs have ended.
-    let conn = sweep::store::open(db)?;
-    let with_target = sweep::store::targets::campaigns_with_target(&conn)?;
-    let with_claims = sweep::store::targets::campaigns_with_claims_only(&conn)?;
-    drop(conn);
+    let project = Project::open(db)?;
+    let with_target = project.campaigns_with_target()?;
+    let with_claims = project.campaigns_with_claims_only()?;
+    drop(project);
     if code == 0 {
         for cid in with_claims {
             look_once(db, cid)?;
         }
     }
     for cid in with_target {
-        let conn = sweep::store::open(db)?;
-        let interval = sweep::store::targets::campaign_file(&conn, cid)?.map_or(
+        let project = Project::open(db)?;
+        let interval = project.campaign_file(cid)?.map_or(
             sweep::campaign::RunSettings::default().checkpoint_interval_s,
             |f| f.run.checkpoint_interval_s,
         );
-        drop(conn);
+        drop(project);
         code = pursue_target(&a.run, &work, cid, interval, code)?;
     }
     // Failed jobs left alone (no attempts left) are still failures of the store's campaigns.
-    let failed = job_counts::failed_count(&sweep::store::open(db)?)?;
+    let failed = Project::open(db)?.failed_count()?;
     if code == 0 && failed > 0 {
         println!(
             "{failed} job(s) failed with no attempts left: `sweep status` says why; `sweep resume --max-attempts N` tries them again"

@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
+use sweep::project::{Project, RateQuery};
 use sweep::scene::silo::{SiloPhase, SiloScene};
 use sweep::scene::ChuteScene;
 
@@ -57,13 +58,13 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     };
     let (bench_scene, settled) = bench_scene_of(&file, &jobs);
-    let conn = if a.db.db.exists() {
-        Some(sweep::store::open(&a.db.db)?)
+    let project = if a.db.db.exists() {
+        Some(Project::open(&a.db.db)?)
     } else {
         None
     };
     let mut rates = Rates {
-        conn: conn.as_ref(),
+        project: project.as_ref(),
         scene: bench_scene,
         settled: settled.as_deref().unwrap_or(bench_scene).to_string(),
         default_backend: a.backend.clone(),
@@ -163,10 +164,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.
         let bench_rate = rates.found.values().flatten().next().copied();
-        target_forecast(conn.as_ref(), &file.name, t, bench_rate)?;
+        target_forecast(project.as_ref(), &file.name, t, bench_rate)?;
     } else if !file.claims.is_empty() {
         claims_forecast(
-            conn.as_ref(),
+            project.as_ref(),
             &file.name,
             &sweep::campaign::Target::claims_looked_at_once(),
         )?;
@@ -196,7 +197,7 @@ fn bench_scene_of(
 /// without a fixed backend is estimated on `--backend`, the CPU by default, where `auto` puts
 /// it without a hardware GPU); the GPU's rate does not depend on CPU threads.
 struct Rates<'a> {
-    conn: Option<&'a rusqlite::Connection>,
+    project: Option<&'a Project>,
     scene: &'static str,
     settled: String,
     default_backend: String,
@@ -212,21 +213,19 @@ impl Rates<'_> {
             .map_or(self.default_backend.as_str(), |b| b.name())
             .to_string();
         let precision = j.precision.name().to_string();
-        let (conn, scene, settled, threads) = (self.conn, self.scene, &self.settled, self.threads);
+        let (project, scene, settled, threads) =
+            (self.project, self.scene, &self.settled, self.threads);
         *self
             .found
             .entry((backend.clone(), precision.clone()))
             .or_insert_with(|| {
-                sweep::store::bench_runs::newest_rate(
-                    conn?,
-                    &sweep::store::bench_runs::RateQuery {
-                        scene,
-                        settled_scene: settled,
-                        backend: &backend,
-                        precision: &precision,
-                        threads: threads as i64,
-                    },
-                )
+                project?.newest_rate(&RateQuery {
+                    scene,
+                    settled_scene: settled,
+                    backend: &backend,
+                    precision: &precision,
+                    threads: threads as i64,
+                })
             })
     }
 
@@ -311,14 +310,14 @@ fn effects_of(j: &sweep::campaign::JobSpec) -> anyhow::Result<Effects> {
 /// already in the database: their measured scatter and throughput (a `sweep bench` rate where
 /// a point has not run yet).
 fn target_forecast(
-    conn: Option<&rusqlite::Connection>,
+    project: Option<&Project>,
     name: &str,
     t: &sweep::campaign::Target,
     bench_rate: Option<f64>,
 ) -> anyhow::Result<()> {
     use sweep::campaign::adaptive::forecast;
     if t.decides_claims() {
-        return claims_forecast(conn, name, t);
+        return claims_forecast(project, name, t);
     }
     println!(
         "target: {} <= ±{:.1} % at every point (max_replicas {}, max_time_s {}, max_rounds {})",
@@ -333,11 +332,11 @@ fn target_forecast(
             .map_or_else(|| "none".into(), |m| format!("{m} s")),
         t.max_rounds
     );
-    let campaign = match conn {
-        Some(c) => sweep::store::campaign_reads::campaign_named(c, name, None)?,
+    let campaign = match project {
+        Some(p) => p.campaign_named(name, None)?,
         None => None,
     };
-    let (Some(conn), Some(campaign)) = (conn, campaign) else {
+    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
         println!(
             "  the work after the jobs above depends on the scatter they measure: launch it, then `sweep plan` again for the rest"
         );
@@ -392,7 +391,7 @@ fn target_forecast(
 /// A claims target's plan: the claims' verdicts on what has run (not stored), each undecided
 /// one with the particle-steps and wall time still forecast to decide it.
 fn claims_forecast(
-    conn: Option<&rusqlite::Connection>,
+    project: Option<&Project>,
     name: &str,
     t: &sweep::campaign::Target,
 ) -> anyhow::Result<()> {
@@ -410,11 +409,11 @@ fn claims_forecast(
         t.allocation.name()
     );
     }
-    let campaign = match conn {
-        Some(c) => sweep::store::campaign_reads::campaign_named(c, name, None)?,
+    let campaign = match project {
+        Some(p) => p.campaign_named(name, None)?,
         None => None,
     };
-    let (Some(conn), Some(campaign)) = (conn, campaign) else {
+    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
         println!(
             "  the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs"
         );

@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use sweep::project::Project;
+
 use super::DbArg;
 
 #[derive(clap::Args)]
@@ -40,7 +42,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    let conn = sweep::store::open(&a.db.db)?;
+    let project = Project::open(&a.db.db)?;
     std::fs::create_dir_all(&a.out)?;
     let out = sweep::report::Output {
         dir: a.out.clone(),
@@ -48,16 +50,16 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         include_unsteady: a.include_unsteady,
     };
     if a.claims {
-        let code = super::claims::report(&conn, a.campaign.as_deref(), &a.out)?;
+        let code = super::claims::report(&project, a.campaign.as_deref(), &a.out)?;
         if code != 0 || a.figure.is_none() {
             return Ok(code);
         }
     }
     let figure = a.figure.as_deref().unwrap_or("all");
     if figure == "all" {
-        return run_all(&conn, a.campaign.as_deref(), &out);
+        return run_all(&project, a.campaign.as_deref(), &out);
     }
-    let r = sweep::report::render_figure_with(&conn, figure, a.campaign.as_deref(), &out)?;
+    let r = sweep::report::render_figure_with(project.conn(), figure, a.campaign.as_deref(), &out)?;
     println!("{}", r.table);
     if !r.missing.is_empty() {
         println!(
@@ -76,11 +78,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
 /// cannot give (fig6 without fields, `accuracy` of a study campaign) is listed with its reason,
 /// here and in the index, and is not an error.
 fn run_all(
-    conn: &rusqlite::Connection,
+    project: &Project,
     campaign: Option<&str>,
     out: &sweep::report::Output,
 ) -> anyhow::Result<i32> {
-    let all = sweep::report::render_all(conn, campaign, out)?;
+    let all = sweep::report::render_all(project.conn(), campaign, out)?;
     let mut failed = 0;
     for (name, r) in &all.figures {
         match r {

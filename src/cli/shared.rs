@@ -1,19 +1,10 @@
-//! Helpers the subcommands share: the store's work directory, exit statuses, bounded counts,
-//! registering a launched campaign, and reporting collected Slurm results.
+//! Helpers the subcommands share: exit statuses, registering a launched campaign, and
+//! reporting collected Slurm results.
 
-use std::path::{Path, PathBuf};
-
-use anyhow::Context;
+use sweep::project::{Project, Registration};
 use sweep::runner::slurm::CollectReport;
-use sweep::store::jobs;
 
 use super::run_args::Arguments;
-
-/// The work directory (checkpoints, shared stages) of the database at `db`, as it records it.
-pub fn work_dir(conn: &rusqlite::Connection, db: &Path) -> anyhow::Result<PathBuf> {
-    sweep::store::work_dir(conn, db)
-        .with_context(|| format!("{}: finding its work directory", db.display()))
-}
 
 /// Exit status of a run that stopped on an interrupt (or left jobs paused): 75, EX_TEMPFAIL,
 /// as `sweep run-job`; `sweep resume` continues it.
@@ -23,7 +14,7 @@ pub const EXIT_PAUSED: i32 = 75;
 /// launched under its name is refused with the fields that differ. Ok(Err(code)) is the exit
 /// code of a refusal.
 pub fn register(
-    conn: &mut rusqlite::Connection,
+    project: &mut Project,
     a: &Arguments,
     file: &sweep::campaign::CampaignFile,
     jobs: &sweep::campaign::Jobs,
@@ -31,20 +22,20 @@ pub fn register(
     let path = a.file.display().to_string();
     let stop = super::interrupt::interrupt_flag();
     let stop = || stop.load(std::sync::atomic::Ordering::SeqCst);
-    match jobs::register_until(conn, &path, file, jobs, a.new_version, &stop)? {
-        jobs::Registration::Interrupted { added, .. } => {
+    match project.register(&path, file, jobs, a.new_version, &stop)? {
+        Registration::Interrupted { added, .. } => {
             println!(
                 "interrupted while registering: {added} of {} job(s) registered; launch the same file again to register the rest",
                 jobs.len()
             );
             Ok(Err(EXIT_PAUSED))
         }
-        jobs::Registration::Registered {
+        Registration::Registered {
             campaign_id,
             version,
             added,
         } => Ok(Ok((campaign_id, version, added))),
-        jobs::Registration::Changed { version, changes } => {
+        Registration::Changed { version, changes } => {
             eprintln!(
                 "sweep: error: {path}: campaign '{}' was launched before (version {version}) with other jobs or claims; this file changes:",
                 file.name

@@ -3,10 +3,11 @@
 
 use std::path::Path;
 
+use sweep::project::{
+    owner_place, FlowVerdict, Liveness, OwnerPlace, Project, SlurmTask, StateTotal,
+};
 use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
-use sweep::store::jobs::{self, Liveness, OwnerPlace};
-use sweep::store::slurm_tasks::{self, SlurmTask};
 
 use super::DbArg;
 
@@ -40,10 +41,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
-    let mut conn = sweep::store::open(&a.db.db)?;
-    let slurm = slurm_view(&mut conn, &a.db.db)?;
-    let work = super::shared::work_dir(&conn, &a.db.db)?;
-    let camps = jobs::campaigns(&conn, a.campaign.as_deref())?;
+    let mut project = Project::open(&a.db.db)?;
+    let slurm = slurm_view(&mut project)?;
+    let work = project.work_dir()?;
+    let camps = project.campaigns(a.campaign.as_deref())?;
     if camps.is_empty() {
         println!(
             "{}: no campaigns{}",
@@ -55,10 +56,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(0);
     }
     for c in camps {
-        let totals = jobs::state_totals(&conn, c.id)?;
+        let totals = project.state_totals(c.id)?;
         let count = |s: &str| totals.iter().find(|t| t.status == s).map_or(0, |t| t.jobs);
         let all: i64 = totals.iter().map(|t| t.jobs).sum();
-        let verdicts = sweep::store::chute_reads::flow_verdicts(&conn, c.id)?;
+        let verdicts = project.flow_verdicts(c.id)?;
         println!(
             "campaign {}{} ({}): {} jobs — {} done, {} running, {} pending, {} paused, {} failed",
             c.name,
@@ -76,7 +77,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("failed")
         );
         let rows = if all <= LINE_PER_JOB_UP_TO || a.all_jobs {
-            jobs::campaign_jobs(&conn, c.id)?
+            project.jobs_of(c.id, None, i64::MAX)?
         } else {
             print_totals(&totals);
             let needing_a_look = ["running", "paused", "failed"];
@@ -89,7 +90,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                     String::new()
                 }
             );
-            jobs::campaign_jobs_in(&conn, c.id, Some(&needing_a_look), SUMMARY_LINES)?
+            project.jobs_of(c.id, Some(&needing_a_look), SUMMARY_LINES)?
         };
         println!(
             "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>5}  parameters",
@@ -127,7 +128,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             );
             // Every job not done says why it is where it is.
             match r.status.as_str() {
-                "running" if jobs::owner_place(r.lease_owner.as_deref()) != OwnerPlace::Slurm => {
+                "running" if owner_place(r.lease_owner.as_deref()) != OwnerPlace::Slurm => {
                     let stage = r.stage.as_deref().unwrap_or("claimed");
                     match job_lock::liveness(&work, &r.as_open(), a.stale_after) {
                         Liveness::Alive(why) => println!("         {why}; stage '{stage}'"),
@@ -160,14 +161,14 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 }
             }
         }
-        print_target(&conn, c.id)?;
+        print_target(&project, c.id)?;
     }
     Ok(0)
 }
 
 /// A large campaign's totals: simulated time done of its target, work and throughput.
-fn print_totals(totals: &[jobs::StateTotal]) {
-    let sum = |f: fn(&jobs::StateTotal) -> f64| totals.iter().map(f).sum::<f64>();
+fn print_totals(totals: &[StateTotal]) {
+    let sum = |f: fn(&StateTotal) -> f64| totals.iter().map(f).sum::<f64>();
     let (sim, target) = (sum(|t| t.sim_time_s), sum(|t| t.target_time_s));
     let (steps, wall) = (sum(|t| t.particle_steps), sum(|t| t.wall_time_s));
     println!(
@@ -179,11 +180,10 @@ fn print_totals(totals: &[jobs::StateTotal]) {
 }
 
 /// A campaign target's points after its latest round, and the work it added.
-fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result<()> {
-    use sweep::store::targets;
+fn print_target(project: &Project, campaign_id: i64) -> anyhow::Result<()> {
     // A stored file this sweep cannot read (another version's) has no target to show.
-    let file = targets::campaign_file(conn, campaign_id).ok().flatten();
-    let verdicts = sweep::store::claims::latest_verdicts(conn, campaign_id)?;
+    let file = project.campaign_file(campaign_id).ok().flatten();
+    let verdicts = project.latest_verdicts(campaign_id)?;
     if file.as_ref().is_some_and(|f| !f.claims.is_empty()) {
         if verdicts.is_empty() {
             println!("claims: not looked at yet: they are, once the campaign's jobs have ended");
@@ -194,8 +194,8 @@ fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
         return Ok(());
     };
     if t.decides_claims() {
-        let work = targets::work(conn, campaign_id)?;
-        let (steps, wall, core_hours) = sweep::store::claims::spent(conn, campaign_id)?;
+        let work = project.target_work(campaign_id)?;
+        let (steps, wall, core_hours) = project.spent(campaign_id)?;
         println!(
             "target: every claim decided — {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e} particle-steps, {:.1} min of job wall time, {core_hours:.3} core-hours{}",
             work.iter().map(|w| w.round).max().unwrap_or(0),
@@ -206,8 +206,8 @@ fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
         );
         return Ok(());
     }
-    let points = targets::points(conn, campaign_id)?;
-    let work = targets::work(conn, campaign_id)?;
+    let points = project.target_points(campaign_id)?;
+    let work = project.target_work(campaign_id)?;
     let met = points.iter().filter(|p| p.met).count();
     println!(
         "target: 95 % CI <= ±{:.1} % — {met} of {} point(s) met after {} round(s) of added work ({} extension(s), {} replica(s))",
@@ -237,7 +237,7 @@ fn print_target(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
 }
 
 /// A chute job's verdict when it was not steady: which window decided, and its numbers.
-fn describe_flow(v: &sweep::store::chute_reads::FlowVerdict) -> String {
+fn describe_flow(v: &FlowVerdict) -> String {
     let state =
         sweep::observe::chute::FlowState::parse(&v.state).map_or(v.state.as_str(), |s| s.words());
     let pct = |x: Option<f64>| x.map_or("-".into(), |x| format!("{:.1} %", 100.0 * x));
@@ -268,14 +268,14 @@ type SlurmRows = (
 
 /// Collects finished Slurm results, then Slurm's view of every job's latest task (None when no
 /// job was ever handed to Slurm).
-fn slurm_view(conn: &mut rusqlite::Connection, db: &Path) -> anyhow::Result<Option<SlurmRows>> {
-    if !slurm_tasks::any(conn)? {
+fn slurm_view(project: &mut Project) -> anyhow::Result<Option<SlurmRows>> {
+    if !project.uses_slurm()? {
         return Ok(None);
     }
-    let work = super::shared::work_dir(conn, db)?;
-    let r = slurm::collect(conn, &work)?;
+    let work = project.work_dir()?;
+    let r = slurm::collect(project.conn_mut(), &work)?;
     super::shared::print_report(&r);
-    let tasks = slurm_tasks::latest_by_job(conn, None)?;
+    let tasks = project.slurm_tasks(None)?;
     let mut arrays: Vec<String> = tasks.values().map(|t| t.array_job_id.clone()).collect();
     arrays.sort();
     arrays.dedup();

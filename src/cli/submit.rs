@@ -2,15 +2,12 @@
 //! submitting a campaign's pending jobs (or printing the scripts, in a dry run), and resubmitting
 //! resumed jobs with the settings of their last submission.
 
-use std::path::Path;
-
 use anyhow::Context;
 use sweep::campaign::{CampaignFile, ExecutorKind, Jobs, SlurmSettings};
+use sweep::project::Project;
 use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
-use sweep::store::job_counts;
 
 use super::run_args::{Arguments, ResumeArguments};
-use super::shared::work_dir;
 
 /// `sweep launch --executor slurm`: registers the jobs, then hands the pending ones to Slurm.
 pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &Jobs) -> anyhow::Result<i32> {
@@ -33,16 +30,16 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &Jobs) -> anyhow::
     launched.run.executor = ExecutorKind::Slurm;
     launched.run.slurm = settings.clone();
     let db = &a.run.db.db;
-    let mut conn = if a.exec.dry_run {
-        sweep::store::open_in_memory(db.exists().then_some(db.as_path()))?
+    let mut project = if a.exec.dry_run {
+        Project::scratch_copy(db)?
     } else {
-        sweep::store::open(db)?
+        Project::open(db)?
     };
-    let (cid, _version, added) = match super::shared::register(&mut conn, a, &launched, jobs)? {
+    let (cid, _version, added) = match super::shared::register(&mut project, a, &launched, jobs)? {
         Ok(x) => x,
         Err(code) => return Ok(code),
     };
-    let (done, pending) = campaign_counts(&conn, cid)?;
+    let (done, pending) = (project.done_count(cid)?, project.pending_ids(cid)?);
     println!(
         "campaign {}: {} job(s), {} new, {} already done (database {}{})",
         file.name,
@@ -68,8 +65,7 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &Jobs) -> anyhow::
         checkpoint_interval_s: file.run.checkpoint_interval_s,
     };
     let code = submit_and_report(
-        &mut conn,
-        db,
+        &mut project,
         Some(cid),
         &file.name,
         &sub,
@@ -86,24 +82,16 @@ pub fn launch_slurm(a: &Arguments, file: &CampaignFile, jobs: &Jobs) -> anyhow::
     Ok(code)
 }
 
-/// Done jobs and pending job ids of a campaign.
-fn campaign_counts(conn: &rusqlite::Connection, cid: i64) -> anyhow::Result<(i64, Vec<i64>)> {
-    let done = job_counts::campaign_done_count(conn, cid)?;
-    let pending = job_counts::pending_job_ids(conn, cid)?;
-    Ok((done, pending))
-}
-
 /// Submits `jobs` and prints the arrays (or, in a dry run, the scripts); returns the exit code.
 fn submit_and_report(
-    conn: &mut rusqlite::Connection,
-    db: &Path,
+    project: &mut Project,
     campaign_id: Option<i64>,
     campaign_name: &str,
     settings: &SubmitSettings,
     jobs: &[i64],
     dry_run: bool,
 ) -> anyhow::Result<i32> {
-    let work = work_dir(conn, db)?;
+    let work = project.work_dir()?;
     let bin = std::env::current_exe()
         .and_then(|p| p.canonicalize())
         .context("locating the sweep binary for the job scripts")?;
@@ -115,7 +103,7 @@ fn submit_and_report(
         sweep_bin: &bin,
         dry_run,
     };
-    match slurm::submit(conn, jobs, &opts) {
+    match slurm::submit(project.conn_mut(), jobs, &opts) {
         Ok(list) => {
             print_submitted(&list, settings);
             Ok(0)
@@ -158,8 +146,7 @@ fn print_submitted(list: &[Submitted], settings: &SubmitSettings) {
 /// # Errors
 /// Database errors.
 pub fn resume_on_slurm(
-    conn: &mut rusqlite::Connection,
-    db: &Path,
+    project: &mut Project,
     a: &ResumeArguments,
     slurm_used: bool,
 ) -> anyhow::Result<Option<i32>> {
@@ -174,14 +161,13 @@ pub fn resume_on_slurm(
         checkpoint_interval_s: sweep::campaign::RunSettings::default().checkpoint_interval_s,
     };
     let all = a.executor == Some(ExecutorKind::Slurm);
-    let groups = slurm::resume_groups(conn, all, &fallback)?;
+    let groups = slurm::resume_groups(project.conn(), all, &fallback)?;
     if groups.is_empty() && !slurm_used && !all {
         return Ok(None);
     }
     for g in &groups {
         let code = submit_and_report(
-            conn,
-            db,
+            project,
             g.campaign_id,
             &g.campaign_name,
             &g.settings,
@@ -193,7 +179,7 @@ pub fn resume_on_slurm(
             return Ok(Some(code));
         }
     }
-    let pending = job_counts::pending_count(conn)?;
+    let pending = project.pending_count()?;
     if pending > 0 {
         // Jobs that never went to Slurm run here.
         return Ok(None);
@@ -201,7 +187,7 @@ pub fn resume_on_slurm(
     if !groups.is_empty() {
         println!(
             "follow with: sweep status --db {} (it collects finished results)",
-            db.display()
+            project.db().display()
         );
     }
     Ok(Some(0))

@@ -392,3 +392,31 @@ fn the_backends_sit_on_the_shared_engine_model() {
         wrong.join("\n")
     );
 }
+
+/// The binary reaches the store only through the project facade (`sweep::project`): no file of
+/// `src/cli/`, `src/cli.rs` or `src/main.rs` imports `store` or names SQLite.
+#[test]
+fn the_binary_reaches_the_store_only_through_the_project() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (src, mut files) = (root.join("src"), Vec::new());
+    rust_files(&src, "", &mut files);
+    let binary = |f: &str| f.starts_with("cli/") || f == "cli.rs" || f == "main.rs";
+    let mut wrong: Vec<String> = import_edges(&src, &files)
+        .into_iter()
+        .filter(|((a, b), _)| binary(a) && top(b).as_deref() == Some("store"))
+        .map(|((a, b), (line, path))| format!("src/{a}:{line} {path} -> src/{b}"))
+        .collect();
+    for f in files.iter().filter(|f| binary(f)) {
+        let text = fs::read_to_string(src.join(f)).unwrap();
+        for (k, line) in text.lines().enumerate() {
+            if line.contains("rusqlite") {
+                wrong.push(format!("src/{f}:{}: names rusqlite", k + 1));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "the binary goes around the project:\n{}",
+        wrong.join("\n")
+    );
+}
