@@ -40,15 +40,9 @@ fn write(dir: &Path, file: &str, text: &str) -> PathBuf {
     p
 }
 
-/// The tests' tiny silo (`common::cli::tiny_silo_base`), one job.
+/// The tests' tiny silo campaign (`common::cli::campaign`), one job.
 fn small_silo() -> Value {
-    json!({
-        "name": "small_silo",
-        "scene": "silo",
-        "base": crate::common::cli::tiny_silo_base(),
-        "sweep": { "orifice_diameter_m": [0.02], "rotation_frequency_hz": [0.0] },
-        "run": { "precision": "f64", "checkpoint_interval_s": 0.1 }
-    })
+    crate::common::cli::campaign("small_silo", &[0.02], &[0.0], 0.1)
 }
 
 struct Refusal {
@@ -389,24 +383,23 @@ fn a_billion_particles_are_refused_naming_the_field_and_the_limit() {
 #[test]
 fn a_duplicate_key_is_refused_naming_it() {
     let dir = TempDir::new().unwrap();
-    let text = r#"{
+    // A JSON value cannot hold a key twice: the second is spliced into the text.
+    let mut base = crate::common::cli::tiny_silo_base();
+    base["orifice_diameter_m"] = json!(0.02);
+    let base = serde_json::to_string_pretty(&base).unwrap().replacen(
+        '{',
+        "{\n  \"orifice_diameter_m\": 0.025,",
+        1,
+    );
+    let text = format!(
+        r#"{{
   "name": "dup",
   "scene": "silo",
-  "base": {
-    "cylinder_radius_m": 0.03,
-    "cylinder_height_m": 0.2,
-    "particle_count": 300,
-    "orifice_diameter_m": 0.02,
-    "youngs_modulus_pa": 3.0e6,
-    "shear_modulus_pa": 1.0e5,
-    "dt_s": null,
-    "contact_steps": 20,
-    "discharge_time_s": 0.4,
-    "orifice_diameter_m": 0.025
-  },
-  "sweep": { "rotation_frequency_hz": [0.0], "rotation_frequency_hz": [1.0] }
-}"#;
-    let file = write(dir.path(), "dup.json", text);
+  "base": {base},
+  "sweep": {{ "rotation_frequency_hz": [0.0], "rotation_frequency_hz": [1.0] }}
+}}"#
+    );
+    let file = write(dir.path(), "dup.json", &text);
     let r = launch_file(dir.path(), &file, &[]);
     assert_refused(
         &r,

@@ -11,8 +11,8 @@
 //!   different orders). History rows hold the same partners with springs within 1e-5 relative.
 //!   Measured on lavapipe: forces ≤ 4e-7, springs ≤ 3e-7; torques against f64: GPU ≤ 1.4e-4,
 //!   CPU f32 ≤ 1.4e-4 (the two within 10 % of each other).
-//! - Head-on collisions on the GPU: restitution within 1 % (linear) and 2 % (Hertz) of e_n, the
-//!   linear contact time within 1 % of π/ω, and both within 1e-4 of the CPU f32 values.
+//! - Head-on collisions (linear and Hertz): restitution and contact time within 1e-4 of the CPU
+//!   f32 values (their analytic values are engine_collisions.rs's contracts, run on the GPU too).
 //! - 1000 steps of a frictional packing falling under gravity (periodic onto a rotating plate, and
 //!   a silo with a rotating orifice plate and a sink) stay within 1e-2 d in position and 5e-2 of
 //!   the largest speed of the CPU f32 run, and no farther from the CPU f64 run than CPU f32 is
@@ -37,13 +37,13 @@
 //! from the CPU engine's; of the trajectory tests, a missed contact or a wrong integration step.
 
 use crate::common;
-use crate::common::gpu::device;
-use crate::common::Noise;
+use crate::common::gpu::{by_id, cpu_f32 as cpu, device, engine as gpu, quantise, worst_relative};
+use crate::common::{plane, Noise};
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
-use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, Elasticity, NormalModel};
+use sweep::engine::contact::{contact_time, ContactLaw, ContactPair, NormalModel};
 use sweep::engine::gpu::{GpuDevice, GpuEngine, GpuOptions};
 use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::history::{wall_key, EMPTY};
@@ -54,28 +54,12 @@ const R: f64 = 0.0029;
 const D: f64 = 2.0 * R;
 const RHO: f64 = 2655.0;
 
-fn gpu(dev: &GpuDevice, config: &EngineConfig, s: &State<f64>) -> GpuEngine {
-    GpuEngine::new(dev, config.clone(), s, GpuOptions::default()).expect("GPU engine")
-}
-
-fn cpu(config: &EngineConfig, s: &State<f64>) -> CpuEngine<f32> {
-    CpuEngine::new(config.clone(), s.convert(), 2)
-}
-
 fn mass() -> f64 {
     RHO * 4.0 / 3.0 * PI * R.powi(3)
 }
 
 fn hertz(e: f64, mu: f64) -> ContactLaw {
-    ContactLaw {
-        normal: NormalModel::Hertz(Elasticity::YoungShear {
-            youngs_modulus_pa: 3.0e7,
-            shear_modulus_pa: 1.0e6,
-        }),
-        restitution: e,
-        tangential_restitution: e,
-        friction: mu,
-    }
+    common::hertz_shear_law(3.0e7, e, mu)
 }
 
 fn linear(e: f64, mu: f64) -> ContactLaw {
@@ -96,13 +80,6 @@ fn config(law: ContactLaw, dt: f64, walls: Vec<Wall>, periodic: Option<[f64; 2]>
     }
 }
 
-fn plane(point: [f64; 3], normal: [f64; 3]) -> Wall {
-    Wall {
-        shape: WallShape::Plane { point, normal },
-        rotation: None,
-    }
-}
-
 fn plate(z: f64, orifice_radius: f64, omega: f64) -> Wall {
     Wall {
         shape: WallShape::OrificePlate {
@@ -115,11 +92,6 @@ fn plate(z: f64, orifice_radius: f64, omega: f64) -> Wall {
             omega_rad_per_s: omega,
         }),
     }
-}
-
-/// Rounds to a multiple of 2⁻²⁴ (positions) so that x + v dt is exact in f32 when v dt is.
-fn quantise(x: f64) -> f64 {
-    (x * 16_777_216.0).round() / 16_777_216.0
 }
 
 /// Which scene a packing fills.
@@ -300,33 +272,6 @@ fn seed_history(s: &mut State<f64>, cfg: &EngineConfig, seed: u64) {
     }
 }
 
-/// Rows of `s` by id.
-fn by_id(s: &State<f64>) -> HashMap<u32, usize> {
-    s.id.iter().enumerate().map(|(i, &id)| (id, i)).collect()
-}
-
-fn norm(v: V3<f64>) -> f64 {
-    v.norm()
-}
-
-/// Largest |a − b| / |b| over the rows of `b`, with |b| floored at `floor` (forces that nearly
-/// cancel are compared on the scale of the packing's forces).
-fn worst_relative(
-    a: &State<f64>,
-    b: &State<f64>,
-    pick: fn(&State<f64>) -> &Vec<V3<f64>>,
-    floor: f64,
-) -> f64 {
-    let ia = by_id(a);
-    let mut worst: f64 = 0.0;
-    for (k, id) in b.id.iter().enumerate() {
-        let va = pick(a)[ia[id]];
-        let vb = pick(b)[k];
-        worst = worst.max(norm(va - vb) / norm(vb).max(floor));
-    }
-    worst
-}
-
 /// One step on both backends from the same packing; returns (force error, torque error as a
 /// fraction of its allowance: 0 within 1e-5 of f64, else relative to twice the CPU f32's).
 fn one_step(dev: &GpuDevice, scene: Scene, law: ContactLaw, seed: u64) -> (f64, f64) {
@@ -401,7 +346,7 @@ fn one_step(dev: &GpuDevice, scene: Scene, law: ContactLaw, seed: u64) -> (f64, 
         );
         let scale = hc.values().map(|v| v.norm()).fold(0.0, f64::max);
         for (key, v) in &hc {
-            es = es.max(norm(*v - hg[key]) / scale.max(1e-30));
+            es = es.max((*v - hg[key]).norm() / scale.max(1e-30));
         }
     }
     eprintln!(
@@ -447,24 +392,17 @@ fn one_step_forces_and_torques_match_the_cpu() {
     }
 }
 
+/// Head-on collisions on the GPU and on CPU f32 at n_c = 100: the same restitution and contact
+/// time within 1e-4 (the analytic values are the contracts of engine_collisions.rs, run on both).
 #[test]
-fn restitution_and_contact_time_on_the_gpu() {
+fn collisions_match_the_cpu_f32() {
     let Some(dev) = device() else { return };
-    let lin = linear(0.9, 0.0);
-    let m_eff = mass() / 2.0;
-    let NormalModel::Linear { kn_n_per_m: kn, .. } = lin.normal else {
-        unreachable!()
-    };
-    let b = sweep::engine::contact::ContactLaw::kernel::<f64>(&lin).damp_n;
-    let gamma = b * (kn * m_eff).sqrt();
-    let omega = (kn / m_eff - (gamma / (2.0 * m_eff)).powi(2)).sqrt();
-    for (law, tol, n_c) in [(lin, 0.01, 100.0), (hertz(0.9, 0.0), 0.02, 100.0)] {
+    for law in [linear(0.9, 0.0), hertz(0.9, 0.0)] {
         for v in [0.1, 1.0] {
-            let (cfg, s) = common::collision::head_on(law, v, n_c, R, RHO);
+            let (cfg, s) = common::collision::head_on(law, v, 100.0, R, RHO);
             let (e_gpu, t_gpu) = common::collision::collide(&mut gpu(&dev, &cfg, &s), v, R);
             let (e_cpu, t_cpu) = common::collision::collide(&mut cpu(&cfg, &s), v, R);
             eprintln!("v = {v}: GPU e = {e_gpu:.6}, t_c = {t_gpu:.4e}; CPU f32 e = {e_cpu:.6}, t_c = {t_cpu:.4e}");
-            assert!((e_gpu - 0.9).abs() / 0.9 < tol, "v = {v}: e = {e_gpu}");
             assert!(
                 (e_gpu - e_cpu).abs() < 1e-4,
                 "v = {v}: GPU e = {e_gpu}, CPU {e_cpu}"
@@ -473,13 +411,6 @@ fn restitution_and_contact_time_on_the_gpu() {
                 (t_gpu - t_cpu).abs() / t_cpu < 1e-4,
                 "v = {v}: GPU t_c = {t_gpu}, CPU {t_cpu}"
             );
-            if let NormalModel::Linear { .. } = law.normal {
-                let tc = PI / omega;
-                assert!(
-                    (t_gpu - tc).abs() / tc < 0.01,
-                    "v = {v}: t_c = {t_gpu}, π/ω = {tc}"
-                );
-            }
         }
     }
 }

@@ -13,26 +13,18 @@ use serde_json::{json, Value};
 use sweep::store::fields::{list_field_sets, load_field_arrays, load_field_series};
 use tempfile::TempDir;
 
+/// The tiny silo campaign (`common::cli::campaign`), one job (D = 20 mm, 1 Hz), with the
+/// field observer.
 fn campaign(checkpoint_interval_s: f64) -> Value {
-    let mut base = crate::common::cli::tiny_silo_base();
-    base["orifice_diameter_m"] = json!(0.02);
-    base["rotation_frequency_hz"] = json!(1.0);
-    json!({
-        "name": "tiny_fields",
-        "scene": "silo",
-        "base": base,
-        "observers": {
-            "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 },
-            "fields": {
-                "sample_interval_s": 0.05,
-                "map_times_s": [0.2],
-                "map_window_s": 0.1,
-                "mean_start_s": 0.1,
-                "contact_stress": true
-            }
-        },
-        "run": { "precision": "f64", "checkpoint_interval_s": checkpoint_interval_s }
-    })
+    let mut c = crate::common::cli::campaign("tiny_fields", &[0.02], &[1.0], checkpoint_interval_s);
+    c["observers"]["fields"] = json!({
+        "sample_interval_s": 0.05,
+        "map_times_s": [0.2],
+        "map_window_s": 0.1,
+        "mean_start_s": 0.1,
+        "contact_stress": true
+    });
+    c
 }
 
 fn write(dir: &Path, c: &Value) -> PathBuf {

@@ -171,20 +171,13 @@ fn ok(o: Output, what: &str) -> Output {
     o
 }
 
-/// A tiny silo campaign (as tests/cli.rs) that discharges long enough (4 s simulated, with
-/// re-insertion, a few seconds of wall time per job) for a task to be caught running.
+/// The tiny silo campaign (`common::cli::campaign`), discharging long enough (4 s simulated,
+/// with re-insertion, a few seconds of wall time per job) for a task to be caught running.
 fn campaign(name: &str, orifices: &[f64], frequencies: &[f64]) -> Value {
-    let mut base = crate::common::cli::tiny_silo_base();
-    base["discharge_time_s"] = json!(4.0);
-    base["reinsert"] = json!(true);
-    json!({
-        "name": name,
-        "scene": "silo",
-        "base": base,
-        "sweep": { "orifice_diameter_m": orifices, "rotation_frequency_hz": frequencies },
-        "observers": { "discharge": { "skip_initial_s": 0.1, "block_s": 0.05 } },
-        "run": { "precision": "f64", "checkpoint_interval_s": 0.05 }
-    })
+    let mut c = crate::common::cli::campaign(name, orifices, frequencies, 0.05);
+    c["base"]["discharge_time_s"] = json!(4.0);
+    c["base"]["reinsert"] = json!(true);
+    c
 }
 
 /// The results tables, keyed by job hash (row ids may differ between databases).

@@ -2,8 +2,9 @@
 //! exact property, tolerances stated:
 //! - a rod dropped flat, on its end, and tilted onto a plane: kinetic + potential energy never
 //!   exceeds its initial value by more than 1e-6 relative (contacts only dissipate), and it comes
-//!   to rest (kinetic energy < 1e-8 of the drop energy) lying flat, or standing when dropped
-//!   exactly upright;
+//!   to rest (kinetic energy < 1e-8 of the drop energy): the contract
+//!   `rods::dropped_rod_comes_to_rest`, on the GPU in gpu_rods.rs; here it also lies flat, or
+//!   stands when dropped exactly upright;
 //! - an elastic (e = 1, μ = 0) gas of rods in a periodic box conserves kinetic + elastic energy
 //!   within 1e-4 over 10⁴ steps at dt = t_c/50 — wrong lever arms or a non-conservative contact
 //!   point would pump energy;
@@ -14,85 +15,20 @@
 //! - ξ = 1 through the oriented path follows the sphere path within 1e-9 relative (the two store
 //!   tangential springs differently, so they may differ by rounding only).
 
+use crate::common::backends::On;
 use crate::common::linear_law as law;
-use crate::common::rods::{shape, stiffness, G, L, RHO};
-use crate::common::Noise;
+use crate::common::rods::{self, momenta, shape, stiffness, G, L, RHO};
+use crate::common::{plane, Noise};
 
 use sweep::checkpoint::{self, Header};
 use sweep::engine::history::HISTORY_SLOTS;
 use sweep::engine::real::V3;
 use sweep::engine::shape::{contact_spherocylinders, rotational_energy, Quat, Spherocylinder};
-use sweep::engine::walls::{Wall, WallShape};
 use sweep::engine::{Backend, CpuEngine, EngineConfig, State};
 
-fn plane_config(xi: f64, e: f64, mu: f64) -> EngineConfig {
-    let (kn, dt) = stiffness(xi);
-    EngineConfig {
-        dt_s: dt,
-        gravity: [0.0, 0.0, -G],
-        particle_law: law(kn, e, mu),
-        wall_law: law(kn, e, mu),
-        walls: vec![Wall {
-            shape: WallShape::Plane {
-                point: [0.0; 3],
-                normal: [0.0, 0.0, 1.0],
-            },
-            rotation: None,
-        }],
-        periodic_x: None,
-        periodic_y: None,
-        sink_z: None,
-        skin_m: 0.05 * L,
-    }
-}
-
-fn energy_with_gravity(s: &State<f64>) -> f64 {
-    s.kinetic_energy()
-        + (0..s.len())
-            .map(|i| s.mass[i] * G * s.pos[i].z)
-            .sum::<f64>()
-}
-
-/// Drops one rod of ξ = 2.5 with its axis at `tilt` from the vertical, lowest point L/4 above
-/// the plane; returns the final state.
+/// The dropped rod's contract on the CPU (`rods::dropped_rod_comes_to_rest`).
 fn drop_rod(tilt_deg: f64) -> State<f64> {
-    let xi = 2.5;
-    let sh = shape(xi);
-    let t = tilt_deg.to_radians();
-    let axis = V3::new(t.sin(), 0.0, t.cos());
-    let z = sh.radius + sh.half_length * t.cos() + 0.25 * L;
-    let mut s = State::<f64>::new_oriented(HISTORY_SLOTS);
-    s.push_spherocylinder(
-        0,
-        [0.0, 0.0, z],
-        [0.0; 3],
-        Quat::<f64>::from_axis_z(axis).to_f64(),
-        sh,
-        RHO,
-        false,
-    );
-    let config = plane_config(xi, 0.5, 0.5);
-    let mut e = CpuEngine::<f64>::new(config, s, 1);
-    let e0 = energy_with_gravity(&e.download());
-    let drop = e0 - e.download().mass[0] * G * sh.radius;
-    let mut worst = f64::MIN;
-    // 20 s at g = 1: a few bounces, the fall over and the damping of the rocking.
-    for _ in 0..400 {
-        e.advance(200).unwrap();
-        let st = e.download();
-        worst = worst.max((energy_with_gravity(&st) - e0) / e0);
-    }
-    let fin = e.download();
-    assert!(
-        worst < 1e-6,
-        "tilt {tilt_deg}°: kinetic + potential energy rose by {worst:e} of its initial value"
-    );
-    let ke = fin.kinetic_energy();
-    assert!(
-        ke < 1e-8 * drop,
-        "tilt {tilt_deg}°: not at rest, kinetic energy {ke:e} J vs drop energy {drop:e} J"
-    );
-    fin
+    rods::dropped_rod_comes_to_rest(&On::Cpu, tilt_deg)
 }
 
 #[test]
@@ -188,20 +124,8 @@ fn periodic_config(xi: f64, box_l: f64, e: f64, mu: f64, periodic_z_walls: bool)
     let (kn, dt) = stiffness(xi);
     let walls = if periodic_z_walls {
         vec![
-            Wall {
-                shape: WallShape::Plane {
-                    point: [0.0; 3],
-                    normal: [0.0, 0.0, 1.0],
-                },
-                rotation: None,
-            },
-            Wall {
-                shape: WallShape::Plane {
-                    point: [0.0, 0.0, box_l],
-                    normal: [0.0, 0.0, -1.0],
-                },
-                rotation: None,
-            },
+            plane([0.0; 3], [0.0, 0.0, 1.0]),
+            plane([0.0, 0.0, box_l], [0.0, 0.0, -1.0]),
         ]
     } else {
         Vec::new()
@@ -298,20 +222,11 @@ fn colliding_rods_conserve_linear_and_angular_momentum() {
             }
         }
     }
-    let total = |s: &State<f64>| {
-        let (mut p, mut lt) = (V3::zero(), V3::zero());
-        for i in 0..s.len() {
-            let mv = s.vel[i] * s.mass[i];
-            p += mv;
-            lt += s.pos[i].cross(mv) + s.ang_mom[i];
-        }
-        (p, lt)
-    };
-    let (p0, l0) = total(&s);
+    let (p0, l0) = momenta(&s);
     let mut e = CpuEngine::<f64>::new(periodic_config(xi, box_l, 0.5, 0.5, false), s, 1);
     e.advance(4000).unwrap();
     let st = e.download();
-    let (p1, l1) = total(&st);
+    let (p1, l1) = momenta(&st);
     // The first cluster (ids 0..9) flew at +1 m/s: the collision must have slowed it.
     let vx: f64 = (0..st.len())
         .filter(|&i| st.id[i] < 9)

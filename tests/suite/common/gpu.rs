@@ -3,9 +3,11 @@
 //! missing adapter fails them. `SWEEP_TEST_GPU=hardware` (the GPU machine's check,
 //! `scripts/gpu-device-check.sh`) takes only a hardware adapter and fails without one.
 
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
-use sweep::engine::gpu::{AdapterPolicy, GpuDevice};
+use sweep::engine::gpu::{AdapterPolicy, GpuDevice, GpuEngine, GpuOptions};
+use sweep::engine::{CpuEngine, EngineConfig, State, V3};
 
 /// The shared device, or None (with a message) when there is no adapter outside CI.
 pub fn device() -> Option<GpuDevice> {
@@ -71,4 +73,43 @@ pub fn report_bits(r: &sweep::engine::ChunkReport) -> Vec<u64> {
         out.extend([e.id as u64, e.time_s.to_bits(), e.mass_kg.to_bits()]);
     }
     out
+}
+
+/// A GPU engine with the default options.
+pub fn engine(dev: &GpuDevice, config: &EngineConfig, s: &State<f64>) -> GpuEngine {
+    GpuEngine::new(dev, config.clone(), s, GpuOptions::default()).expect("GPU engine")
+}
+
+/// The CPU engine in f32 (two threads), the GPU's reference at the same precision.
+pub fn cpu_f32(config: &EngineConfig, s: &State<f64>) -> CpuEngine<f32> {
+    CpuEngine::new(config.clone(), s.convert(), 2)
+}
+
+/// Rows of `s` by id (each engine may order its particles by cell).
+pub fn by_id(s: &State<f64>) -> HashMap<u32, usize> {
+    s.id.iter().enumerate().map(|(i, &id)| (id, i)).collect()
+}
+
+/// Rounds to a multiple of 2⁻²⁴ (positions, |x| < 1) so that x + v dt is exact in f32 when
+/// v dt is.
+pub fn quantise(x: f64) -> f64 {
+    (x * 16_777_216.0).round() / 16_777_216.0
+}
+
+/// Largest |a − b| / max(|b|, floor) over the particles of `b`, matched by id (forces that
+/// nearly cancel are compared on the scale `floor`).
+pub fn worst_relative(
+    a: &State<f64>,
+    b: &State<f64>,
+    pick: fn(&State<f64>) -> &Vec<V3<f64>>,
+    floor: f64,
+) -> f64 {
+    let ia = by_id(a);
+    let mut worst: f64 = 0.0;
+    for (k, id) in b.id.iter().enumerate() {
+        let va = pick(a)[ia[id]];
+        let vb = pick(b)[k];
+        worst = worst.max((va - vb).norm() / vb.norm().max(floor));
+    }
+    worst
 }
