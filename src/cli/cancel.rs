@@ -1,6 +1,6 @@
 //! `sweep cancel`: cancels a campaign's Slurm arrays; their jobs stay resumable.
 
-use sweep::project::Project;
+use sweep::project::{Executor, Project, Slurm};
 
 use super::shared::print_report;
 use super::DbArg;
@@ -42,10 +42,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         return Ok(0);
     }
     // Results already there make their jobs done, not cancelled.
-    let work = project.work_dir()?;
-    let r = sweep::runner::slurm::collect(project.conn_mut(), &work)?;
+    let mut slurm = Slurm::reading();
+    let r = slurm.collect(&mut project)?;
     print_report(&r);
-    let c = sweep::runner::slurm::cancel(project.conn_mut(), cid)?;
+    let c = slurm.cancel(&mut project, cid)?;
     if c.arrays.is_empty() {
         println!("nothing to cancel: no job is queued or running under Slurm");
         return Ok(0);

@@ -1,6 +1,6 @@
 //! `sweep collect`: finished Slurm results into the database (also run by `status` and `resume`).
 
-use sweep::project::Project;
+use sweep::project::{Executor, Project, Slurm};
 
 use super::shared::print_report;
 use super::DbArg;
@@ -27,8 +27,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
-    let work = project.work_dir()?;
-    let r = sweep::runner::slurm::collect(project.conn_mut(), &work)?;
+    let r = Slurm::reading().collect(&mut project)?;
     print_report(&r);
     println!(
         "{} job(s) collected, {} still queued or running under Slurm, {} ended without a result, {} failed, {} not verified",

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
 use sweep::campaign::ExecutorKind;
-use sweep::project::{PointRow, Project, WorkRow};
+use sweep::project::{Executor, Local, Outcome, PointRow, Project, Slurm, Submission, WorkRow};
 use sweep::runner::backend::{announce_auto, BackendChoice};
-use sweep::runner::slurm;
-use sweep::runner::{run_pending, PoolOptions};
+use sweep::runner::pool::PoolSummary;
+use sweep::runner::PoolOptions;
 
 use super::run_args::{Arguments, ResumeArguments, RunArgs};
 use super::shared::{print_report, register, EXIT_PAUSED};
@@ -26,24 +26,37 @@ fn run_jobs(
     if r.backend == BackendChoice::Auto {
         announce_auto(r.gpu.index);
     }
-    let opts = PoolOptions {
-        db: r.db.db.clone(),
-        work_dir: work,
+    let mut local = Local {
+        pool: PoolOptions {
+            db: r.db.db.clone(),
+            work_dir: work,
+            campaign,
+            parallel: r.parallel,
+            threads: r.threads,
+            backend: r.backend,
+            gpu: r.gpu.select(),
+            batch: r.batch,
+            checkpoint_interval_s,
+            max_attempts,
+            interrupt: super::interrupt::interrupt_flag(),
+            bars: std::io::stderr().is_terminal(),
+        },
+    };
+    let submission = Submission {
         campaign,
-        parallel: r.parallel,
-        threads: r.threads,
-        backend: r.backend,
-        gpu: r.gpu.select(),
-        batch: r.batch,
-        checkpoint_interval_s,
-        max_attempts,
-        interrupt: super::interrupt::interrupt_flag(),
-        bars: std::io::stderr().is_terminal(),
+        campaign_name: "",
+        jobs: &[],
+        total,
+        done,
     };
     // A failure of the machinery (the disk full, the store unwritable) is a failed run, not bad
     // input: the jobs it held are resumed by `sweep resume` (their locks end with this process).
-    let s = match run_pending(&opts, total, done) {
-        Ok(s) => s,
+    let run = |local: &mut Local| -> anyhow::Result<Outcome> {
+        local.submit(&mut Project::open(&r.db.db)?, &submission)
+    };
+    let s = match run(&mut local) {
+        Ok(Outcome::Ran(s)) => s,
+        Ok(Outcome::Handed(_)) => PoolSummary::default(),
         Err(e) => {
             eprintln!(
                 "sweep: error: running jobs: {e:#}\nsweep: the jobs this run held stay resumable: free what is missing, then `sweep resume --db {}`",
@@ -52,11 +65,11 @@ fn run_jobs(
             return Ok(1);
         }
     };
-    let interrupted = opts.interrupt.load(Ordering::SeqCst);
+    let interrupted = local.pool.interrupt.load(Ordering::SeqCst);
     Ok(finish(s, interrupted, &r.db.db))
 }
 
-fn finish(s: sweep::runner::pool::PoolSummary, interrupted: bool, db: &Path) -> i32 {
+fn finish(s: PoolSummary, interrupted: bool, db: &Path) -> i32 {
     println!(
         "{} job(s) done, {} failed, {} paused",
         s.done, s.failed, s.paused
@@ -122,6 +135,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         done,
         db.display()
     );
+    // The work directory is recorded now, while the store has room for it.
     let work = project.work_dir()?;
     drop(project);
     let code = run_jobs(
@@ -283,7 +297,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let work = project.work_dir()?;
     let slurm_used = project.uses_slurm()?;
     if slurm_used {
-        let r = slurm::collect(project.conn_mut(), &work)?;
+        let r = Slurm::reading().collect(&mut project)?;
         print_report(&r);
     }
     let released = project.release_stale_submissions(a.stale_after)?;

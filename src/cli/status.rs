@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use sweep::project::{
-    owner_place, FlowVerdict, Liveness, OwnerPlace, Project, SlurmTask, StateTotal,
+    owner_place, Executor, FlowVerdict, Liveness, OwnerPlace, Project, Slurm, SlurmTask, StateTotal,
 };
 use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
@@ -272,8 +272,7 @@ fn slurm_view(project: &mut Project) -> anyhow::Result<Option<SlurmRows>> {
     if !project.uses_slurm()? {
         return Ok(None);
     }
-    let work = project.work_dir()?;
-    let r = slurm::collect(project.conn_mut(), &work)?;
+    let r = Slurm::reading().collect(project)?;
     super::shared::print_report(&r);
     let tasks = project.slurm_tasks(None)?;
     let mut arrays: Vec<String> = tasks.values().map(|t| t.array_job_id.clone()).collect();

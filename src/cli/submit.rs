@@ -4,8 +4,8 @@
 
 use anyhow::Context;
 use sweep::campaign::{CampaignFile, ExecutorKind, Jobs, SlurmSettings};
-use sweep::project::Project;
-use sweep::runner::slurm::{self, SlurmError, SubmitOptions, SubmitSettings, Submitted};
+use sweep::project::{Executor, Outcome, Project, Slurm, Submission};
+use sweep::runner::slurm::{self, SlurmError, SubmitSettings, Submitted};
 
 use super::run_args::{Arguments, ResumeArguments};
 
@@ -91,21 +91,26 @@ fn submit_and_report(
     jobs: &[i64],
     dry_run: bool,
 ) -> anyhow::Result<i32> {
-    let work = project.work_dir()?;
     let bin = std::env::current_exe()
         .and_then(|p| p.canonicalize())
         .context("locating the sweep binary for the job scripts")?;
-    let opts = SubmitOptions {
-        work_dir: &work,
-        campaign_id,
-        campaign_name,
-        settings,
-        sweep_bin: &bin,
+    let mut slurm = Slurm {
+        settings: settings.clone(),
+        sweep_bin: bin,
         dry_run,
     };
-    match slurm::submit(project.conn_mut(), jobs, &opts) {
-        Ok(list) => {
-            print_submitted(&list, settings);
+    let s = Submission {
+        campaign: campaign_id,
+        campaign_name,
+        jobs,
+        total: jobs.len(),
+        done: 0,
+    };
+    match slurm.submit(project, &s) {
+        Ok(outcome) => {
+            if let Outcome::Handed(list) = outcome {
+                print_submitted(&list, settings);
+            }
             Ok(0)
         }
         Err(e) => {

@@ -5,6 +5,7 @@
 //! take the project's connection.
 
 mod campaigns;
+pub mod executor;
 mod jobs;
 mod records;
 
@@ -26,6 +27,7 @@ pub use crate::store::jobs::{
 };
 pub use crate::store::slurm_tasks::SlurmTask;
 pub use crate::store::targets::{PointRow, WorkRow};
+pub use executor::{Executor, Local, Outcome, Slurm, Submission};
 
 /// An open store and where it lives.
 pub struct Project {

@@ -137,7 +137,7 @@ fn random(law: LawKernel<f32>, rng: &mut ChaCha8Rng, k: usize) -> ProbeContact {
             r_eff: 1.45e-3,
             m_eff: 7e-5 * (1.0 + 0.1 * u(1.0)),
         },
-        spring: if k % 3 == 0 {
+        spring: if k.is_multiple_of(3) {
             V3::zero()
         } else {
             v(u(1e-4), u(1e-4), u(1e-4))
