@@ -55,6 +55,20 @@ fn work(db: &Path) -> Vec<Vec<String>> {
     )
 }
 
+/// `sweep launch FILE --db DB` with `extra` arguments, whatever its exit status.
+fn launch_with(dir: &Path, file: &Path, db: &Path, extra: &[&str]) -> std::process::Output {
+    sweep_cmd(dir)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
 fn launch_claims(dir: &Path, allocation: &str) -> (std::path::PathBuf, String) {
     let file = write_campaign(dir, "c.json", &tiny_claims(allocation));
     let db = dir.join("sweep.db");
@@ -135,15 +149,7 @@ fn bad_claims_are_refused_by_field_and_nothing_is_registered() {
     }));
     let file = write_campaign(dir.path(), "bad.json", &c);
     let db = dir.path().join("sweep.db");
-    let o = sweep_cmd(dir.path())
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let o = launch_with(dir.path(), &file, &db, &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
     let e = stderr(&o);
     for expected in [
@@ -198,28 +204,11 @@ fn claims_are_part_of_the_version_not_of_job_identity() {
     let mut claimed = plain.clone();
     claimed["claims"] = tiny_claims("adaptive")["claims"].clone();
     let file = write_campaign(dir.path(), "c.json", &claimed);
-    let o = sweep_cmd(dir.path())
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let o = launch_with(dir.path(), &file, &db, &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
     assert!(stderr(&o).contains("claims: (absent) ->"), "{}", stderr(&o));
     // ... and as version 2 it shares every job: nothing new is run.
-    let o = sweep_cmd(dir.path())
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--new-version",
-        ])
-        .output()
-        .unwrap();
+    let o = launch_with(dir.path(), &file, &db, &["--new-version"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("0 new"), "{}", stdout(&o));
     assert_eq!(rows(&db, "SELECT hash FROM jobs ORDER BY hash"), hashes);
@@ -285,16 +274,7 @@ fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
     let mut v2 = v1.clone();
     v2["sweep"]["rotation_frequency_hz"] = json!([0.0, 0.5, 1.0]);
     let file = write_campaign(dir.path(), "c.json", &v2);
-    let o = sweep_cmd(dir.path())
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .arg("--new-version")
-        .output()
-        .unwrap();
+    let o = launch_with(dir.path(), &file, &db, &["--new-version"]);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
     assert_eq!(rows(&db, &added.replace("?1", "2")), v1_added);
     let carried = rows(
@@ -321,14 +301,6 @@ fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
     );
     assert!(rows(&db, "SELECT id FROM target_work WHERE campaign_id = 2").is_empty());
     // The carried replicas are the target's, not the file's: the same file again is no change.
-    let o = sweep_cmd(dir.path())
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let o = launch_with(dir.path(), &file, &db, &[]);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
 }
