@@ -1,15 +1,13 @@
 //! How a kernel takes a two-way choice: by a branch (one contact at a time: only the taken side
 //! is computed) or by a select (SIMD lanes: both sides computed, one kept per lane, so the loop
 //! has no branch and vectorises). The contact law and the segment geometry are written once over
-//! this choice; both forms compute the kept side with the same operations, so they give the same
-//! bits.
+//! this choice with [`pick!`]; both forms compute the kept side with the same operations, so
+//! they give the same bits.
 
-use crate::engine::real::{Real, V3};
-
-/// A two-way choice between values of type T.
+/// How two-way choices are taken.
 pub trait Choice {
-    /// `a()` when `c`, else `b()`.
-    fn pick<T>(c: bool, a: impl FnOnce() -> T, b: impl FnOnce() -> T) -> T;
+    /// Whether only the side taken is computed (a branch) rather than both (a select).
+    const LAZY: bool;
 }
 
 /// Computes only the side taken: the scalar kernels.
@@ -19,34 +17,32 @@ pub struct Branch;
 pub struct Select;
 
 impl Choice for Branch {
-    #[inline(always)]
-    fn pick<T>(c: bool, a: impl FnOnce() -> T, b: impl FnOnce() -> T) -> T {
-        if c {
-            a()
-        } else {
-            b()
-        }
-    }
+    const LAZY: bool = true;
 }
 
 impl Choice for Select {
-    #[inline(always)]
-    fn pick<T>(c: bool, a: impl FnOnce() -> T, b: impl FnOnce() -> T) -> T {
-        let (x, y) = (a(), b());
-        if c {
-            x
-        } else {
-            y
-        }
-    }
+    const LAZY: bool = false;
 }
 
-/// Per component `a` when `c`, else `b`: a blend in the lane kernels.
-#[inline(always)]
-pub fn select3<R: Real>(c: bool, a: V3<R>, b: V3<R>) -> V3<R> {
-    V3::new(
-        if c { a.x } else { b.x },
-        if c { a.y } else { b.y },
-        if c { a.z } else { b.z },
-    )
+/// `pick!(C, c, a, b)`: `a` when `c`, else `b`, taken as the [`Choice`] `C` takes choices. A
+/// macro, not a function of closures: the sides stay in the caller's body, where the compiler
+/// vectorises them (closures of a few dozen operations are left as calls in the lane loops).
+macro_rules! pick {
+    ($C:ty, $c:expr, $a:expr, $b:expr) => {
+        if <$C as $crate::engine::choice::Choice>::LAZY {
+            if $c {
+                $a
+            } else {
+                $b
+            }
+        } else {
+            let (taken, other) = ($a, $b);
+            if $c {
+                taken
+            } else {
+                other
+            }
+        }
+    };
 }
+pub(crate) use pick;

@@ -3,7 +3,7 @@
 //! backend).
 
 use super::law::LawKernel;
-use crate::engine::choice::{Branch, Choice};
+use crate::engine::choice::{pick, Branch, Choice};
 use crate::engine::real::{Real, V3};
 
 /// Geometry and kinematics of one contact, seen from particle i.
@@ -83,19 +83,20 @@ pub fn contact_force_in<R: Real, C: Choice, const HERTZ: bool>(
     let old2 = spring.norm2();
     let s = spring - n * spring.dot(n);
     let s2 = s.norm2();
-    let s = s * C::pick(s2 > R::zero(), || (old2 / s2).sqrt(), R::one);
+    let s = s * pick!(C, s2 > R::zero(), (old2 / s2).sqrt(), R::one());
     let s = s + vt * dt;
     let ft = -(s * kt) - vt * gamma_t;
     let limit = law.mu * fn_mag.abs();
     let ft2 = ft.norm2();
     let slides = ft2 > limit * limit;
-    let (ft, s) = C::pick(
+    let (ft, s) = pick!(
+        C,
         slides,
-        || {
+        {
             let ft = ft * (limit / ft2.sqrt());
             (ft, -(ft + vt * gamma_t) * (R::one() / kt))
         },
-        || (ft, s),
+        (ft, s)
     );
     (f + ft, s)
 }

@@ -19,7 +19,7 @@
 //!   distance returned exceeds the true minimum by at most ½ |d1| sin θ ≤ |d1| · 10⁻⁶ (the
 //!   distance to the other segment changes by at most sin θ per unit length along the overlap).
 
-use crate::engine::choice::{Branch, Choice};
+use crate::engine::choice::{pick, Branch, Choice};
 use crate::engine::real::{Real, V3};
 
 /// θc: two segments whose directions make an angle with sine at most this are treated as
@@ -83,22 +83,21 @@ pub fn closest_points_in<R: Real, C: Choice>(
     let c = d1.dot(r);
     let f = d2.dot(r);
     let (a_point, e_point) = (a <= tiny, e <= tiny);
-    let (s, t) = C::pick(
+    let (s, t) = pick!(
+        C,
         a_point & e_point,
-        || (zero, zero),
-        || {
-            C::pick(
-                a_point,
-                || (zero, clamp01(f / e)),
-                || {
-                    C::pick(
-                        e_point,
-                        || (clamp01(-c / a), zero),
-                        || segments::<R, C>(d1, d2, r, [a, c, e, f]),
-                    )
-                },
+        (zero, zero),
+        pick!(
+            C,
+            a_point,
+            (zero, clamp01(f / e)),
+            pick!(
+                C,
+                e_point,
+                (clamp01(-c / a), zero),
+                segments::<R, C>(d1, d2, r, [a, c, e, f])
             )
-        },
+        )
     );
     let p = p1 + d1 * s;
     let q = p2 + d2 * t;
@@ -121,24 +120,19 @@ fn segments<R: Real, C: Choice>(d1: V3<R>, d2: V3<R>, r: V3<R>, acef: [R; 4]) ->
     let n2 = n.norm2();
     let ae = a * e;
     let lim2 = R::from_f64(PARALLEL_SIN * PARALLEL_SIN);
-    let s_line = || n.dot(d2.cross(r)) / n2;
-    C::pick(
+    let s_line = n.dot(d2.cross(r)) / n2;
+    pick!(
+        C,
         n2 > R::from_f64(4.0) * lim2 * ae,
-        || general::<R, C>(s_line(), a, b, c, e, f),
-        || {
-            C::pick(
-                n2 <= lim2 * ae,
-                || parallel::<R, C>(a, b, c, e, f),
-                || {
-                    // θc < sin θ ≤ 2θc: from the overlap's middle (w = 0) to the exact pair (w = 1).
-                    let (s_mid, _) = parallel::<R, C>(a, b, c, e, f);
-                    let (s_exact, _) = general::<R, C>(s_line(), a, b, c, e, f);
-                    let w = (n2 / ae).sqrt() / R::from_f64(PARALLEL_SIN) - R::one();
-                    let s = s_mid + (s_exact - s_mid) * w.max(R::zero()).min(R::one());
-                    (s, clamp01((b * s + f) / e))
-                },
-            )
-        },
+        general::<R, C>(s_line, a, b, c, e, f),
+        pick!(C, n2 <= lim2 * ae, parallel::<R, C>(a, b, c, e, f), {
+            // θc < sin θ ≤ 2θc: from the overlap's middle (w = 0) to the exact pair (w = 1).
+            let (s_mid, _) = parallel::<R, C>(a, b, c, e, f);
+            let (s_exact, _) = general::<R, C>(s_line, a, b, c, e, f);
+            let w = (n2 / ae).sqrt() / R::from_f64(PARALLEL_SIN) - R::one();
+            let s = s_mid + (s_exact - s_mid) * w.max(R::zero()).min(R::one());
+            (s, clamp01((b * s + f) / e))
+        })
     )
 }
 
@@ -149,10 +143,11 @@ fn segments<R: Real, C: Choice>(d1: V3<R>, d2: V3<R>, r: V3<R>, acef: [R; 4]) ->
 fn general<R: Real, C: Choice>(s_line: R, a: R, b: R, c: R, e: R, f: R) -> (R, R) {
     let s = clamp01(s_line);
     let t = (b * s + f) / e;
-    C::pick(
+    pick!(
+        C,
         t < R::zero(),
-        || (clamp01(-c / a), R::zero()),
-        || C::pick(t > R::one(), || (clamp01((b - c) / a), R::one()), || (s, t)),
+        (clamp01(-c / a), R::zero()),
+        pick!(C, t > R::one(), (clamp01((b - c) / a), R::one()), (s, t))
     )
 }
 
@@ -165,20 +160,21 @@ fn parallel<R: Real, C: Choice>(a: R, b: R, c: R, e: R, f: R) -> (R, R) {
     // Where the two ends of segment 2 project on segment 1's line, in units of s.
     let s0 = -c / a;
     let s1 = (b - c) / a;
-    let (lo, hi) = C::pick(s0 <= s1, || (s0, s1), || (s1, s0));
+    let (lo, hi) = pick!(C, s0 <= s1, (s0, s1), (s1, s0));
     let (lo_in, hi_in) = (lo.max(zero), hi.min(one));
-    C::pick(
+    pick!(
+        C,
         lo_in <= hi_in,
-        || {
+        {
             let s = (lo_in + hi_in) * R::from_f64(0.5);
             (s, clamp01((b * s + f) / e))
         },
-        || {
+        {
             // Disjoint projections (end to end): from segment 1's nearer end to segment 2 and back.
-            let s = C::pick(hi < zero, || zero, || one);
+            let s = pick!(C, hi < zero, zero, one);
             let t = clamp01((b * s + f) / e);
             (clamp01((b * t - c) / a), t)
-        },
+        }
     )
 }
 
