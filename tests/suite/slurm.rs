@@ -479,13 +479,27 @@ fn slurm_campaign_with_requeue_and_usr1_equals_the_local_run() {
         }
         assert!(!text.contains("already done"), "{name}:\n{text}");
     }
-    let status = stdout(&ok(cluster.sweep(&run, &["status", "--db", dbs]), "status"));
+    // Slurm may still be tidying a task up (COMPLETING), or not yet have noted its end
+    // (RUNNING) under load, right after its result was collected: ask again for a while.
+    let ended = |status: &str, t: &str| {
+        (status.contains(&format!("task {t} COMPLETED on"))
+            || status.contains(&format!("task {t} COMPLETING on")))
+            && status.contains("requeued 1×")
+    };
+    let mut status = String::new();
+    for _ in 0..40 {
+        status = stdout(&ok(cluster.sweep(&run, &["status", "--db", dbs]), "status"));
+        if [&requeued.0, &signalled.0]
+            .iter()
+            .all(|t| ended(&status, t))
+        {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(250));
+    }
     for t in [&requeued.0, &signalled.0] {
         assert!(
-            // Slurm may still be tidying the task up (COMPLETING) right after it ended.
-            (status.contains(&format!("task {t} COMPLETED on"))
-                || status.contains(&format!("task {t} COMPLETING on")))
-                && status.contains("requeued 1×"),
+            ended(&status, t),
             "status shows the requeue of {t}:\n{status}"
         );
     }
