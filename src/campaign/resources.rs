@@ -5,7 +5,7 @@
 
 use super::file::{Precision, SceneKind};
 use super::job_spec::JobSpec;
-use crate::engine::memory::bytes_per_particle;
+use crate::engine::memory::{address_space_limit, bytes_per_particle};
 
 /// Environment variable that sets the memory limit (bytes) instead of `MemTotal`.
 pub const MEMORY_LIMIT_ENV: &str = "SWEEP_MEMORY_LIMIT_BYTES";
@@ -75,17 +75,6 @@ pub fn memory_limit() -> Result<Option<MemoryLimit>, String> {
         });
     }
     Ok(limits.into_iter().min_by_key(|l| l.bytes))
-}
-
-/// `RLIMIT_AS` (`ulimit -v`), when set.
-fn address_space_limit() -> Option<u64> {
-    let mut r = libc::rlimit {
-        rlim_cur: 0,
-        rlim_max: 0,
-    };
-    // SAFETY: getrlimit writes the struct it is given and nothing else.
-    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
 }
 
 /// `MemTotal` of /proc/meminfo's text, in bytes.

@@ -59,6 +59,18 @@ pub fn bytes_per_particle(real_bytes: usize, oriented: bool) -> u64 {
     state + engine + copies
 }
 
+/// `RLIMIT_AS` (`ulimit -v`) in bytes; None when unlimited or unreadable. Both the campaign's
+/// memory check and the CPU engine's thread check hold their needs against it.
+pub fn address_space_limit() -> Option<u64> {
+    let mut r = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes only the struct it is given.
+    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
+    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -790,17 +790,6 @@ fn rod_energy(cfg: &EngineConfig, s: &State<f64>) -> f64 {
     s.kinetic_energy() + CpuEngine::<f64>::new(cfg.clone(), s.clone(), 1).elastic_energy()
 }
 
-/// Linear momentum and total angular momentum (orbital about the origin plus spin).
-fn rod_momenta(s: &State<f64>) -> (V3<f64>, V3<f64>) {
-    let (mut p, mut l) = (V3::zero(), V3::zero());
-    for i in 0..s.len() {
-        let mv = s.vel[i] * s.mass[i];
-        p += mv;
-        l += s.pos[i].cross(mv) + s.ang_mom[i];
-    }
-    (p, l)
-}
-
 /// What a rod case saw over its 20 chunks of 200 steps.
 struct RodSeen {
     /// Largest (E − E₀)/E₀ and largest |E − E₀|/E₀, E = K + U.
@@ -820,7 +809,7 @@ struct RodSeen {
 fn run_rods(b: &mut dyn Backend, cfg: &EngineConfig, label: &str) -> RodSeen {
     let s0 = b.download();
     let e0 = rod_energy(cfg, &s0);
-    let (p0, l0) = rod_momenta(&s0);
+    let (p0, l0) = common::rods::momenta(&s0);
     let pscale = momentum_scale(&s0);
     let mut seen = RodSeen {
         rise: f64::MIN,
@@ -843,7 +832,7 @@ fn run_rods(b: &mut dyn Backend, cfg: &EngineConfig, label: &str) -> RodSeen {
         let e = rod_energy(cfg, &s);
         seen.rise = seen.rise.max((e - e0) / e0);
         seen.change = seen.change.max((e - e0).abs() / e0);
-        let (p, l) = rod_momenta(&s);
+        let (p, l) = common::rods::momenta(&s);
         seen.p_drift = seen.p_drift.max((p - p0).norm() / pscale);
         seen.l_drift = seen.l_drift.max((l - l0).norm() / (pscale * 10.0 * ROD_L));
     }

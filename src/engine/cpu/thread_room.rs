@@ -2,6 +2,8 @@
 //! before they are spawned: a thread whose stack fits but whose signal stack does not aborts
 //! the whole process inside the standard library, where no error can be returned.
 
+use crate::engine::memory::address_space_limit;
+
 /// Address space one engine thread takes, with margin: a rayon worker's and a team helper's
 /// stack (2 MiB each, the standard library's default), their guard pages and signal stacks.
 const PER_THREAD_BYTES: u64 = 2 * (2 << 20) + (1 << 20);
@@ -19,17 +21,6 @@ pub(super) fn lacking_room(threads: usize) -> Option<String> {
             limit.saturating_sub(used) >> 20
         )
     })
-}
-
-/// RLIMIT_AS in bytes; None when unlimited or unreadable.
-fn address_space_limit() -> Option<u64> {
-    let mut r = libc::rlimit {
-        rlim_cur: 0,
-        rlim_max: 0,
-    };
-    // SAFETY: getrlimit writes only the struct it is given.
-    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
 }
 
 /// The process's mapped address space now (the first field of /proc/self/statm, in pages).
