@@ -15,6 +15,8 @@ pub fn since(d1: &DispatchCount, d0: &DispatchCount) -> DispatchCount {
         sorting_builds: d1.sorting_builds - d0.sorting_builds,
         voided_steps: d1.voided_steps - d0.voided_steps,
         submissions: d1.submissions - d0.submissions,
+        fused_steps: d1.fused_steps - d0.fused_steps,
+        copies_back: d1.copies_back - d0.copies_back,
     }
 }
 
@@ -29,6 +31,8 @@ pub fn dispatch_json(d: &DispatchCount) -> serde_json::Value {
         "list_builds_sorting_by_cell": d.sorting_builds,
         "voided_steps": d.voided_steps,
         "submissions": d.submissions,
+        "fused_steps": d.fused_steps,
+        "copies_back": d.copies_back,
     })
 }
 

@@ -64,6 +64,13 @@ pub struct DispatchCount {
     pub voided_steps: u64,
     /// Command buffers submitted.
     pub submissions: u64,
+    /// Of the dispatches, one-dispatch steps (GPU `fused_step`: the forces of a step and the
+    /// next kick and drift together), voided ones included.
+    #[serde(default)]
+    pub fused_steps: u64,
+    /// Chunks that ended on the second copy of the state and copied it back (one dispatch each).
+    #[serde(default)]
+    pub copies_back: u64,
 }
 
 impl DispatchCount {
@@ -78,6 +85,8 @@ impl DispatchCount {
         self.sorting_builds += other.sorting_builds;
         self.voided_steps += other.voided_steps;
         self.submissions += other.submissions;
+        self.fused_steps += other.fused_steps;
+        self.copies_back += other.copies_back;
     }
 }
 

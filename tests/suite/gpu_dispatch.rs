@@ -132,7 +132,7 @@ fn where_particles_sit_in_the_buffers_does_not_change_the_bits() {
 
 /// `scene` of `n` particles with every particle given a velocity of up to 4 m/s (the lists go
 /// stale every few steps) and, for rods, an angular velocity of up to 50 rad/s.
-fn stirred_scene(name: &str, n: usize) -> sweep::bench::BenchScene {
+pub(crate) fn stirred_scene(name: &str, n: usize) -> sweep::bench::BenchScene {
     let mut sc = sweep::bench::scene(name, n, 7).expect("bench scene");
     let s = &mut sc.state;
     for i in 0..s.len() {

@@ -23,6 +23,7 @@ mod faults;
 mod gpu;
 mod gpu_batch;
 mod gpu_dispatch;
+mod gpu_fused;
 mod gpu_law;
 mod gpu_rods;
 mod gpu_translation;

@@ -52,6 +52,9 @@ pub struct GpuBuffers {
     /// Each slot's packed record between `scatter` and `settle` (16 bytes when builds keep the
     /// order).
     pub scratch: wgpu::Buffer,
+    /// The second copy of `pos_r`, `vel_im` and `omega`, for the one-dispatch step
+    /// (`GpuOptions::fused_step`): it writes one copy while its forces read the other.
+    pub second: Option<[wgpu::Buffer; 3]>,
     pub oriented: bool,
 }
 
@@ -62,8 +65,9 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 impl GpuBuffers {
     /// Allocates and fills the buffers of the batch `p` (every job's block, one after the other)
     /// with one record and `MAX_WALLS` walls per job in `params` and `walls`, and `g` the sizes
-    /// of the batch's grid (all jobs' cells, the widest list row). No binding exceeds
-    /// `max_binding` bytes (the device's limit, or less to test the split bindings).
+    /// of the batch's grid (all jobs' cells, the widest list row), and with `fused` a second copy
+    /// of the positions, velocities and spins. No binding exceeds `max_binding` bytes (the
+    /// device's limit, or less to test the split bindings).
     ///
     /// # Errors
     /// A buffer larger than the device binds (`EngineError::Device`, naming it and the limit).
@@ -74,6 +78,7 @@ impl GpuBuffers {
         walls: &[WallGpu],
         p: &Packed,
         g: &GridSpec,
+        fused: bool,
     ) -> Result<Self, EngineError> {
         let jobs = params.len();
         debug_assert!(jobs <= MAX_JOBS && walls.len() == jobs * MAX_WALLS);
@@ -210,6 +215,14 @@ impl GpuBuffers {
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
             scratch: zeroed("cell-order scratch", scratch, wgpu::BufferUsages::STORAGE),
             records: records_buffer(dev, 1),
+            second: fused.then(|| {
+                [
+                    ("second positions", (blocks + 1) * n as u64 * 16),
+                    ("second velocities", 2 * n as u64 * 16),
+                    ("second spins", 2 * n as u64 * 16),
+                ]
+                .map(|(label, bytes)| zeroed(label, bytes, STORAGE))
+            }),
             oriented,
         })
     }
@@ -270,6 +283,24 @@ impl GpuBuffers {
             }
             binding::NBR_HI => self.spare_nbr.as_entire_binding(),
             _ => self.get(b).as_entire_binding(),
+        }
+    }
+
+    /// What binding `b` binds in the bind groups of parity `odd` (`BindGroups::at`): the
+    /// even ones read the first copy of the state and write the second, the odd ones the
+    /// other way round.
+    pub fn resource_of(&self, b: u32, odd: bool) -> wgpu::BindingResource<'_> {
+        let first = [binding::POS_R, binding::VEL_IM, binding::OMEGA];
+        let second = [binding::POS_W, binding::VEL_W, binding::OMEGA_W];
+        let copy = first
+            .iter()
+            .position(|&x| x == b)
+            .map(|c| (c, odd))
+            .or_else(|| second.iter().position(|&x| x == b).map(|c| (c, !odd)));
+        match (copy, &self.second) {
+            (Some((c, true)), Some(other)) => other[c].as_entire_binding(),
+            (Some((c, _)), _) => self.get(first[c]).as_entire_binding(),
+            (None, _) => self.resource(b),
         }
     }
 

@@ -78,13 +78,21 @@ pub fn is_hardware(info: &wgpu::AdapterInfo) -> bool {
 /// GPU offers more than WebGPU's default 8 (lavapipe 32, its GL driver 16, Metal 31).
 pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 13;
 
+/// Storage buffers the one-dispatch step binds (`fused_step`: the contact kernel's, the kick's
+/// and the second copy of the state); requested where the adapter offers them.
+pub const FUSED_STORAGE_BUFFERS: u32 = 17;
+
 /// The limits the engine requests: WebGPU's defaults except the storage buffers per kernel and
 /// the storage binding and buffer sizes, raised to what the adapter offers so that large runs fit.
 pub fn required_limits(adapter: &wgpu::Limits) -> wgpu::Limits {
     wgpu::Limits {
         max_storage_buffer_binding_size: adapter.max_storage_buffer_binding_size,
         max_buffer_size: adapter.max_buffer_size,
-        max_storage_buffers_per_shader_stage: STORAGE_BUFFERS_PER_KERNEL,
+        max_storage_buffers_per_shader_stage: STORAGE_BUFFERS_PER_KERNEL.max(
+            adapter
+                .max_storage_buffers_per_shader_stage
+                .min(FUSED_STORAGE_BUFFERS),
+        ),
         ..wgpu::Limits::default()
     }
 }
@@ -224,11 +232,20 @@ impl GpuDevice {
     /// `EngineError::Device` when the device cannot be created.
     pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, EngineError> {
         let info = adapter.get_info();
-        let limits = required_limits(&adapter.limits());
+        let mut limits = required_limits(&adapter.limits());
+        // Timestamps time the passes in `sweep bench` where the adapter has them; immediates
+        // carry the one-dispatch step's index.
+        let features =
+            adapter.features() & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::IMMEDIATES);
+        if features.contains(wgpu::Features::IMMEDIATES) {
+            limits.max_immediate_size = adapter
+                .limits()
+                .max_immediate_size
+                .min(super::pipelines::FUSED_IMMEDIATE_BYTES);
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sweep device"),
-            // Timestamps time the passes in `sweep bench` where the adapter has them.
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            required_features: features,
             required_limits: limits.clone(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
@@ -253,6 +270,26 @@ impl GpuDevice {
             limits,
             errors,
         })
+    }
+
+    /// Why this device cannot run the one-dispatch step (`GpuOptions::fused_step`), if it cannot.
+    pub fn fused_step_unsupported(&self) -> Option<String> {
+        let immediates = self.device.features().contains(wgpu::Features::IMMEDIATES)
+            && self.limits.max_immediate_size >= super::pipelines::FUSED_IMMEDIATE_BYTES;
+        let buffers = self.limits.max_storage_buffers_per_shader_stage;
+        if !immediates {
+            Some(format!(
+                "{} offers no immediates (push constants), which carry its step index",
+                self.info.name
+            ))
+        } else if buffers < FUSED_STORAGE_BUFFERS {
+            Some(format!(
+                "{} binds {buffers} storage buffers per kernel; it binds {FUSED_STORAGE_BUFFERS}",
+                self.info.name
+            ))
+        } else {
+            None
+        }
     }
 
     /// Whether this is a discrete or integrated GPU.

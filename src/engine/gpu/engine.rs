@@ -6,7 +6,9 @@
 //! first stale step is written to the status block and every later kernel returns at once, so
 //! the host, which keeps two command buffers in flight and reads each one's stale word
 //! asynchronously, redoes that step with a build and goes on. Builds never change the results
-//! (lists sorted by index), so neither the schedule nor `steps_per_submit` does.
+//! (lists sorted by index), so neither the schedule nor `steps_per_submit` does. With
+//! `GpuOptions::fused_step` a step is one dispatch over two copies of the state (fused.wgsl,
+//! docs/design.md "The one-dispatch step"), with the same bits.
 //!
 //! At the chunk's end `finish` checks finiteness, counts contacts and sums the kinetic energy per
 //! workgroup; only the status block, those sums and the sink events are read back. The energy
@@ -77,6 +79,9 @@ pub struct GpuOptions {
     /// Bind at most this many bytes per storage binding, below the device's own limit (tests:
     /// the history and lists of a small bed then take two bindings each, as a large bed's do).
     pub max_binding_bytes: Option<u64>,
+    /// Take each step in one dispatch (`fused.wgsl`: the forces fused with the next kick and
+    /// drift) over two copies of the state, instead of two dispatches over one; the same bits.
+    pub fused_step: bool,
 }
 
 impl Default for GpuOptions {
@@ -88,6 +93,7 @@ impl Default for GpuOptions {
             watchdog: Watchdog::default(),
             max_binding_bytes: None,
             max_row_groups: None,
+            fused_step: false,
         }
     }
 }
@@ -195,10 +201,20 @@ impl GpuEngine {
                 *w = WallGpu::of(wall);
             }
         }
+        if let Some(why) = options
+            .fused_step
+            .then(|| dev.fused_step_unsupported())
+            .flatten()
+        {
+            return Err(EngineError::Device(format!(
+                "the one-dispatch step cannot run here: {why}; run without it (the two-dispatch step gives the same bits)"
+            )));
+        }
         let s0 = states[0];
         let pipes = Pipelines::new(
             dev,
             Specialization::of(&configs[0], s0.rotation, s0.oriented, s0.history.slots),
+            options.fused_step,
         );
         if let Some(e) = dev.take_error() {
             return Err(EngineError::Device(format!("building the kernels: {e}")));

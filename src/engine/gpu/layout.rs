@@ -127,6 +127,11 @@ pub mod binding {
     /// `hist_split` and `nbr_split` on; a spare record when everything fits in the first).
     pub const HIST_HI: u32 = 21;
     pub const NBR_HI: u32 = 22;
+    /// The second copy of the positions, velocities and spins, which a one-dispatch step writes
+    /// while its forces read the first (`fused.wgsl`); bind groups of the other parity swap them.
+    pub const POS_W: u32 = 23;
+    pub const VEL_W: u32 = 24;
+    pub const OMEGA_W: u32 = 25;
 }
 
 /// WGSL constants generated from this file, prepended to `common.wgsl`.

@@ -14,6 +14,8 @@ use crate::engine::config::EngineConfig;
 
 const INTEGRATE: &str = concat!(
     include_str!("shaders/common.wgsl"),
+    include_str!("shaders/inplace.wgsl"),
+    include_str!("shaders/step.wgsl"),
     include_str!("shaders/integrate.wgsl"),
     include_str!("shaders/rotate.wgsl")
 );
@@ -32,6 +34,16 @@ const CONTACTS: &str = concat!(
     include_str!("shaders/contacts.wgsl"),
     include_str!("shaders/rods.wgsl")
 );
+const FUSED: &str = concat!(
+    include_str!("shaders/common.wgsl"),
+    include_str!("shaders/law.wgsl"),
+    include_str!("shaders/walls.wgsl"),
+    include_str!("shaders/contacts.wgsl"),
+    include_str!("shaders/rods.wgsl"),
+    include_str!("shaders/step.wgsl"),
+    include_str!("shaders/rotate.wgsl"),
+    include_str!("shaders/fused.wgsl")
+);
 
 /// The shader modules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,14 +52,17 @@ pub enum Module {
     Grid,
     Reorder,
     Contacts,
+    /// The one-dispatch step (`GpuOptions::fused_step`), compiled only when it is asked for.
+    Fused,
 }
 
 impl Module {
-    const ALL: [Module; 4] = [
+    const ALL: [Module; 5] = [
         Module::Integrate,
         Module::Grid,
         Module::Reorder,
         Module::Contacts,
+        Module::Fused,
     ];
 
     fn source(self) -> &'static str {
@@ -56,6 +71,7 @@ impl Module {
             Module::Grid => GRID,
             Module::Reorder => REORDER,
             Module::Contacts => CONTACTS,
+            Module::Fused => FUSED,
         }
     }
 
@@ -65,6 +81,7 @@ impl Module {
             Module::Grid => "grid.wgsl",
             Module::Reorder => "reorder.wgsl",
             Module::Contacts => "contacts.wgsl",
+            Module::Fused => "fused.wgsl",
         }
     }
 
@@ -79,7 +96,11 @@ impl Module {
             Module::Reorder => matches!(binding, b::CELL_START | b::SCRATCH),
             Module::Contacts => matches!(
                 binding,
-                b::POS_R | b::VEL_IM | b::OMEGA | b::INFO | b::NBR | b::NBR_HI
+                b::POS_R | b::VEL_IM | b::OMEGA | b::NBR | b::NBR_HI
+            ),
+            Module::Fused => matches!(
+                binding,
+                b::POS_R | b::VEL_IM | b::OMEGA | b::NBR | b::NBR_HI | b::REF_POS
             ),
         }
     }
@@ -111,6 +132,10 @@ pub mod kernel {
     /// its fixed-point sum: the energy watchdog's U₀.
     pub const CONTACT_ENERGY: usize = 13;
     pub const ELASTIC_SUM: usize = 14;
+    /// The one-dispatch step (fused.wgsl), and the second copy of the state written back to the
+    /// first at a chunk's end; built only for `GpuOptions::fused_step`.
+    pub const FUSED_STEP: usize = 15;
+    pub const ADOPT: usize = 16;
     /// The cell-start scan's passes, which index their workgroups along x alone.
     pub const SCANS: [usize; 3] = [BUILD[1], BUILD[2], BUILD[3]];
 }
@@ -127,7 +152,7 @@ pub fn dispatch_size(k: usize, groups: u32, max_x: u32) -> (u32, u32) {
 }
 
 /// Every kernel of the engine.
-pub const KERNELS: [KernelSpec; 15] = [
+pub const KERNELS: [KernelSpec; 17] = [
     KernelSpec {
         module: Module::Integrate,
         entry: "kick_drift",
@@ -326,7 +351,52 @@ pub const KERNELS: [KernelSpec; 15] = [
         entry: "elastic_sum",
         bindings: &[b::PARAMS, b::STATUS, b::ENERGY],
     },
+    KernelSpec {
+        module: Module::Fused,
+        entry: "fused_step",
+        bindings: &[
+            b::PARAMS,
+            b::WALLS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::INFO,
+            b::LOAD,
+            b::HIST,
+            b::HIST_HI,
+            b::NBR,
+            b::NBR_HI,
+            b::STATUS,
+            b::RECORDS,
+            b::REF_POS,
+            b::EVENTS,
+            b::ROD,
+            b::POS_W,
+            b::VEL_W,
+            b::OMEGA_W,
+        ],
+    },
+    KernelSpec {
+        module: Module::Fused,
+        entry: "adopt",
+        bindings: &[
+            b::PARAMS,
+            b::POS_R,
+            b::VEL_IM,
+            b::OMEGA,
+            b::STATUS,
+            b::POS_W,
+            b::VEL_W,
+            b::OMEGA_W,
+        ],
+    },
 ];
+
+/// Kernels every engine builds; the one-dispatch step's follow (`Pipelines::new`).
+const TWO_DISPATCH_KERNELS: usize = kernel::FUSED_STEP;
+
+/// Bytes of immediates the one-dispatch step takes: its step index.
+pub const FUSED_IMMEDIATE_BYTES: u32 = 4;
 
 /// Smallest valid binding size of each buffer: one record.
 fn min_size(binding: u32) -> u64 {
@@ -413,36 +483,62 @@ impl Specialization {
     }
 }
 
-/// Layouts and pipelines of every kernel.
+/// Layouts and pipelines of every kernel (the one-dispatch step's only when it was asked for).
 pub struct Pipelines {
     layouts: Vec<wgpu::BindGroupLayout>,
     pub pipelines: Vec<wgpu::ComputePipeline>,
     /// The effects the kernels were compiled for.
     pub spec: Specialization,
+    /// Whether the one-dispatch step's kernels were built.
+    pub fused: bool,
 }
 
-/// The bind groups of one set of buffers, one per kernel.
-pub struct BindGroups(pub Vec<wgpu::BindGroup>);
+/// The bind groups of one set of buffers, one per kernel: `even` binds the first copy of the
+/// state as the one kernels read (and the one-dispatch step's second as the one it writes),
+/// `odd` the other way round (empty unless the one-dispatch step was built).
+pub struct BindGroups {
+    pub even: Vec<wgpu::BindGroup>,
+    pub odd: Vec<wgpu::BindGroup>,
+}
+
+impl BindGroups {
+    /// Kernel k's bind group for the copy of the state of parity `odd`.
+    pub fn at(&self, odd: bool, k: usize) -> &wgpu::BindGroup {
+        if odd {
+            &self.odd[k]
+        } else {
+            &self.even[k]
+        }
+    }
+}
 
 impl Pipelines {
-    /// Compiles every module and builds every pipeline, specialised for `spec`.
-    pub fn new(dev: &GpuDevice, spec: Specialization) -> Self {
+    /// Compiles the modules and builds the pipelines, specialised for `spec`; the one-dispatch
+    /// step's with `fused`.
+    pub fn new(dev: &GpuDevice, spec: Specialization, fused: bool) -> Self {
         let constants = spec.constants(false);
         let recording = spec.constants(true);
         let d = &dev.device;
         let pre = prelude();
-        let modules: Vec<wgpu::ShaderModule> = Module::ALL
+        let kernels = if fused {
+            &KERNELS[..]
+        } else {
+            &KERNELS[..TWO_DISPATCH_KERNELS]
+        };
+        let modules: Vec<Option<wgpu::ShaderModule>> = Module::ALL
             .iter()
-            .map(|m| {
-                d.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(m.label()),
-                    source: wgpu::ShaderSource::Wgsl(format!("{pre}{}", m.source()).into()),
+            .map(|&m| {
+                kernels.iter().any(|k| k.module == m).then(|| {
+                    d.create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(m.label()),
+                        source: wgpu::ShaderSource::Wgsl(format!("{pre}{}", m.source()).into()),
+                    })
                 })
             })
             .collect();
         let mut layouts = Vec::new();
         let mut pipelines = Vec::new();
-        for k in &KERNELS {
+        for k in kernels {
             let entries: Vec<wgpu::BindGroupLayoutEntry> = k
                 .bindings
                 .iter()
@@ -470,9 +566,17 @@ impl Pipelines {
             let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(k.entry),
                 bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
+                immediate_size: if k.module == Module::Fused {
+                    FUSED_IMMEDIATE_BYTES
+                } else {
+                    0
+                },
             });
-            let module = &modules[Module::ALL.iter().position(|&m| m == k.module).unwrap_or(0)];
+            let Some(module) =
+                &modules[Module::ALL.iter().position(|&m| m == k.module).unwrap_or(0)]
+            else {
+                unreachable!("every kernel's module is compiled");
+            };
             pipelines.push(d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(k.entry),
                 layout: Some(&pl),
@@ -494,12 +598,14 @@ impl Pipelines {
             layouts,
             pipelines,
             spec,
+            fused,
         }
     }
 
-    /// Bind groups of every kernel over `bufs`.
+    /// Bind groups of every kernel over `bufs`, of both parities when the one-dispatch step
+    /// was built.
     pub fn bind(&self, dev: &GpuDevice, bufs: &GpuBuffers) -> BindGroups {
-        BindGroups(
+        let groups = |odd: bool| -> Vec<wgpu::BindGroup> {
             KERNELS
                 .iter()
                 .zip(&self.layouts)
@@ -509,7 +615,7 @@ impl Pipelines {
                         .iter()
                         .map(|&n| wgpu::BindGroupEntry {
                             binding: n,
-                            resource: bufs.resource(n),
+                            resource: bufs.resource_of(n, odd),
                         })
                         .collect();
                     dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -518,7 +624,11 @@ impl Pipelines {
                         entries: &entries,
                     })
                 })
-                .collect(),
-        )
+                .collect()
+        };
+        BindGroups {
+            even: groups(false),
+            odd: if self.fused { groups(true) } else { Vec::new() },
+        }
     }
 }

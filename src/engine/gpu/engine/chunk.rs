@@ -141,6 +141,8 @@ impl GpuEngine {
             closed: false,
             builds: vec![-1],
             per_step: Vec::with_capacity(steps as usize),
+            parity: Vec::with_capacity(steps as usize),
+            odd: false,
             count: DispatchCount::default(),
             closing_read: None,
         };
@@ -168,6 +170,8 @@ impl GpuEngine {
             let voided = c.next - (s + 1);
             c.count.voided_steps += voided;
             c.per_step.truncate(s as usize + 1);
+            c.parity.truncate(s as usize + 1);
+            c.odd = c.parity[s as usize];
             c.builds.retain(|&b| b < s as i64);
             let last = c.builds.last().copied().unwrap_or(-1);
             if self.options.build_every.is_none() {
@@ -185,8 +189,9 @@ impl GpuEngine {
             c.closed = false;
         }
         c.count.steps = steps;
+        let steady = if self.pipes.fused { 1 } else { STEP_DISPATCHES };
         for &d in &c.per_step {
-            if d == STEP_DISPATCHES {
+            if d == steady {
                 c.count.steady_steps += 1;
                 c.count.steady_dispatches += d as u64;
                 c.count.max_steady_step = c.count.max_steady_step.max(d as u64);
@@ -197,29 +202,28 @@ impl GpuEngine {
 
     /// Records and submits the chunk's next command buffer: a pending build (chunk start or a
     /// redone step), up to `steps_per_submit` steps, and the closing passes after the last.
+    ///
+    /// Two dispatches per step (`kick_drift`, `compute_forces`), or with `fused_step` one
+    /// (`fused_step`, the forces of step k fused with step k's kick and drift): the chunk's
+    /// first step kicks and drifts alone, the closing forces are computed alone, and each fused
+    /// dispatch reads one copy of the state and writes the other. A list build sits where it
+    /// does in the two-dispatch step, between a drift and the next forces.
     fn submit(&self, run: &Run, c: &mut Chunk) -> InFlight {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
+        let fused = self.pipes.fused;
         let build_dispatches = BUILD_DISPATCHES + run.reorder as u8;
+        let step_dispatches = if fused { 1 } else { STEP_DISPATCHES };
         let sorting = run.reorder as u64;
-        let pipes = &self.pipes;
-        let binds = &run.binds;
-        let mut dispatches = 0u64;
-        let mut closing = false;
-        let row = self.row_groups();
-        let mut dispatch = |pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32| {
-            pass.set_pipeline(&pipes.pipelines[k]);
-            pass.set_bind_group(0, &binds.0[k], &[]);
-            let (x, y) = dispatch_size(k, groups, row);
-            pass.dispatch_workgroups(x, y, 1);
-            dispatches += 1;
+        let mut rec = Recorder {
+            pipes: &self.pipes,
+            binds: &run.binds,
+            row: self.row_groups(),
+            groups: gp,
+            odd: c.odd,
+            dispatches: 0,
+            fused_steps: 0,
         };
-        let build =
-            |pass: &mut wgpu::ComputePass<'_>,
-             dispatch: &mut dyn FnMut(&mut wgpu::ComputePass<'_>, usize, u32)| {
-                for (k, groups) in build_passes(run) {
-                    dispatch(pass, k, groups);
-                }
-            };
+        let mut closing = false;
         let mut enc = self
             .dev
             .device
@@ -233,22 +237,26 @@ impl GpuEngine {
             });
             if std::mem::take(&mut c.start_build) {
                 // NOTE: every chunk starts from fresh lists, as on the CPU.
-                build(&mut pass, &mut dispatch);
+                rec.build(&mut pass, run);
                 c.count.builds += 1;
                 c.count.sorting_builds += sorting;
                 if self.checks_energy() {
                     // U₀ for the energy watchdog, from the fresh lists.
-                    dispatch(&mut pass, kernel::CONTACT_ENERGY, gp);
-                    dispatch(&mut pass, kernel::ELASTIC_SUM, gp);
+                    rec.dispatch(&mut pass, kernel::CONTACT_ENERGY);
+                    rec.dispatch(&mut pass, kernel::ELASTIC_SUM);
                 }
             }
             if let Some(s) = c.redo.take() {
-                build(&mut pass, &mut dispatch);
-                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                rec.build(&mut pass, run);
                 c.count.builds += 1;
                 c.count.sorting_builds += sorting;
                 c.builds.push(s as i64);
-                c.per_step[s as usize] = 1 + build_dispatches + 1;
+                c.per_step[s as usize] = step_dispatches + build_dispatches;
+                if !fused {
+                    rec.dispatch(&mut pass, kernel::COMPUTE_FORCES);
+                    c.per_step[s as usize] += 1;
+                }
+                // Fused, the next step's dispatch computes the redone forces.
             }
             let end = c.steps.min(c.next + self.options.steps_per_submit.max(1));
             for k in c.next..end {
@@ -257,31 +265,50 @@ impl GpuEngine {
                     Some(n) => (k as i64 - last) >= n.max(1) as i64,
                     None => c.schedule.due(k as i64, last),
                 };
-                dispatch(&mut pass, kernel::KICK_DRIFT, gp);
+                if fused && k > 0 {
+                    rec.fused(&mut pass, k as u32);
+                } else {
+                    rec.dispatch(&mut pass, kernel::KICK_DRIFT);
+                }
                 if due {
-                    build(&mut pass, &mut dispatch);
+                    rec.build(&mut pass, run);
                     c.count.builds += 1;
                     c.count.sorting_builds += sorting;
                     c.builds.push(k as i64);
                     c.schedule.scheduled();
                 }
-                dispatch(&mut pass, kernel::COMPUTE_FORCES, gp);
+                if !fused {
+                    rec.dispatch(&mut pass, kernel::COMPUTE_FORCES);
+                }
                 c.per_step.push(if due {
-                    STEP_DISPATCHES + build_dispatches
+                    step_dispatches + build_dispatches
                 } else {
-                    STEP_DISPATCHES
+                    step_dispatches
                 });
+                c.parity.push(rec.odd);
             }
             c.next = end;
             if end == c.steps && !c.closed {
+                if fused {
+                    rec.dispatch(&mut pass, kernel::COMPUTE_FORCES);
+                }
                 // The closing half kick, then finiteness, contact counts and kinetic energy.
-                dispatch(&mut pass, kernel::CLOSE_KICK, gp);
-                dispatch(&mut pass, kernel::FINISH, gp);
-                dispatch(&mut pass, kernel::ENERGY_SUM, gp);
+                rec.dispatch(&mut pass, kernel::CLOSE_KICK);
+                rec.dispatch(&mut pass, kernel::FINISH);
+                rec.dispatch(&mut pass, kernel::ENERGY_SUM);
+                if rec.odd {
+                    // The chunk ends on the second copy: back to the first, which read-backs,
+                    // uploads and the next chunk use.
+                    rec.dispatch(&mut pass, kernel::ADOPT);
+                    c.count.copies_back += 1;
+                }
                 c.closed = true;
                 closing = true;
             }
         }
+        c.odd = rec.odd;
+        let dispatches = rec.dispatches;
+        c.count.fused_steps += rec.fused_steps;
         // The stale word; after the closing passes also every job's status words and the
         // energies' workgroup sums (kinetic, then elastic), so the chunk's end needs no
         // read-back of its own.
@@ -347,6 +374,54 @@ pub(super) fn build_passes(run: &Run) -> Vec<(usize, u32)> {
     v
 }
 
+/// Records dispatches into a compute pass with the bind groups of the copy of the state the
+/// chunk is on, and counts them.
+struct Recorder<'a> {
+    pipes: &'a Pipelines,
+    binds: &'a BindGroups,
+    /// Workgroups per row (`dispatch_size`) and per-slot workgroups.
+    row: u32,
+    groups: u32,
+    /// Which copy of the state the kernels read (odd: the second).
+    odd: bool,
+    dispatches: u64,
+    fused_steps: u64,
+}
+
+impl Recorder<'_> {
+    /// Kernel k over the slots (the scans over their own workgroups, `build_passes`).
+    fn dispatch(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize) {
+        self.dispatch_groups(pass, k, self.groups);
+    }
+
+    fn dispatch_groups(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, groups: u32) {
+        pass.set_pipeline(&self.pipes.pipelines[k]);
+        pass.set_bind_group(0, self.binds.at(self.odd, k), &[]);
+        let (x, y) = dispatch_size(k, groups, self.row);
+        pass.dispatch_workgroups(x, y, 1);
+        self.dispatches += 1;
+    }
+
+    /// A list build on the current copy.
+    fn build(&mut self, pass: &mut wgpu::ComputePass<'_>, run: &Run) {
+        for (k, groups) in build_passes(run) {
+            self.dispatch_groups(pass, k, groups);
+        }
+    }
+
+    /// The one-dispatch step of chunk-local step k; the copy it writes becomes the current one.
+    fn fused(&mut self, pass: &mut wgpu::ComputePass<'_>, k: u32) {
+        pass.set_pipeline(&self.pipes.pipelines[kernel::FUSED_STEP]);
+        pass.set_bind_group(0, self.binds.at(self.odd, kernel::FUSED_STEP), &[]);
+        pass.set_immediates(0, bytemuck::bytes_of(&k));
+        let (x, y) = dispatch_size(kernel::FUSED_STEP, self.groups, self.row);
+        pass.dispatch_workgroups(x, y, 1);
+        self.dispatches += 1;
+        self.fused_steps += 1;
+        self.odd = !self.odd;
+    }
+}
+
 /// Dispatches of a step without a build, and of one build.
 const STEP_DISPATCHES: u8 = 2;
 const BUILD_DISPATCHES: u8 = 6;
@@ -367,6 +442,10 @@ struct Chunk {
     builds: Vec<i64>,
     /// Dispatches recorded per step taken.
     per_step: Vec<u8>,
+    /// Per step taken, which copy of the state its drift wrote (one-dispatch steps alternate).
+    parity: Vec<bool>,
+    /// Which copy the next recorded kernel reads.
+    odd: bool,
     count: DispatchCount,
     /// Every job's status words then the energy's workgroup sums, as the closing submission
     /// copied them (once it completed without a stale step).

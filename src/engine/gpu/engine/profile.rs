@@ -58,7 +58,7 @@ impl GpuEngine {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("profiled passes"),
                 });
-            for (q, &(k, groups)) in chunk.iter().enumerate() {
+            for (q, &(k, groups, odd, step)) in chunk.iter().enumerate() {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some(KERNELS[k].entry),
                     timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
@@ -68,7 +68,10 @@ impl GpuEngine {
                     }),
                 });
                 pass.set_pipeline(&self.pipes.pipelines[k]);
-                pass.set_bind_group(0, &run.binds.0[k], &[]);
+                pass.set_bind_group(0, run.binds.at(odd, k), &[]);
+                if let Some(step) = step {
+                    pass.set_immediates(0, bytemuck::bytes_of(&step));
+                }
                 let (x, y) = dispatch_size(k, groups, row);
                 pass.dispatch_workgroups(x, y, 1);
             }
@@ -83,7 +86,7 @@ impl GpuEngine {
         let stale = buffers::read_at(&self.dev, &run.bufs.status, ST_STALE as u64 * 4, 4)?;
         let stale = u32::from_le_bytes([stale[0], stale[1], stale[2], stale[3]]);
         let mut out: Vec<PassTime> = Vec::new();
-        for (&(k, _), t) in passes.iter().zip(&ns) {
+        for (&(k, ..), t) in passes.iter().zip(&ns) {
             let name = KERNELS[k].entry;
             match out.iter_mut().find(|p| p.kernel == name) {
                 Some(p) => {
@@ -109,23 +112,38 @@ impl GpuEngine {
         Ok(Some(out))
     }
 
-    /// The (kernel, workgroups) of a chunk as `submit` records it, without a rebuild mid-chunk.
-    fn profiled_passes(&self, run: &Run, steps: u64) -> Vec<(usize, u32)> {
+    /// The (kernel, workgroups, the copy of the state it reads, the one-dispatch step's index)
+    /// of a chunk as `submit` records it, without a rebuild mid-chunk.
+    fn profiled_passes(&self, run: &Run, steps: u64) -> Vec<(usize, u32, bool, Option<u32>)> {
         let gp = (run.bufs.n as u32).div_ceil(WORKGROUP_SIZE);
-        let mut v = super::chunk::build_passes(run);
+        let mut v: Vec<(usize, u32, bool, Option<u32>)> = super::chunk::build_passes(run)
+            .into_iter()
+            .map(|(k, g)| (k, g, false, None))
+            .collect();
         if self.checks_energy() {
-            v.push((kernel::CONTACT_ENERGY, gp));
-            v.push((kernel::ELASTIC_SUM, gp));
+            v.push((kernel::CONTACT_ENERGY, gp, false, None));
+            v.push((kernel::ELASTIC_SUM, gp, false, None));
         }
-        for _ in 0..steps {
-            v.push((kernel::KICK_DRIFT, gp));
-            v.push((kernel::COMPUTE_FORCES, gp));
+        let mut odd = false;
+        if self.pipes.fused && steps > 0 {
+            v.push((kernel::KICK_DRIFT, gp, false, None));
+            for k in 1..steps as u32 {
+                v.push((kernel::FUSED_STEP, gp, odd, Some(k)));
+                odd = !odd;
+            }
+            v.push((kernel::COMPUTE_FORCES, gp, odd, None));
+        } else {
+            for _ in 0..steps {
+                v.push((kernel::KICK_DRIFT, gp, false, None));
+                v.push((kernel::COMPUTE_FORCES, gp, false, None));
+            }
         }
-        v.extend([
-            (kernel::CLOSE_KICK, gp),
-            (kernel::FINISH, gp),
-            (kernel::ENERGY_SUM, gp),
-        ]);
+        for k in [kernel::CLOSE_KICK, kernel::FINISH, kernel::ENERGY_SUM] {
+            v.push((k, gp, odd, None));
+        }
+        if odd {
+            v.push((kernel::ADOPT, gp, true, None));
+        }
         v
     }
 }

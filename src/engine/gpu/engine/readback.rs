@@ -71,7 +71,7 @@ impl GpuEngine {
                 });
                 let k = kernel::RECORD_CONTACTS;
                 pass.set_pipeline(&self.pipes.pipelines[k]);
-                pass.set_bind_group(0, &run.binds.0[k], &[]);
+                pass.set_bind_group(0, run.binds.at(false, k), &[]);
                 let (x, y) = dispatch_size(k, groups, row);
                 pass.dispatch_workgroups(x, y, 1);
             }

@@ -115,7 +115,7 @@ impl GpuEngine {
             }
         }
         if spec != self.pipes.spec {
-            self.pipes = Pipelines::new(&self.dev, spec);
+            self.pipes = Pipelines::new(&self.dev, spec, self.options.fused_step);
             if let Some(e) = self.dev.take_error() {
                 return Err(EngineError::Device(format!("building the kernels: {e}")));
             }
@@ -162,7 +162,15 @@ impl GpuEngine {
             offset += g.ncell;
         }
         let packed = buffers::concat(states.iter().map(|s| pack(s)).collect(), n_job, self.slots);
-        let bufs = GpuBuffers::new(&self.dev, max_binding, &params, &self.walls, &packed, &all)?;
+        let bufs = GpuBuffers::new(
+            &self.dev,
+            max_binding,
+            &params,
+            &self.walls,
+            &packed,
+            &all,
+            self.options.fused_step,
+        )?;
         let binds = self.pipes.bind(&self.dev, &bufs);
         let jobs = states
             .iter()

@@ -123,7 +123,7 @@ impl GpuEngine {
             });
             for k in [kernel::CONTACT_ENERGY, kernel::ELASTIC_SUM] {
                 pass.set_pipeline(&self.pipes.pipelines[k]);
-                pass.set_bind_group(0, &run.binds.0[k], &[]);
+                pass.set_bind_group(0, run.binds.at(false, k), &[]);
                 let (x, y) = dispatch_size(k, groups, self.row_groups());
                 pass.dispatch_workgroups(x, y, 1);
             }

@@ -142,6 +142,22 @@ fn flat(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * WG;
 }
 
+// Liveness. `info.alive` is 1 for a live particle and 0 for a dead one, except during a chunk of
+// one-dispatch steps (fused.wgsl): there a particle that crossed the sink in the drift of step k
+// holds 2 + k until `finish`, so that the forces of step k, computed in the same dispatch as its
+// death, read it alive whether or not its own invocation has run yet.
+fn live(alive: u32) -> bool {
+    return alive == 1u;
+}
+
+// The step whose forces this invocation computes (`forces`); the largest u32 elsewhere.
+var<private> force_step: u32 = 0xffffffffu;
+
+// Whether a neighbour with this `alive` word takes part in the forces of `force_step`.
+fn live_at_forces(alive: u32) -> bool {
+    return alive == 1u || (alive > 1u && alive - 2u >= force_step);
+}
+
 fn enter_global() {
     params = jobs[0];
 }

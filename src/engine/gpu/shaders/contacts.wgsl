@@ -7,7 +7,7 @@
 @group(0) @binding(2) var<storage, read> pos_r: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> vel_im: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> omega: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> info: array<Info>;
+@group(0) @binding(5) var<storage, read_write> info: array<Info>;
 @group(0) @binding(6) var<storage, read_write> load: array<Load>;
 @group(0) @binding(7) var<storage, read_write> hist: array<Slot>;
 @group(0) @binding(8) var<storage, read> nbr: array<u32>;
@@ -148,7 +148,7 @@ fn gather_spheres(i: u32, me: Info) -> Gathered {
     for (var q = 0u; q < cnt; q++) {
         let j = nbr_get(nbr_at(i, 1u + q));
         let other = info[j];
-        if (other.alive == 0u) { continue; }
+        if (!live_at_forces(other.alive)) { continue; }
         let vj4 = vel_im[j];
         // Fixed particles feel no force: skip pairs of two fixed ones entirely.
         let fixed_j = vj4.w == 0.0;
@@ -243,12 +243,19 @@ fn compute_forces(
     if (atomicLoad(&status[ST_STALE]) < k) { return; }
     enter(i);
     if (params.running == 0u) { return; }
+    forces(i, k);
+}
+
+// The force and torque on particle i after k steps of the chunk, into load[i] (also the contact
+// count and the largest overlap), and the job's overlap and full-history words.
+fn forces(i: u32, k: u32) {
+    force_step = k;
     let use_rows = HISTORY;
     if (use_rows) {
         rows_open(i);
     }
     let me = info[i];
-    if (me.alive == 0u) {
+    if (!live(me.alive)) {
         if (use_rows) {
             rows_close(i);
         }
@@ -297,7 +304,7 @@ fn record_contacts(
     enter(i);
     if (params.running == 0u) { return; }
     let me = info[i];
-    if (me.alive == 0u) { return; }
+    if (!live(me.alive)) { return; }
     if (HISTORY) {
         rows_open(i);
     }
@@ -322,7 +329,7 @@ fn contact_energy(
     enter(i);
     var u = 0.0;
     let me = info[i];
-    if (params.running != 0u && me.alive != 0u) {
+    if (params.running != 0u && live(me.alive)) {
         tallying = true;
         tally = 0.0;
         if (HISTORY) {

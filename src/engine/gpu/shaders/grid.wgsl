@@ -69,7 +69,7 @@ fn histogram(
     let i = flat(gid, nwg);
     if (i >= jobs[0].n || void_build()) { return; }
     enter(i);
-    if (info[i].alive == 0u || params.running == 0u) { return; }
+    if (!live(info[i].alive) || params.running == 0u) { return; }
     let c3 = cell_of(pos_r[i].xyz);
     let c = params.cell_offset + (c3.z * params.ny + c3.y) * params.nx + c3.x;
     cell_rank[i] = vec2<u32>(c, atomicAdd(&cell_count[c], 1u));
@@ -204,7 +204,7 @@ fn scatter(
     let i = flat(gid, nwg);
     if (i >= jobs[0].n || void_build()) { return; }
     enter(i);
-    if (info[i].alive == 0u || params.running == 0u) { return; }
+    if (!live(info[i].alive) || params.running == 0u) { return; }
     let cr = cell_rank[i];
     let s = cell_start[cr.x] + cr.y;
     if (params.reorder == 0u) {
@@ -304,7 +304,7 @@ fn build_list(
         // The axis the rotational skin criterion measures turns from.
         ref_pos[shape_at(i)] = pos_r[shape_at(i)];
     }
-    if (info[i].alive == 0u || params.running == 0u) {
+    if (!live(info[i].alive) || params.running == 0u) {
         nbr_set(nbr_at(i, 0u), 0u);
         return;
     }

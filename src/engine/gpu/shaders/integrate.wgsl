@@ -1,24 +1,8 @@
 // Velocity Verlet with the fused kick of cpu/rods.rs: `kick_drift` kicks by dt/2 at a chunk's first
 // step and by two dt/2 after (the previous step's closing half kick and this step's opening one),
-// drifts, wraps, flags sink deaths and list staleness, and for oriented runs turns the particle
-// (rotate.wgsl) in the same invocation; `close_kick` is the chunk's closing half kick; `finish`
-// checks finiteness, counts contacts and sums the kinetic energy per workgroup.
-@group(0) @binding(2) var<storage, read_write> pos_r: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read_write> vel_im: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> omega: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> info: array<Info>;
-@group(0) @binding(6) var<storage, read> load: array<Load>;
-@group(0) @binding(9) var<storage, read> ref_pos: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(11) var<storage, read_write> events: array<vec2<u32>>;
-@group(0) @binding(18) var<storage, read_write> rod: array<Rod>;
-
-// Marks the lists stale from step k on (the first such step wins).
-fn flag_stale(k: u32) {
-    if (atomicLoad(&status[ST_STALE]) > k) {
-        atomicMin(&status[ST_STALE], k);
-    }
-}
+// drifts, wraps, flags sink deaths and list staleness (step.wgsl), and for oriented runs turns the
+// particle (rotate.wgsl) in the same invocation; `close_kick` is the chunk's closing half kick;
+// `finish` checks finiteness, counts contacts and sums the kinetic energy per workgroup.
 
 // Step k's kick and drift of every particle, then (oriented runs) its rotation; the step index
 // advances here for `compute_forces`. Void when an earlier step left the lists stale.
@@ -42,68 +26,6 @@ fn kick_drift(
     }
 }
 
-// The translational kick and drift of particle i at step k, the sink and (spheres) the skin.
-// A chunk's first step kicks by dt/2; every other step by the previous step's closing dt/2 and
-// then its own opening dt/2, two `kick_split`s, as a chunk's close_kick and the next chunk's
-// first step do.
-fn translate(i: u32, k: u32) {
-    let half = params.half_dt;
-    if (ROTATION && !ORIENTED) {
-        // NOTE: like the CPU engine, every particle's ω is kicked (fixed ones have 1/I = 0).
-        let dw = load[i].torque.xyz * (info[i].inv_inertia * half);
-        var w = kick_split(omega[i].xyz, omega[rest_at(i)].xyz, dw);
-        if (k > 0u) {
-            w = kick_split(w.s, w.e, dw);
-        }
-        omega[i] = vec4<f32>(w.s, 0.0);
-        omega[rest_at(i)] = vec4<f32>(w.e, 0.0);
-    }
-    let vi = vel_im[i];
-    let im = vi.w;
-    if (im == 0.0 || info[i].alive == 0u) { return; }
-    let dv = half_kick_dv(i, im);
-    var vs = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
-    if (k > 0u) {
-        vs = kick_split(vs.s, vs.e, dv);
-    }
-    let v = vs.s;
-    // The split drift (position::drift), then the wrap's shift added the same way.
-    let moved = two_sum(pos_r[i].xyz, v * params.dt + pos_r[lo_at(i)].xyz);
-    var x = moved.s;
-    var lo = moved.e;
-    let shift = wrap_shift(x);
-    if (any(shift != vec3<f32>(0.0))) {
-        let w = two_sum(x, shift);
-        let back = two_sum(w.s, w.e + lo);
-        x = back.s;
-        lo = back.e;
-    }
-    lo = f64_rest(x, lo);
-    vel_im[rest_at(i)] = vec4<f32>(vs.e, 0.0);
-    vel_im[i] = vec4<f32>(v, im);
-    pos_r[i] = vec4<f32>(x, pos_r[i].w);
-    pos_r[lo_at(i)] = vec4<f32>(lo, 0.0);
-    if (SINK && x.z < params.sink_z) {
-        info[i].alive = 0u;
-        let e = atomicAdd(&status[sw(ST_DEATHS)], 1u);
-        events[params.job * params.n_job + e] = vec2<u32>(info[i].id, k);
-    }
-    // Oriented particles test their ends after turning, in kick_rotate.
-    if (ORIENTED) { return; }
-    let d = min_image(ref_pos[i].xyz, x);
-    if (dot3(d, d) > params.half_skin2) {
-        flag_stale(k);
-    }
-}
-
-// Particle i's velocity change in a half kick, (F/m + g) dt/2. kick_drift and close_kick must
-// round it alike, or where a chunk ends would change bits; but naga's SPIR-V carries no
-// NoContraction, and a driver may fuse F·(1/m) + g into one FMA in one kernel and not in the
-// other. `opaque` makes the product a value of its own, so neither can fuse it.
-fn half_kick_dv(i: u32, im: f32) -> vec3<f32> {
-    return (opaque(load[i].force.xyz * im) + gravity()) * params.half_dt;
-}
-
 @compute @workgroup_size(WG)
 fn close_kick(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -116,7 +38,7 @@ fn close_kick(
     let half = params.half_dt;
     let vi = vel_im[i];
     let im = vi.w;
-    if (im != 0.0 && info[i].alive != 0u) {
+    if (im != 0.0 && live(info[i].alive)) {
         let dv = half_kick_dv(i, im);
         let v = kick_split(vi.xyz, vel_im[rest_at(i)].xyz, dv);
         vel_im[i] = vec4<f32>(v.s, im);
@@ -154,7 +76,7 @@ fn is_finite3(v: vec3<f32>) -> bool {
 // Finiteness and the contact count of live particle i; returns its kinetic energy (translational
 // and rotational, as State::kinetic_energy; zero when fixed).
 fn check_particle(i: u32) -> f32 {
-    if (info[i].alive == 0u) { return 0.0; }
+    if (!live(info[i].alive)) { return 0.0; }
     atomicAdd(&status[sw(ST_CONTACTS)], u32(load[i].force.w));
     var kind = 4u;
     if (!is_finite3(pos_r[i].xyz)) {
@@ -198,6 +120,11 @@ fn finish(
             e = check_particle(i);
             e = select(0.0, e, e > 0.0);
             atomicMax(&status[sw(ST_KE_MAX)], bitcast<u32>(e));
+            // A death marked by a one-dispatch step (2 + its step) becomes 0, as the
+            // two-dispatch step writes it: chunk-local steps never meet an old mark.
+            if (info[i].alive > 1u) {
+                info[i].alive = 0u;
+            }
         }
     }
     energy[i] = bitcast<u32>(e);

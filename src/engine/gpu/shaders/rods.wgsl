@@ -282,7 +282,7 @@ fn gather_oriented(i: u32, me: Info) -> Gathered {
     for (var q = 0u; q < cnt; q++) {
         let j = nbr_get(nbr_at(i, 1u + q));
         let other = info[j];
-        if (other.alive == 0u) { continue; }
+        if (!live_at_forces(other.alive)) { continue; }
         let fixed_j = vel_im[j].w == 0.0;
         if (fixed_i && fixed_j) { continue; }
         // Canonical order: a has the lower id.

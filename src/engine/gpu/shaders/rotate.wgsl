@@ -95,7 +95,7 @@ fn rotate_free_symmetric(q: vec4<f32>, l: vec3<f32>, inv: vec3<f32>, dt: f32) ->
 // stale when the ends may have moved more than skin/2 since the last build, |Δc| + (l/2)|Δu|
 // (as cpu/rods.rs).
 fn kick_rotate(i: u32, k: u32) {
-    if (vel_im[i].w == 0.0 || info[i].alive == 0u) { return; }
+    if (vel_im[i].w == 0.0 || !live(info[i].alive)) { return; }
     let r = rod[i];
     let inv = r.inv_inertia_h.xyz;
     let h = r.inv_inertia_h.w;
@@ -111,16 +111,16 @@ fn kick_rotate(i: u32, k: u32) {
         let q = rotate_free_symmetric(r.q, l, inv, params.dt);
         rod[i].q = q;
         rod[i].ang_mom = vec4<f32>(l, 0.0);
-        omega[rest_at(i)] = vec4<f32>(ls.e, 0.0);
-        omega[i] = vec4<f32>(angular_velocity(q, inv, l), 0.0);
+        put_omega(rest_at(i), vec4<f32>(ls.e, 0.0));
+        put_omega(i, vec4<f32>(angular_velocity(q, inv, l), 0.0));
         let u = axis_z(q);
-        pos_r[shape_at(i)] = vec4<f32>(u, h);
+        put_pos(shape_at(i), vec4<f32>(u, h));
         if (h > 0.0) {
             let du = u - ref_pos[shape_at(i)].xyz;
             turned = sqrt(dot3(du, du)) * h;
         }
     }
-    let d = min_image(ref_pos[i].xyz, pos_r[i].xyz);
+    let d = min_image(ref_pos[i].xyz, moved_pos(i).xyz);
     if (sqrt(dot3(d, d)) + turned > params.half_skin) {
         flag_stale(k);
     }
