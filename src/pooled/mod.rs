@@ -5,5 +5,6 @@
 
 pub mod chute;
 pub mod chute_jobs;
+pub mod orifice_pressure;
 pub mod replica_results;
 pub mod silo;

@@ -82,6 +82,7 @@ pub fn claim_points(
                     None => p.missing = Some("not run yet".into()),
                 }
             }
+            kinetic_pressure(conn, campaign_id, &pooled, &keys, &mut out)?;
         }
         SceneKind::Chute => {
             let jobs = done_chute_jobs(conn, campaign_id, false)?;
@@ -132,4 +133,41 @@ pub fn claim_points(
         }
     }
     Ok((out, constants))
+}
+
+/// Each silo point's ⟨p^k⟩ at the orifice (`kinetic_pressure`, Pa) over its replicas with field
+/// sets, as fig11 pools it; points without one (no fields observer, every run clogged) get none.
+fn kinetic_pressure(
+    conn: &Connection,
+    campaign_id: i64,
+    pooled: &[crate::pooled::silo::QPoint],
+    keys: &[String],
+    out: &mut [PointData],
+) -> Result<()> {
+    use crate::pooled::orifice_pressure::{point_pk, PkJob};
+    let rows = crate::store::silo_reads::done_discharge_rows(conn, campaign_id)?;
+    for (k, p) in keys.iter().zip(out.iter_mut()) {
+        let Some((_, _, ids, _)) = pooled.iter().find(|(key, ..)| key == k) else {
+            continue;
+        };
+        let jobs: Vec<PkJob> = rows
+            .iter()
+            .filter(|r| ids.contains(&r.job_id))
+            .map(|r| PkJob::of(conn, r))
+            .collect::<Result<_>>()?;
+        let refs: Vec<&PkJob> = jobs.iter().collect();
+        if let (Some(pk), ..) = point_pk(conn, &refs)? {
+            if let Some(se) = pk.se {
+                p.results.insert(
+                    "kinetic_pressure".into(),
+                    Estimate {
+                        mean: pk.mean,
+                        se,
+                        dof: pk.dof,
+                    },
+                );
+            }
+        }
+    }
+    Ok(())
 }

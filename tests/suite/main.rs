@@ -35,6 +35,7 @@ mod precision;
 mod report_chute;
 mod silo;
 mod silo_fields;
+mod silo_pk_claims;
 mod slurm;
 mod spherocylinder;
 mod spherocylinder_engine;

@@ -82,6 +82,9 @@ pub const STORAGE_BUFFERS_PER_KERNEL: u32 = 13;
 /// and the second copy of the state); requested where the adapter offers them.
 pub const FUSED_STORAGE_BUFFERS: u32 = 17;
 
+/// Bytes of immediates the one-dispatch step takes: its step index.
+pub const FUSED_IMMEDIATE_BYTES: u32 = 4;
+
 /// The limits the engine requests: WebGPU's defaults except the storage buffers per kernel and
 /// the storage binding and buffer sizes, raised to what the adapter offers so that large runs fit.
 pub fn required_limits(adapter: &wgpu::Limits) -> wgpu::Limits {
@@ -241,7 +244,7 @@ impl GpuDevice {
             limits.max_immediate_size = adapter
                 .limits()
                 .max_immediate_size
-                .min(super::pipelines::FUSED_IMMEDIATE_BYTES);
+                .min(FUSED_IMMEDIATE_BYTES);
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sweep device"),
@@ -275,7 +278,7 @@ impl GpuDevice {
     /// Why this device cannot run the one-dispatch step (`GpuOptions::fused_step`), if it cannot.
     pub fn fused_step_unsupported(&self) -> Option<String> {
         let immediates = self.device.features().contains(wgpu::Features::IMMEDIATES)
-            && self.limits.max_immediate_size >= super::pipelines::FUSED_IMMEDIATE_BYTES;
+            && self.limits.max_immediate_size >= FUSED_IMMEDIATE_BYTES;
         let buffers = self.limits.max_storage_buffers_per_shader_stage;
         if !immediates {
             Some(format!(

@@ -6,7 +6,7 @@
 use std::num::NonZeroU64;
 
 use super::buffers::GpuBuffers;
-use super::device::GpuDevice;
+use super::device::{GpuDevice, FUSED_IMMEDIATE_BYTES};
 use super::layout::{
     binding as b, prelude, Params, RecordGpu, RodGpu, WallGpu, MAX_JOBS, MAX_WALLS, STATUS_WORDS,
 };
@@ -394,9 +394,6 @@ pub const KERNELS: [KernelSpec; 17] = [
 
 /// Kernels every engine builds; the one-dispatch step's follow (`Pipelines::new`).
 const TWO_DISPATCH_KERNELS: usize = kernel::FUSED_STEP;
-
-/// Bytes of immediates the one-dispatch step takes: its step index.
-pub const FUSED_IMMEDIATE_BYTES: u32 = 4;
 
 /// Smallest valid binding size of each buffer: one record.
 fn min_size(binding: u32) -> u64 {

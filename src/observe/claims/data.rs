@@ -40,8 +40,9 @@ pub struct SceneConstants {
     pub gravity_m_per_s2: f64,
 }
 
-/// Results a silo point gives: Q (kg/s).
-pub const SILO_RESULTS: &[&str] = &["q"];
+/// Results a silo point gives: Q (kg/s) and, from the fields observer, ⟨p^k⟩ in the orifice
+/// cylinder over the flowing samples (Pa, the paper's Fig. 11).
+pub const SILO_RESULTS: &[&str] = &["q", "kinetic_pressure"];
 
 /// Results a chute point gives, each over the central bed (0.3 H < z < 0.7 H, the paper's
 /// 6 L < z < 14 L, the mean of its blocks) and in a block ("D@k", heights k L to (k + 1) L):

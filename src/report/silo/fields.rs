@@ -35,19 +35,18 @@ pub(super) struct FieldJob {
 }
 
 impl FieldJob {
-    /// Whether some (r, z) grid point of the job's sets lies in the orifice cylinder r ≤ R,
-    /// |z| ≤ R/2 (R = D/2) over which fig11's ⟨p^k⟩ averages.
-    pub(super) fn grid_reaches_orifice_cylinder(&self) -> bool {
-        let r = 0.5 * self.d_m;
-        self.sets.iter().filter(|s| s.grid_kind == "rz").any(|s| {
-            let inside = |axis: usize, lo: f64, hi: f64| {
-                (0..s.shape[axis]).any(|i| {
-                    let c = s.coordinate(axis, i);
-                    c >= lo - 1e-12 && c <= hi + 1e-12
-                })
-            };
-            inside(0, 0.0, r) && inside(1, -0.5 * r, 0.5 * r)
-        })
+    /// What fig11's ⟨p^k⟩ needs of the job (`pooled::orifice_pressure`).
+    pub(super) fn pk_job(&self) -> crate::pooled::orifice_pressure::PkJob {
+        crate::pooled::orifice_pressure::PkJob {
+            job_id: self.job_id,
+            d_m: self.d_m,
+            f_hz: self.f_hz,
+            q_kg_per_s: self.q_kg_per_s,
+            reaches_cylinder: crate::pooled::orifice_pressure::reaches_orifice_cylinder(
+                self.d_m, &self.sets,
+            ),
+            has_fields: !self.sets.is_empty(),
+        }
     }
 
     fn set(&self, name: &str) -> Option<&FieldSet> {

@@ -4,69 +4,14 @@
 use anyhow::Result;
 use rusqlite::Connection;
 
-use crate::observe::fits::mean_ci95;
-use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
+use crate::pooled::orifice_pressure::{point_pk, PkJob};
 use crate::pooled::silo::{distinct, replica_label, same_value};
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
 use crate::report::table::{csv_num, mm, short, Table};
-use crate::store::fields::load_flagged_series;
-use crate::store::silo_reads::clog_intervals;
 
 use super::fields::{field_jobs, FieldJob};
-
-/// What one job gives fig11.
-enum JobPk {
-    /// ⟨p^k⟩ over the flowing samples (Pa), the 95 % CI of the mean from batch means, the
-    /// number of samples.
-    Value(f64, Option<f64>, usize),
-    /// The run has no Q or no flowing sample: clogged, drawn as a cross on the f axis.
-    Clogged,
-    /// No (r, z) grid point in the orifice cylinder: nothing was averaged.
-    NoGridPoint,
-}
-
-/// One job's ⟨p^k⟩ in the orifice cylinder over its flowing samples, with the 95 % CI of the
-/// mean from batch means (10 contiguous batches: samples 0.05 s apart are correlated).
-/// Samples inside a clog (their stored flag) are left out: the paper averages flowing states.
-fn orifice_pk(conn: &Connection, job: &FieldJob) -> Result<JobPk> {
-    if !job.grid_reaches_orifice_cylinder() {
-        return Ok(JobPk::NoGridPoint);
-    }
-    if job.q_kg_per_s.is_none() {
-        return Ok(JobPk::Clogged);
-    }
-    let series = load_flagged_series(conn, job.job_id, ORIFICE_KINETIC_PRESSURE)?;
-    if series.is_empty() {
-        return Ok(JobPk::Clogged);
-    }
-    // Each sample's stored flag; rows of an older sweep have none: the clogs table decides.
-    let clogs = clog_intervals(conn, job.job_id)?;
-    let in_clog = |t: f64| {
-        clogs
-            .iter()
-            .any(|c| t >= c.start_s && t <= c.start_s + c.duration_s)
-    };
-    let flowing: Vec<f64> = series
-        .iter()
-        .filter(|s| s.flowing.unwrap_or_else(|| !in_clog(s.t_s)))
-        .map(|s| s.value)
-        .collect();
-    if flowing.is_empty() {
-        return Ok(JobPk::Clogged);
-    }
-    let n = flowing.len();
-    let batches = 10.min(n);
-    let means: Vec<f64> = (0..batches)
-        .map(|b| {
-            let part = &flowing[b * n / batches..(b + 1) * n / batches];
-            part.iter().sum::<f64>() / part.len() as f64
-        })
-        .collect();
-    let mean = flowing.iter().sum::<f64>() / n as f64;
-    Ok(JobPk::Value(mean, mean_ci95(&means).map(|m| m.1), n))
-}
 
 /// Fig. 11: ⟨p^k⟩ in the orifice cylinder vs f per D, (a) in Pa, (b) normalised by its value at
 /// f = 1 Hz (or at the lowest f present when 1 Hz is absent, as the caption then says); error
@@ -220,7 +165,7 @@ struct OrificePoints {
 }
 
 /// The ⟨p^k⟩ of orifice `d` at each of `fs`, its replicas combined (their mean, the CI of their
-/// spread when there are several, else the one job's own).
+/// spread when there are several, else the one job's own: `pooled::orifice_pressure`).
 fn orifice_points(
     conn: &Connection,
     jobs: &[FieldJob],
@@ -233,35 +178,21 @@ fn orifice_points(
         no_grid: false,
     };
     for &f in fs {
-        let mut per_job = Vec::new();
-        let mut samples = 0;
-        let mut clogged_runs = 0;
-        for j in jobs
+        let of_point: Vec<PkJob> = jobs
             .iter()
             .filter(|j| same_value(j.d_m, d) && same_value(j.f_hz, f))
-        {
-            match orifice_pk(conn, j)? {
-                JobPk::Value(m, ci, n) => {
-                    per_job.push((m, ci));
-                    samples += n;
-                }
-                JobPk::Clogged => clogged_runs += 1,
-                JobPk::NoGridPoint => out.no_grid = true,
-            }
+            .map(FieldJob::pk_job)
+            .collect();
+        let refs: Vec<&PkJob> = of_point.iter().collect();
+        let (point, clogged_runs, no_grid) = point_pk(conn, &refs)?;
+        out.no_grid |= no_grid;
+        match point {
+            Some(p) => out
+                .pts
+                .push((f, p.mean, p.ci95, p.jobs, p.samples, clogged_runs)),
+            None if clogged_runs > 0 => out.clogged.push((f, clogged_runs)),
+            None => {}
         }
-        if per_job.is_empty() {
-            if clogged_runs > 0 {
-                out.clogged.push((f, clogged_runs));
-            }
-            continue;
-        }
-        let values: Vec<f64> = per_job.iter().map(|p| p.0).collect();
-        let (mean, ci) = match mean_ci95(&values) {
-            Some((m, ci)) => (m, Some(ci)),
-            None => (values[0], per_job[0].1),
-        };
-        out.pts
-            .push((f, mean, ci, per_job.len(), samples, clogged_runs));
     }
     Ok(out)
 }
