@@ -5,6 +5,7 @@
 
 pub mod chute;
 pub mod chute_jobs;
+pub mod flow_pattern;
 pub mod orifice_pressure;
 pub mod replica_results;
 pub mod silo;

@@ -82,7 +82,7 @@ pub fn claim_points(
                     None => p.missing = Some("not run yet".into()),
                 }
             }
-            kinetic_pressure(conn, campaign_id, &pooled, &keys, &mut out)?;
+            field_results(conn, campaign_id, &pooled, &keys, &mut out)?;
         }
         SceneKind::Chute => {
             let jobs = done_chute_jobs(conn, campaign_id, false)?;
@@ -135,24 +135,26 @@ pub fn claim_points(
     Ok((out, constants))
 }
 
-/// Each silo point's ⟨p^k⟩ at the orifice (`kinetic_pressure`, Pa) over its replicas with field
-/// sets, as fig11 pools it; points without one (no fields observer, every run clogged) get none.
-fn kinetic_pressure(
+/// Each silo point's results from the fields observer, over its replicas with field sets:
+/// ⟨p^k⟩ at the orifice (`kinetic_pressure`, Pa) as fig11 pools it, and the flow pattern's
+/// `wall_to_axis_descent` (`pooled::flow_pattern`). Points without fields get neither.
+fn field_results(
     conn: &Connection,
     campaign_id: i64,
     pooled: &[crate::pooled::silo::QPoint],
     keys: &[String],
     out: &mut [PointData],
 ) -> Result<()> {
+    use crate::pooled::flow_pattern::{job_wall_to_axis, replicas_estimate, WALL_TO_AXIS_DESCENT};
     use crate::pooled::orifice_pressure::{point_pk, PkJob};
     let rows = crate::store::silo_reads::done_discharge_rows(conn, campaign_id)?;
     for (k, p) in keys.iter().zip(out.iter_mut()) {
         let Some((_, _, ids, _)) = pooled.iter().find(|(key, ..)| key == k) else {
             continue;
         };
-        let jobs: Vec<PkJob> = rows
+        let of_point: Vec<_> = rows.iter().filter(|r| ids.contains(&r.job_id)).collect();
+        let jobs: Vec<PkJob> = of_point
             .iter()
-            .filter(|r| ids.contains(&r.job_id))
             .map(|r| PkJob::of(conn, r))
             .collect::<Result<_>>()?;
         let refs: Vec<&PkJob> = jobs.iter().collect();
@@ -167,6 +169,20 @@ fn kinetic_pressure(
                     },
                 );
             }
+        }
+        let mut ratios = Vec::new();
+        for r in &of_point {
+            let params: serde_json::Value = serde_json::from_str(&r.params_json)?;
+            let radius = params["silo"]["cylinder_radius_m"]
+                .as_f64()
+                .unwrap_or(f64::NAN);
+            if let Some(x) = job_wall_to_axis(conn, r.job_id, radius, r.particle_diameter_m)? {
+                ratios.push(x);
+            }
+        }
+        if let Some((mean, se, dof)) = replicas_estimate(&ratios) {
+            p.results
+                .insert(WALL_TO_AXIS_DESCENT.into(), Estimate { mean, se, dof });
         }
     }
     Ok(())

@@ -41,8 +41,10 @@ pub struct SceneConstants {
 }
 
 /// Results a silo point gives: Q (kg/s) and, from the fields observer, ⟨p^k⟩ in the orifice
-/// cylinder over the flowing samples (Pa, the paper's Fig. 11).
-pub const SILO_RESULTS: &[&str] = &["q", "kinetic_pressure"];
+/// cylinder over the flowing samples (Pa, the paper's Fig. 11) and the ratio of the descent
+/// beside the wall to that on the axis just above the orifice (the flow pattern of Figs. 6–8,
+/// `pooled::flow_pattern`; at least two replicas).
+pub const SILO_RESULTS: &[&str] = &["q", "kinetic_pressure", "wall_to_axis_descent"];
 
 /// Results a chute point gives, each over the central bed (0.3 H < z < 0.7 H, the paper's
 /// 6 L < z < 14 L, the mean of its blocks) and in a block ("D@k", heights k L to (k + 1) L):
