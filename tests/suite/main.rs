@@ -34,6 +34,7 @@ mod layers;
 mod observe_chute;
 mod precision;
 mod report_chute;
+mod report_chute_profiles;
 mod schema_migration;
 mod silo;
 mod silo_fields;
