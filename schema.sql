@@ -155,6 +155,11 @@ CREATE TABLE IF NOT EXISTS chute_blocks (
     vz_std_m_per_s          REAL,
     vz_skewness             REAL,
     correlation_length_m    REAL,                   -- from the fit ln C(r)/C(0) = -r/l
+    -- Schema 13 (NULL in older rows, and for a job resumed from a checkpoint written before):
+    nematic_order_s2        REAL,                   -- largest eigenvalue of Q = <(3 u u - I)/2> over the rods centred in the block, Q averaged over snapshots; NULL for spheres (no axis)
+    mean_abs_cos_flow       REAL,                   -- <|cos theta|>, theta between a rod's axis and the flow direction x; NULL for spheres
+    diffusion_y_m2_per_s    REAL,                   -- D_y from the MSD of y (unwrapped across the periodic box), fitted as D_z: same lags, blocks, windows
+    diffusion_y_stderr_m2_per_s REAL,               -- its standard error from the msd_error_windows time windows, as D_z's
     PRIMARY KEY (job_id, block)
 );
 

@@ -71,6 +71,12 @@ pub struct PointBlock {
     pub solid_fraction: OverReplicas,
     /// Skewness of v_z; None when no replica has one.
     pub vz_skewness: Option<OverReplicas>,
+    /// D_y over the replicas with a D_y here, pooled as D_z (see [`pool_diffusion_y`]).
+    pub diffusion_y: Option<Pooled>,
+    /// Nematic order S2; None when no replica has one (spheres; rows before schema 13).
+    pub nematic_order: Option<OverReplicas>,
+    /// ⟨|cos θ|⟩ to the flow direction; None as `nematic_order`.
+    pub mean_abs_cos_flow: Option<OverReplicas>,
 }
 
 /// One point's replicas combined.
@@ -160,11 +166,30 @@ pub(crate) fn error_windows(params_json: &str) -> f64 {
 /// (`PooledFrom::ReplicaSpread`); a single replica without its error has an infinite `ci95`
 /// (unknown: no target on D's interval is met by it). None when no replica has a D.
 pub fn pool_diffusion(replicas: &[(&ChuteJob, &BlockRow)]) -> Option<Pooled> {
+    pool_estimates(replicas, |r| {
+        (r.diffusion_m2_per_s, r.diffusion_stderr_m2_per_s)
+    })
+}
+
+/// D_y of one block over the replicas that have one, m²/s, pooled exactly as
+/// [`pool_diffusion`] pools D_z (its error comes from the same time windows).
+pub fn pool_diffusion_y(replicas: &[(&ChuteJob, &BlockRow)]) -> Option<Pooled> {
+    pool_estimates(replicas, |r| {
+        (r.diffusion_y_m2_per_s, r.diffusion_y_stderr_m2_per_s)
+    })
+}
+
+/// [`pool_diffusion`] of the (value, standard error) that `of` reads from each row.
+fn pool_estimates(
+    replicas: &[(&ChuteJob, &BlockRow)],
+    of: impl Fn(&BlockRow) -> (Option<f64>, Option<f64>),
+) -> Option<Pooled> {
     let with_d: Vec<(&ChuteJob, f64, Option<f64>)> = replicas
         .iter()
         .filter_map(|(j, r)| {
-            let d = r.diffusion_m2_per_s.filter(|d| d.is_finite())?;
-            Some((*j, d, r.diffusion_stderr_m2_per_s.filter(|s| s.is_finite())))
+            let (d, se) = of(r);
+            let d = d.filter(|d| d.is_finite())?;
+            Some((*j, d, se.filter(|s| s.is_finite())))
         })
         .collect();
     let estimates: Option<Vec<ReplicaEstimate>> = with_d
@@ -258,6 +283,9 @@ pub fn combine_point<'a>(
             velocity_x: values(&|r| Some(r.velocity_x_m_per_s)).unwrap_or(nan),
             solid_fraction: values(&|r| Some(r.solid_fraction)).unwrap_or(nan),
             vz_skewness: values(&|r| r.vz_skewness),
+            diffusion_y: pool_diffusion_y(&at),
+            nematic_order: values(&|r| r.nematic_order),
+            mean_abs_cos_flow: values(&|r| r.mean_abs_cos_flow),
         });
     }
     let mut field: Vec<(f64, f64)> = Vec::new();

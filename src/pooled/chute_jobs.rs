@@ -5,7 +5,7 @@
 //! figure draws. Read-only; no plotting here.
 
 pub use crate::store::chute_reads::{
-    block_curves, blocks, done_campaign_jobs, done_chute_jobs, done_without_summary,
+    block_curves, blocks, chute_profile, done_campaign_jobs, done_chute_jobs, done_without_summary,
     left_out_chute_jobs, shear_profile, BlockRow, ChuteJob, CurveTable,
 };
 

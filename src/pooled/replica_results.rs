@@ -132,6 +132,10 @@ mod tests {
             vz_std_m_per_s: None,
             vz_skewness: Some(z_m),
             correlation_length_m: Some(0.1 * z_m),
+            nematic_order: None,
+            mean_abs_cos_flow: None,
+            diffusion_y_m2_per_s: None,
+            diffusion_y_stderr_m2_per_s: None,
         }
     }
 

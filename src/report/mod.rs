@@ -22,8 +22,8 @@ mod streamlines;
 mod table;
 
 pub use crate::pooled::chute::{
-    combine_point, group_points, pool_diffusion, pooled_points, ChutePoint, OverReplicas,
-    PointBlock, PointProfiles, BULK_BED, CENTRAL_BED,
+    combine_point, group_points, pool_diffusion, pool_diffusion_y, pooled_points, ChutePoint,
+    OverReplicas, PointBlock, PointProfiles, BULK_BED, CENTRAL_BED,
 };
 pub use crate::pooled::silo::{pooled_q_points, CiSource, FlowPoint, QPoint};
 pub use campaign::{find_campaign, split_version, CampaignRef};

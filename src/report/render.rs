@@ -54,7 +54,11 @@ const SILO_FIGURES: [(&str, &str); 11] = [
 ];
 
 /// The chute paper's figures (Soft Matter 2022), with what they show.
-const CHUTE_FIGURES: [(&str, &str); 7] = [
+const CHUTE_FIGURES: [(&str, &str); 10] = [
+    (
+        "fig1b",
+        "V_x(z) and phi(z) profiles per (xi, alpha) point, replicas combined with their spread",
+    ),
     (
         "fig2",
         "MSD_z(tau) per block, log-log, for the xi~1.3 and xi~2.5 showcase jobs",
@@ -78,6 +82,14 @@ const CHUTE_FIGURES: [(&str, &str); 7] = [
     (
         "fig7",
         "C(r)/C(0) vs r/L per block, linear and log y with lines of slope -1/l",
+    ),
+    (
+        "orientation",
+        "rods' nematic order S2(z) and <|cos theta|>(z) to the flow per (xi, alpha) point",
+    ),
+    (
+        "dy",
+        "ESI: D_y/D_y,max beside shear/shear_max vs z/L, and D_y vs shear d_perp^2 (central bed)",
     ),
     (
         "accuracy",
@@ -109,12 +121,15 @@ fn drawer(scene: &str, figure: &str) -> Option<DrawFn> {
         ("silo", "fig9") => silo_fields::fig9,
         ("silo", "fig10") => silo_fields::fig10,
         ("silo", "fig11") => super::silo::orifice_pressure::fig11,
+        ("chute", "fig1b") => chute::fig1b,
         ("chute", "fig2") => chute::fig2,
         ("chute", "fig3") => chute::fig3,
         ("chute", "fig4") => chute::fig4,
         ("chute", "fig5") => chute::fig5,
         ("chute", "fig6") => chute::fig6,
         ("chute", "fig7") => chute::fig7,
+        ("chute", "orientation") => chute::orientation,
+        ("chute", "dy") => chute::dy,
         ("silo" | "chute", "accuracy") => accuracy::accuracy,
         _ => return None,
     })

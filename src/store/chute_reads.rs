@@ -256,6 +256,14 @@ pub struct BlockRow {
     pub vz_skewness: Option<f64>,
     /// l from ln C(r)/C(0) = −r/l, m.
     pub correlation_length_m: Option<f64>,
+    /// Nematic order S2 of the block's rods; None for spheres and rows before schema 13.
+    pub nematic_order: Option<f64>,
+    /// ⟨|cos θ|⟩ of the block's rods to the flow direction; None as `nematic_order`.
+    pub mean_abs_cos_flow: Option<f64>,
+    /// D_y, m²/s; None with too few particles and for rows before schema 13.
+    pub diffusion_y_m2_per_s: Option<f64>,
+    /// Standard error of D_y from the time windows, m²/s.
+    pub diffusion_y_stderr_m2_per_s: Option<f64>,
 }
 
 /// The blocks of one job, by block index.
@@ -266,7 +274,8 @@ pub fn blocks(conn: &Connection, job_id: i64) -> Result<Vec<BlockRow>> {
     let mut stmt = conn.prepare(
         "SELECT block, z_m, diffusion_m2_per_s, msd_fit_r, shear_rate_per_s, vz_std_m_per_s, \
                 vz_skewness, correlation_length_m, diffusion_stderr_m2_per_s, \
-                velocity_x_m_per_s, solid_fraction \
+                velocity_x_m_per_s, solid_fraction, nematic_order_s2, mean_abs_cos_flow, \
+                diffusion_y_m2_per_s, diffusion_y_stderr_m2_per_s \
          FROM chute_blocks WHERE job_id = ?1 ORDER BY block",
     )?;
     let rows = stmt
@@ -283,6 +292,10 @@ pub fn blocks(conn: &Connection, job_id: i64) -> Result<Vec<BlockRow>> {
                 diffusion_stderr_m2_per_s: r.get(8)?,
                 velocity_x_m_per_s: r.get(9)?,
                 solid_fraction: r.get(10)?,
+                nematic_order: r.get(11)?,
+                mean_abs_cos_flow: r.get(12)?,
+                diffusion_y_m2_per_s: r.get(13)?,
+                diffusion_y_stderr_m2_per_s: r.get(14)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

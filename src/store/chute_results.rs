@@ -228,8 +228,9 @@ impl ChuteResults {
         let mut ins = conn.prepare(
             "INSERT INTO chute_blocks (job_id, block, z_m, diffusion_m2_per_s, diffusion_stderr_m2_per_s, msd_fit_r,
                 shear_rate_per_s, velocity_x_m_per_s, solid_fraction, mean_particles, vz_std_m_per_s, vz_skewness,
-                correlation_length_m)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+                correlation_length_m, nematic_order_s2, mean_abs_cos_flow, diffusion_y_m2_per_s,
+                diffusion_y_stderr_m2_per_s)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
         )?;
         for b in &self.blocks {
             ins.execute(params![
@@ -246,6 +247,10 @@ impl ChuteResults {
                 opt(b.vz_std_m_per_s),
                 opt(b.vz_skewness),
                 opt(b.correlation_length_m),
+                opt(b.nematic_order),
+                opt(b.mean_abs_cos_flow),
+                opt(b.diffusion_y_m2_per_s),
+                opt(b.diffusion_y_stderr_m2_per_s),
             ])?;
         }
         let mut ins = conn.prepare(

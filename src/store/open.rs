@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 12;
+pub const SCHEMA_VERSION: i64 = 13;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -166,6 +166,11 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             // 11 → 12: the looks and α a campaign's earlier versions spent on its claims.
             ("campaigns", "looks_carried", "INTEGER NOT NULL DEFAULT 0"),
             ("campaigns", "alpha_carried", "REAL NOT NULL DEFAULT 0"),
+            // 12 → 13: the chute's per-block orientation (rods) and D_y; older rows get NULL.
+            ("chute_blocks", "nematic_order_s2", "REAL"),
+            ("chute_blocks", "mean_abs_cos_flow", "REAL"),
+            ("chute_blocks", "diffusion_y_m2_per_s", "REAL"),
+            ("chute_blocks", "diffusion_y_stderr_m2_per_s", "REAL"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

@@ -136,7 +136,17 @@ fn a_tiny_chute_runs_reports_and_resumes_exactly() {
 
     // Figures from the database.
     let figs = d.join("figs");
-    for f in ["fig2", "fig3", "fig4", "fig5", "fig6", "fig7"] {
+    for f in [
+        "fig1b",
+        "fig2",
+        "fig3",
+        "fig4",
+        "fig5",
+        "fig6",
+        "fig7",
+        "orientation",
+        "dy",
+    ] {
         let out = ok(&run(
             d,
             &[

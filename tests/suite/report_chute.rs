@@ -357,7 +357,7 @@ fn the_campaign_scene_picks_the_figure_set() {
         render_figure(&conn, "fig12", None, dir.path()).expect_err("unknown")
     );
     assert!(
-        msg.contains("fig12") && msg.contains("silo: fig2") && msg.contains("chute: fig2"),
+        msg.contains("fig12") && msg.contains("silo: fig2") && msg.contains("chute: fig1b"),
         "{msg}"
     );
     // A newer silo campaign becomes the default: fig6 is then its fig6 (field maps, which it

@@ -120,8 +120,13 @@ impl ChuteObserver {
                 vz_std_m_per_s: m.std(),
                 vz_skewness: m.skewness(),
                 correlation_length_m: corr.and_then(|c| correlation_length(&c.r_m, &c.c)),
+                nematic_order: None,
+                mean_abs_cos_flow: None,
+                diffusion_y_m2_per_s: None,
+                diffusion_y_stderr_m2_per_s: None,
             });
         }
+        self.fill_orientation_and_dy(&mut blocks, lag_scale);
 
         let mean_cos = self.cos_theta_sum / self.cos_theta_count as f64;
         let summary = ChuteSummaryRow {
@@ -154,6 +159,24 @@ impl ChuteObserver {
             fields,
             vz_pdf,
             correlation,
+        }
+    }
+}
+
+impl ChuteObserver {
+    /// Sets each block row's S2, ⟨|cos θ|⟩ (rods) and D_y with its error, where measured.
+    fn fill_orientation_and_dy(&self, blocks: &mut [ChuteBlockRow], lag_scale: f64) {
+        let lateral = self.lateral.as_ref().map(|l| l.results(lag_scale));
+        for row in blocks {
+            let k = row.block as usize;
+            if let Some(o) = &self.orientation {
+                row.nematic_order = o.order(k).filter(|s| s.is_finite());
+                row.mean_abs_cos_flow = o.mean_abs_cos(k).filter(|c| c.is_finite());
+            }
+            if let Some(dy) = lateral.as_ref().map(|l| &l[k]) {
+                row.diffusion_y_m2_per_s = dy.fit.map(|f| f.d).filter(|d| d.is_finite());
+                row.diffusion_y_stderr_m2_per_s = dy.stderr.filter(|s| s.is_finite());
+            }
         }
     }
 }

@@ -1,9 +1,11 @@
 //! The chute observer (Soft Matter 2022): settings and geometry (`settings`), the streaming
-//! state and its per-snapshot stage (`observer`), the rows it produces (`results`) and the
-//! stage that produces them (`finish`), and the verdict on the flow (`flow_state`).
+//! state and its per-snapshot stage (`observer`), the MSD of y behind D_y (`lateral`), the rows
+//! it produces (`results`) and the stage that produces them (`finish`), and the verdict on the
+//! flow (`flow_state`).
 
 mod finish;
 mod flow_state;
+mod lateral;
 mod observer;
 mod results;
 mod settings;

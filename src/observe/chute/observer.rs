@@ -1,17 +1,23 @@
 //! The chute observer's state and its per-snapshot stage: coarse-grained profiles, MSD per
-//! block, v_z moments and PDFs per block, C(r) every few snapshots, and the mean orientation.
+//! block, v_z moments and PDFs per block, C(r) every few snapshots, the mean orientation, and
+//! per block the rods' nematic order S2 and ⟨|cos θ|⟩ and the MSD of y (D_y).
 //!
 //! Blocks are layers k = floor((z − z_base)/L): for the MSD by the mean height of a particle's
 //! whole trajectory (or of the lag window, `msd_blocks`), for v_z statistics, C(r) and particle
 //! counts by its height in the snapshot.
 //! Everything here is serde-serialisable, so the observer is checkpointed mid-stream and resumes
-//! bit for bit.
+//! bit for bit. The per-block orientation and D_y came later (schema 13): an observer
+//! checkpointed before has neither; it resumes without them (their columns stay NULL: they
+//! would cover only part of the measurement) and everything else as it would have.
 
 use serde::{Deserialize, Serialize};
 
+use super::lateral::LateralMsd;
 use super::settings::{ChuteGeometry, ChuteObserverSettings, SettingProblem};
 use crate::engine::contact::ContactRecord;
-use crate::observe::chute_stats::{cos_theta, Moments, StandardisedPdf, VzCorrelation};
+use crate::observe::chute_stats::{
+    cos_theta, BlockOrientation, Moments, StandardisedPdf, VzCorrelation,
+};
 use crate::observe::coarse_grain::{bulk_stress_ratio, Kernel, ZGrid, ZProfile, ZProfileAverage};
 use crate::observe::msd::{BlockMsd, MsdLayout};
 
@@ -62,6 +68,13 @@ pub struct ChuteObserver {
     pub(super) last_time_s: f64,
     /// Flowing particles in the last snapshot.
     pub(super) particles: usize,
+    /// S2 and ⟨|cos θ|⟩ per block: rods only (None for spheres, which have no axis), and None
+    /// in an observer checkpointed before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) orientation: Option<BlockOrientation>,
+    /// MSD of y per block (D_y); None in an observer checkpointed before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) lateral: Option<LateralMsd>,
 }
 
 impl ChuteObserver {
@@ -86,21 +99,24 @@ impl ChuteObserver {
             settings.cg_cutoff_widths,
         );
         let grid = ZGrid::spanning(z_base, z_top, settings.field_dz_over_length * len);
+        let layout = MsdLayout {
+            interval_s: settings.sample_interval_s,
+            max_lag_s: settings.max_lag_s,
+            block_height_m: len,
+            z_base_m: z_base,
+            blocks,
+            assignment: settings.msd_blocks,
+            fit_min_lag_s: settings.fit_min_lag_s,
+            fit_max_lag_s: settings.fit_max_lag(),
+            error_windows: settings.msd_error_windows as usize,
+        };
         Ok(Self {
             kernel,
             blocks,
             profiles: ZProfileAverage::new(grid),
-            msd: BlockMsd::new(MsdLayout {
-                interval_s: settings.sample_interval_s,
-                max_lag_s: settings.max_lag_s,
-                block_height_m: len,
-                z_base_m: z_base,
-                blocks,
-                assignment: settings.msd_blocks,
-                fit_min_lag_s: settings.fit_min_lag_s,
-                fit_max_lag_s: settings.fit_max_lag(),
-                error_windows: settings.msd_error_windows as usize,
-            }),
+            lateral: Some(LateralMsd::new(layout.clone(), geometry.box_y_m)),
+            orientation: geometry.has_axis().then(|| BlockOrientation::new(blocks)),
+            msd: BlockMsd::new(layout),
             vz_moments: vec![Moments::default(); blocks],
             vz_pdf: vec![StandardisedPdf::default(); blocks],
             correlation: VzCorrelation::new(
@@ -168,6 +184,15 @@ impl ChuteObserver {
 
         let z: Vec<f64> = snap.pos.iter().map(|p| p[2]).collect();
         self.msd.add_sample(snap.id, &z);
+        if let Some(lateral) = &mut self.lateral {
+            lateral.add_sample(snap.id, &z, snap.pos);
+        }
+        if self.orientation.is_some() {
+            let blocks: Vec<Option<usize>> = z.iter().map(|&z| self.block_at(z)).collect();
+            if let Some(o) = &mut self.orientation {
+                o.add_snapshot(&blocks, snap.axis, FLOW_DIR);
+            }
+        }
 
         let len = self.geometry.total_length_m;
         for (p, v) in snap.pos.iter().zip(snap.vel) {
@@ -217,6 +242,12 @@ impl ChuteObserver {
         profile.deposit_particles(&self.kernel, area, snap.pos, snap.vel, snap.mass);
         profile.deposit_contacts(&self.kernel, area, snap.contacts);
         profile
+    }
+
+    /// The block of height z in a snapshot (as v_z statistics assign it); None outside all.
+    fn block_at(&self, z: f64) -> Option<usize> {
+        let k = ((z - self.geometry.z_base_m) / self.geometry.total_length_m).floor();
+        (k >= 0.0 && k < self.blocks as f64).then_some(k as usize)
     }
 
     pub(super) fn profiles_grid(&self) -> ZGrid {

@@ -69,6 +69,21 @@ pub struct ChuteBlockRow {
     pub vz_std_m_per_s: Option<f64>,
     pub vz_skewness: Option<f64>,
     pub correlation_length_m: Option<f64>,
+    /// Nematic order S2 of the rods with their centre in the block (largest eigenvalue of the
+    /// snapshot-averaged Q); None for spheres (no axis) and for a job resumed from a checkpoint
+    /// written before it was measured (schema < 13).
+    #[serde(default)]
+    pub nematic_order: Option<f64>,
+    /// ⟨|cos θ|⟩, θ between a rod's axis and the flow direction x; None as `nematic_order`.
+    #[serde(default)]
+    pub mean_abs_cos_flow: Option<f64>,
+    /// D_y from the MSD of unwrapped y, fitted as D_z (same lags, blocks, windows); None with
+    /// too few particles, or for a job resumed from a checkpoint older than it.
+    #[serde(default)]
+    pub diffusion_y_m2_per_s: Option<f64>,
+    /// Standard error of D_y from the `msd_error_windows` time windows, as D_z's.
+    #[serde(default)]
+    pub diffusion_y_stderr_m2_per_s: Option<f64>,
 }
 
 /// `chute_msd`.

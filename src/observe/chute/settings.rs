@@ -209,6 +209,12 @@ impl ChuteObserverSettings {
 }
 
 impl ChuteGeometry {
+    /// Whether the particles are rods (ξ > 1, a cylinder between the caps) with an axis whose
+    /// orientation means something; spheres (ξ = 1) have none.
+    pub fn has_axis(&self) -> bool {
+        self.cylinder_length_m > 1e-9 * self.total_length_m
+    }
+
     /// Every out-of-range value (empty when the geometry is usable).
     pub fn problems(&self) -> Vec<SettingProblem> {
         let mut p = Vec::new();

@@ -1,7 +1,9 @@
 //! Mean squared displacement in z per block of height, as a stream (chute paper §3):
 //! MSD_k(τ) = ⟨(z_i(t + τ) − z_i(t))²⟩ over the (particle, origin) pairs of block k, the
 //! diffusion coefficient from MSD_z = 2 D τ + c, and its standard error from independent time
-//! windows.
+//! windows. The same for another coordinate (the chute's D_y, from unwrapped y): the
+//! displacements are of that coordinate, the blocks still of the height (`add_sample_of`), so
+//! both assign every pair alike.
 //!
 //! Blocks (`MsdBlocks`): the paper assigns each particle once, by the mean height of its whole
 //! tracked trajectory (`trajectory`, the default); `window` assigns each (particle, origin)
@@ -24,6 +26,7 @@
 mod cells;
 mod fit;
 mod trajectory;
+mod unwrap;
 mod window;
 
 use std::collections::BTreeMap;
@@ -35,6 +38,7 @@ use cells::TimeCells;
 use fit::FitLags;
 pub use fit::{fit_diffusion, window_stderr, DiffusionFit};
 use trajectory::ParticleTracks;
+pub use unwrap::Unwrapper;
 use window::PairBlocks;
 
 /// How MSD pairs are assigned to blocks of height.
@@ -88,6 +92,11 @@ pub struct BlockMsd {
     slots: BTreeMap<u32, usize>,
     /// Slot s holds heights at ring[s W .. (s + 1) W], sample n at position n mod W.
     ring: Vec<f64>,
+    /// The displaced coordinate, laid out as `ring`, when it is not the height
+    /// (`add_sample_of`); empty otherwise (and then left out of the JSON, so an MSD of z
+    /// serialises as before it existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    values: Vec<f64>,
     /// Consecutive samples held per slot (≤ W).
     filled: Vec<usize>,
     /// Index of the last sample each slot was seen in.
@@ -149,6 +158,7 @@ impl BlockMsd {
             cells,
             slots: BTreeMap::new(),
             ring: Vec::new(),
+            values: Vec::new(),
             filled: Vec::new(),
             last_seen: Vec::new(),
             samples: 0,
@@ -161,8 +171,31 @@ impl BlockMsd {
     /// from the previous sample starts a new history (no displacement spans the gap).
     ///
     /// # Panics
-    /// If the slices differ in length.
+    /// If the slices differ in length, or this MSD was fed by `add_sample_of` before.
     pub fn add_sample(&mut self, ids: &[u32], z: &[f64]) {
+        assert!(
+            self.values.is_empty(),
+            "an MSD of another coordinate is fed by add_sample_of"
+        );
+        self.add(ids, z, None);
+    }
+
+    /// Adds one sample of the coordinate `x` (m, continuous: unwrapped across periodic
+    /// boundaries), particle `ids[i]` at height `z[i]`: displacements of x, blocks by z exactly
+    /// as `add_sample` assigns them.
+    ///
+    /// # Panics
+    /// If the slices differ in length, or this MSD was fed by `add_sample` before.
+    pub fn add_sample_of(&mut self, ids: &[u32], z: &[f64], x: &[f64]) {
+        assert_eq!(ids.len(), x.len());
+        assert!(
+            self.samples == 0 || self.values.len() == self.ring.len(),
+            "an MSD of z is fed by add_sample"
+        );
+        self.add(ids, z, Some(x));
+    }
+
+    fn add(&mut self, ids: &[u32], z: &[f64], x: Option<&[f64]>) {
         assert_eq!(ids.len(), z.len());
         let w = self.window;
         let n = self.samples;
@@ -175,11 +208,14 @@ impl BlockMsd {
             }
         }
         let (z_base, height) = (self.layout.z_base_m, self.layout.block_height_m);
-        for (&id, &zi) in ids.iter().zip(z) {
+        for (i, (&id, &zi)) in ids.iter().zip(z).enumerate() {
             let next = self.filled.len();
             let s = *self.slots.entry(id).or_insert(next);
             if s == next {
                 self.ring.resize(self.ring.len() + w, 0.0);
+                if x.is_some() {
+                    self.values.resize(self.values.len() + w, 0.0);
+                }
                 self.filled.push(0);
                 self.last_seen.push(n);
                 if let Sums::Trajectory(t) = &mut self.sums {
@@ -194,11 +230,22 @@ impl BlockMsd {
             self.last_seen[s] = n;
             let ring = &mut self.ring[s * w..(s + 1) * w];
             ring[head] = zi;
+            let heights: &[f64] = ring;
+            let walk: &[f64] = match x {
+                Some(x) => {
+                    let v = &mut self.values[s * w..(s + 1) * w];
+                    v[head] = x[i];
+                    v
+                }
+                None => heights,
+            };
             self.filled[s] = (self.filled[s] + 1).min(w);
             let filled = self.filled[s];
             match &mut self.sums {
-                Sums::Trajectory(t) => t.add_walk(s, ring, head, filled, cell, self.fit.as_ref()),
-                Sums::Window(b) => b.add_walk(ring, head, filled, cell, z_base, height),
+                Sums::Trajectory(t) => {
+                    t.add_walk(s, heights, walk, head, filled, cell, self.fit.as_ref());
+                }
+                Sums::Window(b) => b.add_walk(heights, walk, head, filled, cell, z_base, height),
             }
         }
         self.samples += 1;

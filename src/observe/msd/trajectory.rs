@@ -78,19 +78,22 @@ impl ParticleTracks {
         }
     }
 
-    /// Adds slot `s`'s newest height `ring[head]` (`filled` heights held) and the pairs it ends.
+    /// Adds slot `s`'s newest height `heights[head]` and the pairs its newest displaced
+    /// coordinate `walk[head]` ends (`filled` samples held; `walk` is `heights` for MSD_z).
+    #[allow(clippy::too_many_arguments)]
     pub fn add_walk(
         &mut self,
         s: usize,
-        ring: &[f64],
+        heights: &[f64],
+        walk: &[f64],
         head: usize,
         filled: usize,
         cell: usize,
         fit: Option<&FitLags>,
     ) {
         let w = self.window;
-        let zi = ring[head];
-        self.z_sum[s] += zi;
+        self.z_sum[s] += heights[head];
+        let zi = walk[head];
         self.z_count[s] += 1;
         self.run_len[s] += 1;
         let sums = &mut self.sum_sq[s * w..(s + 1) * w];
@@ -98,7 +101,7 @@ impl ParticleTracks {
         match fit {
             Some(f) => {
                 for k in 1..filled {
-                    let dz = zi - ring[(head + w - k) % w];
+                    let dz = zi - walk[(head + w - k) % w];
                     sums[k] += dz * dz;
                     weighted += f.weights[k] * dz * dz;
                 }
@@ -109,7 +112,7 @@ impl ParticleTracks {
             }
             None => {
                 for k in 1..filled {
-                    let dz = zi - ring[(head + w - k) % w];
+                    let dz = zi - walk[(head + w - k) % w];
                     sums[k] += dz * dz;
                 }
             }

@@ -38,11 +38,14 @@ impl PairBlocks {
         }
     }
 
-    /// Adds the pairs ending at the newest height `ring[head]` (`filled` heights held): lag k
-    /// pairs it with the height k samples back, and a running sum gives the window's mean.
+    /// Adds the pairs ending at the newest sample (`filled` held): lag k pairs the displaced
+    /// coordinate `walk[head]` with its value k samples back, and a running sum of `heights`
+    /// gives the window's mean height (`walk` is `heights` for MSD_z).
+    #[allow(clippy::too_many_arguments)]
     pub fn add_walk(
         &mut self,
-        ring: &[f64],
+        heights: &[f64],
+        walk: &[f64],
         head: usize,
         filled: usize,
         cell: usize,
@@ -50,12 +53,12 @@ impl PairBlocks {
         block_height_m: f64,
     ) {
         let w = self.window;
-        let zi = ring[head];
+        let zi = walk[head];
         let cell_base = cell * self.blocks * w;
-        let mut sum = zi;
+        let mut sum = heights[head];
         for k in 1..filled {
-            let old = ring[(head + w - k) % w];
-            sum += old;
+            let old = walk[(head + w - k) % w];
+            sum += heights[(head + w - k) % w];
             let mean = sum / (k + 1) as f64;
             let block = ((mean - z_base_m) / block_height_m).floor();
             if block >= 0.0 && block < self.blocks as f64 {
