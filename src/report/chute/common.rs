@@ -169,6 +169,34 @@ pub(crate) fn shown_indices(n: usize) -> Vec<usize> {
     spread(&(0..n).collect::<Vec<usize>>(), MAX_BLOCK_CURVES)
 }
 
+/// The chute's two-panel figures (fig1b, orientation, dy): the panels side by side under the
+/// campaign's caption (`caption`), written as `name`, the summary table after `text`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn two_panel_figure(
+    conn: &Connection,
+    campaign: &CampaignRef,
+    title: String,
+    panels: Vec<crate::report::plot::Panel>,
+    panel_size: (u32, u32),
+    mut text: String,
+    table: &crate::report::table::Table,
+    csv: &crate::report::table::Table,
+    out_dir: &crate::report::drawn::Output,
+    name: &str,
+) -> Result<crate::report::drawn::Drawn> {
+    let fig = crate::report::plot::Figure {
+        title: Some(caption(conn, campaign, title)?),
+        panels,
+        columns: 2,
+        panel_size,
+    };
+    text.push_str(&table.to_text());
+    Ok(crate::report::drawn::Drawn {
+        text,
+        files: crate::report::drawn::write_all(&fig, csv, out_dir, name)?,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

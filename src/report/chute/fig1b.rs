@@ -13,9 +13,9 @@ use crate::pooled::chute::{combine_point, group_points, OverReplicas};
 use crate::pooled::chute_fields::{field_profiles, FieldPoint};
 use crate::pooled::chute_jobs::done_chute_jobs;
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::common::{caption, color, empty_panel, preface};
-use crate::report::drawn::{write_all, Drawn, Output};
-use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure};
+use crate::report::drawn::{Drawn, Output};
+use crate::report::plot::{Axis, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, short, Table};
 
 /// Profiles are drawn up to this multiple of the bed height H (the dilute surface above).
@@ -161,27 +161,24 @@ pub(crate) fn fig1b(conn: &Connection, campaign: &CampaignRef, out_dir: &Output)
         }
         vec![a, b]
     };
-    let fig = Figure {
-        title: Some(caption(
-            conn,
-            campaign,
-            format!(
-                "Fig. 1(b): V_x and φ profiles, campaign {}{}",
-                campaign.name,
-                if max_replicas > 1 {
-                    format!("; up to {max_replicas} replicas per point, thin lines 95 % CI")
-                } else {
-                    String::new()
-                }
-            ),
-        )?),
+    two_panel_figure(
+        conn,
+        campaign,
+        format!(
+            "Fig. 1(b): V_x and φ profiles, campaign {}{}",
+            campaign.name,
+            if max_replicas > 1 {
+                format!("; up to {max_replicas} replicas per point, thin lines 95 % CI")
+            } else {
+                String::new()
+            }
+        ),
         panels,
-        columns: 2,
-        panel_size: (700, 700),
-    };
-    text.push_str(&table.to_text());
-    Ok(Drawn {
+        (700, 700),
         text,
-        files: write_all(&fig, &csv, out_dir, "chute_fig1b")?,
-    })
+        &table,
+        &csv,
+        out_dir,
+        "chute_fig1b",
+    )
 }

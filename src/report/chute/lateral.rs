@@ -15,9 +15,9 @@ use crate::pooled::chute::{combine_point, group_points, PointProfiles, CENTRAL_B
 use crate::pooled::chute_jobs::done_chute_jobs;
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::common::{caption, color, empty_panel, preface};
-use crate::report::drawn::{write_all, Drawn, Output};
-use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure};
+use crate::report::drawn::{Drawn, Output};
+use crate::report::plot::{Axis, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, sci, short, Table};
 
 /// One block of a point with a D_y, lengths in units of L.
@@ -265,19 +265,16 @@ pub(crate) fn dy(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) ->
         }
         vec![a, b]
     };
-    let fig = Figure {
-        title: Some(caption(
-            conn,
-            campaign,
-            format!("ESI: D_y and the shear rate, campaign {}", campaign.name),
-        )?),
+    two_panel_figure(
+        conn,
+        campaign,
+        format!("ESI: D_y and the shear rate, campaign {}", campaign.name),
         panels,
-        columns: 2,
-        panel_size: (750, 600),
-    };
-    text.push_str(&table.to_text());
-    Ok(Drawn {
+        (750, 600),
         text,
-        files: write_all(&fig, &csv, out_dir, "chute_dy")?,
-    })
+        &table,
+        &csv,
+        out_dir,
+        "chute_dy",
+    )
 }

@@ -14,9 +14,9 @@ use crate::pooled::chute::{combine_point, group_points, OverReplicas, PointBlock
 use crate::pooled::chute_jobs::done_chute_jobs;
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
-use crate::report::chute::common::{caption, color, empty_panel, preface, GREY};
-use crate::report::drawn::{write_all, Drawn, Output};
-use crate::report::plot::{Axis, Figure, Legend, Panel, Series};
+use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure, GREY};
+use crate::report::drawn::{Drawn, Output};
+use crate::report::plot::{Axis, Legend, Panel, Series};
 use crate::report::table::{csv_num, fixed, short, Table};
 
 /// Why a figure of orientations can be empty.
@@ -171,19 +171,16 @@ pub(crate) fn orientation(
         }
         vec![a, b]
     };
-    let fig = Figure {
-        title: Some(caption(
-            conn,
-            campaign,
-            format!("Rod orientation per block, campaign {}", campaign.name),
-        )?),
+    two_panel_figure(
+        conn,
+        campaign,
+        format!("Rod orientation per block, campaign {}", campaign.name),
         panels,
-        columns: 2,
-        panel_size: (750, 600),
-    };
-    text.push_str(&table.to_text());
-    Ok(Drawn {
+        (750, 600),
         text,
-        files: write_all(&fig, &csv, out_dir, "chute_orientation")?,
-    })
+        &table,
+        &csv,
+        out_dir,
+        "chute_orientation",
+    )
 }
