@@ -62,6 +62,24 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::COPY_DST);
 
+/// The second copy of the positions (`blocks` + 1 blocks of n records), velocities and spins
+/// (two blocks each) that the one-dispatch step writes while its forces read the first.
+fn second_copy(dev: &GpuDevice, n: u64, blocks: u64) -> [wgpu::Buffer; 3] {
+    [
+        ("second positions", (blocks + 1) * n * 16),
+        ("second velocities", 2 * n * 16),
+        ("second spins", 2 * n * 16),
+    ]
+    .map(|(label, bytes)| {
+        dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(32).next_multiple_of(4),
+            usage: STORAGE,
+            mapped_at_creation: false,
+        })
+    })
+}
+
 impl GpuBuffers {
     /// Allocates and fills the buffers of the batch `p` (every job's block, one after the other)
     /// with one record and `MAX_WALLS` walls per job in `params` and `walls`, and `g` the sizes
@@ -215,14 +233,7 @@ impl GpuBuffers {
             rod: init("rods", bytemuck::cast_slice(&p.rod), STORAGE),
             scratch: zeroed("cell-order scratch", scratch, wgpu::BufferUsages::STORAGE),
             records: records_buffer(dev, 1),
-            second: fused.then(|| {
-                [
-                    ("second positions", (blocks + 1) * n as u64 * 16),
-                    ("second velocities", 2 * n as u64 * 16),
-                    ("second spins", 2 * n as u64 * 16),
-                ]
-                .map(|(label, bytes)| zeroed(label, bytes, STORAGE))
-            }),
+            second: fused.then(|| second_copy(dev, n as u64, blocks)),
             oriented,
         })
     }

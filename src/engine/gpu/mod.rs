@@ -5,6 +5,7 @@ mod buffers;
 mod device;
 mod engine;
 mod grid;
+mod kernels;
 mod law_probe;
 mod layout;
 mod packed;
