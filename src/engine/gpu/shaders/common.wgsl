@@ -136,7 +136,7 @@ fn enter(i: u32) {
 }
 
 // The slot of an invocation. A dispatch of more workgroups than one dimension holds (65 535)
-// runs as rows of nwg.x workgroups (`pipelines::dispatch_size`); the last row's invocations
+// runs as rows of nwg.x workgroups (`kernels::dispatch_size`); the last row's invocations
 // past the slots return at their kernel's bounds check.
 fn flat(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * WG;
