@@ -10,7 +10,7 @@ use rusqlite::Connection;
 use crate::observe::coarse_grain::{FieldArray, FieldSet};
 use crate::observe::fits::{mean_ci95, t_975};
 use crate::observe::silo_fields::MEAN_FLOWING;
-use crate::store::fields::{list_field_sets, load_field_arrays};
+use crate::store::fields::load_field_arrays;
 
 /// The claims' name of the result.
 pub const WALL_TO_AXIS_DESCENT: &str = "wall_to_axis_descent";
@@ -70,18 +70,17 @@ pub fn wall_to_axis_descent(
     (axis > 0.0).then(|| side / axis)
 }
 
-/// One job's ratio from its flowing mean map; None without one (no fields, clogged throughout)
-/// or where the grid misses a region.
+/// One job's ratio from its flowing mean map among its field `sets`; None without one (no
+/// fields, clogged throughout) or where the grid misses a region.
 ///
 /// # Errors
 /// Database errors.
 pub fn job_wall_to_axis(
     conn: &Connection,
-    job_id: i64,
+    sets: &[FieldSet],
     silo_radius_m: f64,
     particle_d_m: f64,
 ) -> Result<Option<f64>> {
-    let sets = list_field_sets(conn, job_id)?;
     let Some(set) = sets
         .iter()
         .find(|s| s.name == MEAN_FLOWING && s.grid_kind == "rz")

@@ -8,7 +8,7 @@ use rusqlite::Connection;
 use crate::observe::coarse_grain::FieldSet;
 use crate::observe::fits::{mean_ci95, t_975};
 use crate::observe::silo_fields::ORIFICE_KINETIC_PRESSURE;
-use crate::store::fields::{list_field_sets, load_flagged_series};
+use crate::store::fields::load_flagged_series;
 use crate::store::silo_reads::{clog_intervals, DischargeRow};
 
 /// What ⟨p^k⟩ needs of a done job.
@@ -25,15 +25,7 @@ pub struct PkJob {
 }
 
 impl PkJob {
-    /// The job of a discharge row, its field sets read from the store.
-    ///
-    /// # Errors
-    /// Database errors.
-    pub fn of(conn: &Connection, row: &DischargeRow) -> Result<Self> {
-        let sets = list_field_sets(conn, row.job_id)?;
-        Ok(Self::with_sets(row, &sets))
-    }
-
+    /// The job of a discharge row with its field `sets`.
     pub fn with_sets(row: &DischargeRow, sets: &[FieldSet]) -> Self {
         Self {
             job_id: row.job_id,

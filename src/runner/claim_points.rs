@@ -147,16 +147,26 @@ fn field_results(
 ) -> Result<()> {
     use crate::pooled::flow_pattern::{job_wall_to_axis, replicas_estimate, WALL_TO_AXIS_DESCENT};
     use crate::pooled::orifice_pressure::{point_pk, PkJob};
+    use crate::store::fields::list_field_sets;
     let rows = crate::store::silo_reads::done_discharge_rows(conn, campaign_id)?;
     for (k, p) in keys.iter().zip(out.iter_mut()) {
         let Some((_, _, ids, _)) = pooled.iter().find(|(key, ..)| key == k) else {
             continue;
         };
-        let of_point: Vec<_> = rows.iter().filter(|r| ids.contains(&r.job_id)).collect();
-        let jobs: Vec<PkJob> = of_point
-            .iter()
-            .map(|r| PkJob::of(conn, r))
-            .collect::<Result<_>>()?;
+        // Each replica's field sets, listed once for both results.
+        let mut jobs = Vec::new();
+        let mut ratios = Vec::new();
+        for r in rows.iter().filter(|r| ids.contains(&r.job_id)) {
+            let sets = list_field_sets(conn, r.job_id)?;
+            jobs.push(PkJob::with_sets(r, &sets));
+            let params: serde_json::Value = serde_json::from_str(&r.params_json)?;
+            let radius = params["silo"]["cylinder_radius_m"]
+                .as_f64()
+                .unwrap_or(f64::NAN);
+            if let Some(x) = job_wall_to_axis(conn, &sets, radius, r.particle_diameter_m)? {
+                ratios.push(x);
+            }
+        }
         let refs: Vec<&PkJob> = jobs.iter().collect();
         if let (Some(pk), ..) = point_pk(conn, &refs)? {
             if let Some(se) = pk.se {
@@ -168,16 +178,6 @@ fn field_results(
                         dof: pk.dof,
                     },
                 );
-            }
-        }
-        let mut ratios = Vec::new();
-        for r in &of_point {
-            let params: serde_json::Value = serde_json::from_str(&r.params_json)?;
-            let radius = params["silo"]["cylinder_radius_m"]
-                .as_f64()
-                .unwrap_or(f64::NAN);
-            if let Some(x) = job_wall_to_axis(conn, r.job_id, radius, r.particle_diameter_m)? {
-                ratios.push(x);
             }
         }
         if let Some((mean, se, dof)) = replicas_estimate(&ratios) {
