@@ -300,12 +300,22 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         let r = Slurm::reading().collect(&mut project)?;
         print_report(&r);
     }
+    let only = match &a.campaign {
+        Some(name) => Some(sweep::report::find_campaign(project.conn(), Some(name), None)?.id),
+        None => None,
+    };
     let released = project.release_stale_submissions(a.stale_after)?;
-    let decisions = project.requeue(a.max_attempts, |j| {
+    let decisions = project.requeue(only, a.max_attempts, |j| {
         sweep::runner::job_lock::liveness(&work, j, a.stale_after)
     })?;
     let resumed = decisions.iter().filter(|d| d.action == "pending").count();
-    let sweep::project::JobTotals { total, done } = project.totals()?;
+    let (total, done) = match only {
+        Some(cid) => campaign_totals(&project, cid)?,
+        None => {
+            let t = project.totals()?;
+            (t.total, t.done)
+        }
+    };
     println!(
         "{} job(s) to resume, {done} of {total} already done",
         resumed + released
@@ -320,7 +330,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
             println!("  job {} {what}: {} ({})", d.job.id, d.why, d.job.label);
         }
     }
-    if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, slurm_used)? {
+    if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, only, slurm_used)? {
         return Ok(code);
     }
     drop(project);
@@ -328,7 +338,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let code = run_jobs(
         &a.run,
         work.clone(),
-        None,
+        only,
         a.max_attempts,
         sweep::campaign::RunSettings::default().checkpoint_interval_s,
         total as usize,
@@ -339,8 +349,13 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     // Campaigns with a target go on with their rounds where they stopped; claims without one
     // are looked at once their jobs have ended.
     let project = Project::open(db)?;
-    let with_target = project.campaigns_with_target()?;
-    let with_claims = project.campaigns_with_claims_only()?;
+    let chosen = |ids: Vec<i64>| -> Vec<i64> {
+        ids.into_iter()
+            .filter(|cid| only.is_none_or(|o| o == *cid))
+            .collect()
+    };
+    let with_target = chosen(project.campaigns_with_target()?);
+    let with_claims = chosen(project.campaigns_with_claims_only()?);
     drop(project);
     if code == 0 {
         for cid in with_claims {
@@ -365,4 +380,16 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         code = 1;
     }
     Ok(code)
+}
+
+/// Campaign `cid`'s jobs: (all, done).
+fn campaign_totals(project: &Project, cid: i64) -> anyhow::Result<(i64, i64)> {
+    let states = project.state_totals(cid)?;
+    let total = states.iter().map(|s| s.jobs).sum();
+    let done = states
+        .iter()
+        .filter(|s| s.status == "done")
+        .map(|s| s.jobs)
+        .sum();
+    Ok((total, done))
 }

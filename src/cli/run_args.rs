@@ -100,6 +100,10 @@ pub struct ResumeArguments {
     /// are resubmitted with the settings of their last submission).
     #[arg(long)]
     pub executor: Option<ExecutorKind>,
+    /// Only this campaign's jobs: NAME (its latest version) or NAME@vK (version K). Others
+    /// stay as they are, e.g. an older version's paused jobs that a new version replaces.
+    #[arg(long, value_name = "NAME[@vK]")]
+    pub campaign: Option<String>,
 }
 
 /// Where jobs run, and how Slurm is asked for them.

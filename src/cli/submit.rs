@@ -145,14 +145,15 @@ fn print_submitted(list: &[Submitted], settings: &SubmitSettings) {
 }
 
 /// The Slurm part of `sweep resume`: resubmits the pending jobs that go to Slurm (those last
-/// submitted there, or all with `--executor slurm`). Returns the exit code when nothing is left
-/// to run here.
+/// submitted there, or all with `--executor slurm`), of campaign `only` when given. Returns the
+/// exit code when nothing is left to run here.
 ///
 /// # Errors
 /// Database errors.
 pub fn resume_on_slurm(
     project: &mut Project,
     a: &ResumeArguments,
+    only: Option<i64>,
     slurm_used: bool,
 ) -> anyhow::Result<Option<i32>> {
     if a.executor == Some(ExecutorKind::Local) {
@@ -166,7 +167,10 @@ pub fn resume_on_slurm(
         checkpoint_interval_s: sweep::campaign::RunSettings::default().checkpoint_interval_s,
     };
     let all = a.executor == Some(ExecutorKind::Slurm);
-    let groups = slurm::resume_groups(project.conn(), all, &fallback)?;
+    let mut groups = slurm::resume_groups(project.conn(), all, &fallback)?;
+    if only.is_some() {
+        groups.retain(|g| g.campaign_id == only);
+    }
     if groups.is_empty() && !slurm_used && !all {
         return Ok(None);
     }

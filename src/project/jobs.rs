@@ -82,17 +82,18 @@ impl Project {
         jobs::job_label(&self.conn, id)
     }
 
-    /// Puts stopped jobs back to pending (or failed, without attempts left) as `liveness`
-    /// judges each; returns what was decided for every open job.
+    /// Puts stopped jobs (of `campaign`, or all) back to pending (or failed, without attempts
+    /// left) as `liveness` judges each; returns what was decided for every open job.
     ///
     /// # Errors
     /// Database errors.
     pub fn requeue(
         &mut self,
+        campaign: Option<i64>,
         max_attempts: Option<i64>,
         liveness: impl FnMut(&OpenJob) -> Liveness,
     ) -> anyhow::Result<Vec<Decision>> {
-        jobs::requeue(&mut self.conn, max_attempts, liveness)
+        jobs::requeue(&mut self.conn, campaign, max_attempts, liveness)
     }
 
     /// What forgetting job `id` would remove.

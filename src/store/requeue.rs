@@ -76,18 +76,19 @@ pub fn open_jobs(conn: &Connection, campaign: Option<i64>) -> anyhow::Result<Vec
 /// running ones whose owner `liveness` finds gone (not those handed to Slurm: `sweep collect`
 /// decides those), failed ones with attempts left. A running job whose owner is gone after its
 /// last attempt is marked failed with the cause. `max_attempts` overrides each job's own.
-/// Returns a decision for every job not done.
+/// Only campaign `campaign`'s jobs when given. Returns a decision for every job not done.
 ///
 /// # Errors
 /// Database errors.
 pub fn requeue(
     conn: &mut Connection,
+    campaign: Option<i64>,
     max_attempts: Option<i64>,
     mut liveness: impl FnMut(&OpenJob) -> Liveness,
 ) -> anyhow::Result<Vec<Decision>> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let mut out = Vec::new();
-    for job in open_jobs(&tx, None)? {
+    for job in open_jobs(&tx, campaign)? {
         let limit = max_attempts.unwrap_or(job.max_attempts);
         let (action, why) = match job.status.as_str() {
             "paused" => ("pending", "paused at its checkpoint".to_string()),

@@ -448,3 +448,64 @@ fn a_renamed_database_resumes_from_its_checkpoints_and_keeps_the_job_record() {
     let max: i64 = job_field(&moved, 1, "max_attempts").parse().unwrap();
     assert!(attempts <= max, "attempts {attempts} > max {max}");
 }
+
+// 6. `resume --campaign` continues one version and leaves the others' paused jobs alone.
+
+/// Launches `file` (with `extra` arguments) and stops it with SIGTERM during job `job`'s fill.
+fn launch_and_pause(d: &Path, file: &Path, db: &Path, extra: &[&str], job: i64) {
+    let mut args = launch_args(file, db);
+    args.extend_from_slice(extra);
+    let mut child = spawn(d, &args, &format!("launch-{job}.log"));
+    assert!(wait_for(&mut child, "the fill stage", || job_field(
+        db, job, "stage"
+    ) == "fill"));
+    signal(&child, "-TERM");
+    assert_eq!(child.wait().unwrap().code(), Some(75));
+    assert_eq!(job_field(db, job, "status"), "paused");
+}
+
+#[test]
+fn resume_of_one_campaign_version_leaves_the_others_paused() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let v1 = slow_fill("slow", 3);
+    let file = write_campaign(d, "slow.json", &v1);
+    launch_and_pause(d, &file, &db, &[], 1);
+    let mut v2 = v1.clone();
+    v2["base"]["particle_count"] = json!(1400);
+    write_campaign(d, "slow.json", &v2);
+    launch_and_pause(d, &file, &db, &["--new-version"], 2);
+
+    let resume = |campaign: &str| {
+        let mut args = resume_args(&db);
+        args.extend_from_slice(&["--campaign", campaign]);
+        sweep_cmd(d).args(args).output().unwrap()
+    };
+    let o = resume("slow");
+    assert!(o.status.success(), "resume the latest version:\n{}", text(&o));
+    assert!(
+        stdout(&o).contains("1 job(s) to resume, 0 of 1 already done"),
+        "counts are the campaign's own:\n{}",
+        stdout(&o)
+    );
+    assert_eq!(job_field(&db, 2, "status"), "done");
+    assert_eq!(
+        job_field(&db, 1, "status"),
+        "paused",
+        "version 1's paused job is left alone"
+    );
+
+    let o = resume("nope");
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("no campaign named 'nope'") && stderr(&o).contains("slow"),
+        "an unknown name is refused with the known ones:\n{}",
+        stderr(&o)
+    );
+    assert_eq!(job_field(&db, 1, "status"), "paused");
+
+    let o = resume("slow@v1");
+    assert!(o.status.success(), "resume version 1:\n{}", text(&o));
+    assert_eq!(job_field(&db, 1, "status"), "done");
+}
