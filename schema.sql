@@ -1,5 +1,6 @@
--- sweep's store. Version 5 (PRAGMA user_version = 5). Every statement is idempotent (IF NOT EXISTS):
--- migrating from an older version runs the whole file again, which adds the new tables.
+-- sweep's store, at the version `SCHEMA_VERSION` in src/store/open.rs (PRAGMA user_version).
+-- Every statement is idempotent (IF NOT EXISTS): migrating from an older version runs the whole
+-- file again, which adds the new tables; open.rs adds the new columns of existing ones.
 -- Units are in column names (SI). Results tables are meant for plain SQL use.
 
 -- One row per launched version of a campaign: relaunching a changed file under the same name is
