@@ -483,7 +483,11 @@ fn resume_of_one_campaign_version_leaves_the_others_paused() {
         sweep_cmd(d).args(args).output().unwrap()
     };
     let o = resume("slow");
-    assert!(o.status.success(), "resume the latest version:\n{}", text(&o));
+    assert!(
+        o.status.success(),
+        "resume the latest version:\n{}",
+        text(&o)
+    );
     assert!(
         stdout(&o).contains("1 job(s) to resume, 0 of 1 already done"),
         "counts are the campaign's own:\n{}",

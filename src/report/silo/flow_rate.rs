@@ -5,8 +5,8 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::observe::fits::{
-    beverloo_fit, janda_bootstrap, janda_fit, JandaFit, JandaIntervals, JandaPoint,
-    BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
+    beverloo_c_at_k, beverloo_fit, janda_bootstrap, janda_fit, BeverlooFit, JandaFit,
+    JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
 use crate::pooled::silo::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2,
@@ -443,15 +443,16 @@ fn ci_source_name(source: CiSource) -> &'static str {
     source.name()
 }
 
-/// The Beverloo fit at f = 0 as one line of text, or why there is none.
+/// Beverloo's k for spheres, and the C of his experiments (Beverloo, Leniger & van de Velde
+/// 1961 report C = 0.55–0.65); the silo paper gives neither.
+const BEVERLOO_K_SPHERES: f64 = 1.5;
+const BEVERLOO_C_LITERATURE: f64 = 0.58;
+
+/// The Beverloo law at f = 0 as text: the fit of C and k (≥ 3 orifices), else why there is
+/// none; then, with any orifice, C at k = 1.5 and each Q against the law with the literature's
+/// C and k.
 fn beverloo_line(rows: &[DischargeRow], points: &[FlowPoint]) -> String {
     let still: Vec<&FlowPoint> = points.iter().filter(|p| same_value(p.f_hz, 0.0)).collect();
-    if still.len() < 3 {
-        return format!(
-            "Beverloo fit at f = 0 Hz: needs >= 3 orifices with Q at f = 0, have {}\n",
-            still.len()
-        );
-    }
     let (g, g_note) = match rows.iter().find_map(|r| gravity_m_per_s2(&r.params_json)) {
         Some(g) => (g, "from params_json"),
         None => (
@@ -461,13 +462,93 @@ fn beverloo_line(rows: &[DischargeRow], points: &[FlowPoint]) -> String {
     };
     let d: Vec<f64> = still.iter().map(|p| p.d_m).collect();
     let q: Vec<f64> = still.iter().map(|p| p.q).collect();
-    let (pd, rho) = (still[0].particle_d_m, still[0].bulk_density_kg_per_m3);
-    match beverloo_fit(&d, &q, pd, rho, g) {
-        Some(b) => format!(
-            "Beverloo fit at f = 0 Hz, Q = C rho_b sqrt(g) (D - k d)^(5/2): C = {:.4}, k = {:.3} \
-             (n = {}, d = {} mm, rho_b = {:.0} kg/m^3, g = {:.3} m/s^2 {g_note}, rms = {:.2e} kg/s)\n",
-            b.c, b.k, b.n, mm(pd), rho, g, b.rms_residual_kg_per_s
-        ),
-        None => "Beverloo fit at f = 0 Hz: no fit (Q does not grow with D)\n".into(),
+    let Some(first) = still.first() else {
+        return "Beverloo at f = 0 Hz: no orifice with Q at f = 0\n".into();
+    };
+    let (pd, rho) = (first.particle_d_m, first.bulk_density_kg_per_m3);
+    let mut text = if still.len() < 3 {
+        format!(
+            "Beverloo fit at f = 0 Hz: needs >= 3 orifices with Q at f = 0, have {}\n",
+            still.len()
+        )
+    } else {
+        match beverloo_fit(&d, &q, pd, rho, g) {
+            Some(b) => format!(
+                "Beverloo fit at f = 0 Hz, Q = C rho_b sqrt(g) (D - k d)^(5/2): C = {:.4}, k = {:.3} \
+                 (n = {}, d = {} mm, rho_b = {:.0} kg/m^3, g = {:.3} m/s^2 {g_note}, rms = {:.2e} kg/s)\n",
+                b.c, b.k, b.n, mm(pd), rho, g, b.rms_residual_kg_per_s
+            ),
+            None => "Beverloo fit at f = 0 Hz: no fit (Q does not grow with D)\n".into(),
+        }
+    };
+    let k = BEVERLOO_K_SPHERES;
+    if let Some(c) = beverloo_c_at_k(&d, &q, pd, rho, g, k) {
+        let literature = BeverlooFit {
+            c: BEVERLOO_C_LITERATURE,
+            k,
+            rms_residual_kg_per_s: f64::NAN,
+            n: 0,
+        };
+        let ratios: Vec<String> = still
+            .iter()
+            .map(|p| {
+                let law = literature.predict(p.d_m, pd, rho, g);
+                format!("{} mm: {}", mm(p.d_m), fixed(Some(p.q / law), 3))
+            })
+            .collect();
+        text.push_str(&format!(
+            "Beverloo at f = 0 Hz with k = {k} held: C = {c:.4} over {} orifice(s) (literature \
+             0.55-0.65); Q / Q_Beverloo(C = {BEVERLOO_C_LITERATURE}, k = {k}): {}\n",
+            still.len(),
+            ratios.join(", ")
+        ));
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point at f = 0 whose Q follows `law`, with the reproduction's d and ρ_b.
+    fn point(d_m: f64, law: &BeverlooFit, scale: f64) -> FlowPoint {
+        let (pd, rho) = (0.0058, 1637.9);
+        let q = scale * law.predict(d_m, pd, rho, STANDARD_GRAVITY_M_PER_S2);
+        FlowPoint {
+            d_m,
+            f_hz: 0.0,
+            particle_d_m: pd,
+            bulk_density_kg_per_m3: rho,
+            q,
+            ci: None,
+            replicas: 1,
+            ci_source: CiSource::SingleJob,
+            se: None,
+            dof: f64::INFINITY,
+            clogged_replicas: 0,
+            replica_q: vec![q],
+        }
+    }
+
+    #[test]
+    fn beverloo_with_the_literature_constants_reads_back_c_and_the_ratios() {
+        let law = BeverlooFit {
+            c: BEVERLOO_C_LITERATURE,
+            k: BEVERLOO_K_SPHERES,
+            rms_residual_kg_per_s: 0.0,
+            n: 0,
+        };
+        // Two orifices, too few for the fit of C and k: C at k = 1.5 and the ratios still come.
+        let two = [point(0.025, &law, 1.0), point(0.032, &law, 1.0)];
+        let text = beverloo_line(&[], &two);
+        assert!(text.contains("needs >= 3 orifices"), "{text}");
+        assert!(text.contains("C = 0.5800 over 2 orifice(s)"), "{text}");
+        assert!(text.contains("25 mm: 1.000, 32 mm: 1.000"), "{text}");
+        // Flow rates 10 % below the law: C and every ratio fall by 10 %.
+        let low = [point(0.025, &law, 0.9), point(0.032, &law, 0.9)];
+        let text = beverloo_line(&[], &low);
+        assert!(text.contains("C = 0.5220 over 2"), "{text}");
+        assert!(text.contains("25 mm: 0.900, 32 mm: 0.900"), "{text}");
+        assert!(beverloo_line(&[], &[]).contains("no orifice with Q at f = 0"));
     }
 }
