@@ -50,6 +50,7 @@ mod tests {
             d_perp_m: 0.1,
             params_json: "{}".into(),
             measure_s: 240.0,
+            layering: None,
         }
     }
 

@@ -5,6 +5,8 @@
 use anyhow::Result;
 use rusqlite::{params, Connection, OptionalExtension};
 
+use crate::observe::chute::{density_layering, is_layered, FlowState};
+
 /// The measurement window and kernel of a chute job's profiles (from `chute_summary`).
 #[derive(Clone, Copy, Debug)]
 pub struct ChuteWindow {
@@ -99,13 +101,17 @@ pub struct ChuteJob {
     pub params_json: String,
     /// Length of the measurement, measure_end_s − measure_start_s, s.
     pub measure_s: f64,
+    /// The central bed's density variation (`observe::chute::density_layering`) from the stored
+    /// profile; None without one. A layered job is not `steady`.
+    pub layering: Option<f64>,
 }
 
 /// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
 /// (`chute_flow_state`; a job from before schema 7 has only the transient's verdict,
-/// `chute_summary.steady`), ordered by ξ, α, job id. Jobs not done are left out even with a
-/// partial summary (render lists them as missing); done jobs that were not steady are listed by
-/// `left_out_chute_jobs`.
+/// `chute_summary.steady`) and whose stored density profile shows no ordered layers
+/// (`observe::chute::layering`), ordered by ξ, α, job id. Jobs not done are left out even with a
+/// partial summary (render lists them as missing); done jobs that were not steady, or layered,
+/// are listed by `left_out_chute_jobs`.
 ///
 /// # Errors
 /// On a database error.
@@ -145,10 +151,24 @@ pub fn done_chute_jobs(
                 d_perp_m: r.get(9)?,
                 params_json: r.get(11)?,
                 measure_s: r.get(12)?,
+                layering: None,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
-    Ok(rows)
+    let mut jobs = Vec::with_capacity(rows.len());
+    for mut job in rows {
+        let profile = chute_profile(conn, job.job_id)?;
+        let z: Vec<f64> = profile.iter().map(|p| p.z_m).collect();
+        let rho: Vec<f64> = profile.iter().map(|p| p.density_kg_per_m3).collect();
+        job.layering = density_layering(&z, &rho, job.bed_height_m);
+        if is_layered(job.layering) {
+            job.steady = false;
+        }
+        if include_unsteady || job.steady {
+            jobs.push(job);
+        }
+    }
+    Ok(jobs)
 }
 
 /// Every done job of the campaign as (job id, label, params_json), by job id: what groups
@@ -184,7 +204,8 @@ pub struct LeftOut {
     pub measured: bool,
 }
 
-/// The campaign's done chute jobs whose flow was not steady, sorted by label.
+/// The campaign's done chute jobs whose flow was not steady, or steady but layered (state
+/// "layered"), sorted by label.
 ///
 /// # Errors
 /// On a database error.
@@ -208,6 +229,19 @@ pub fn left_out_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<Le
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
+    let mut rows: Vec<LeftOut> = rows;
+    let steady = FlowState::Steady.as_str();
+    for job in done_chute_jobs(conn, campaign_id, true)? {
+        let was_steady = job.flow_state.as_deref().is_none_or(|s| s == steady);
+        if was_steady && is_layered(job.layering) {
+            rows.push(LeftOut {
+                label: job.label,
+                state: FlowState::Layered.as_str().into(),
+                measured: true,
+            });
+        }
+    }
+    rows.sort_by(|a, b| a.label.cmp(&b.label));
     Ok(rows)
 }
 

@@ -18,6 +18,9 @@ pub enum FlowState {
     NotSteady,
     /// The bed's mean velocity fell below the flowing threshold: no D(z) is fitted.
     NotFlowing,
+    /// Steady, but ordered in layers (`layering`): judged when results are read, from the
+    /// stored density profile, never stored; left out of figures and claims like the others.
+    Layered,
 }
 
 impl FlowState {
@@ -28,6 +31,7 @@ impl FlowState {
             FlowState::Drifted => "drifted",
             FlowState::NotSteady => "not_steady",
             FlowState::NotFlowing => "not_flowing",
+            FlowState::Layered => "layered",
         }
     }
 
@@ -38,6 +42,7 @@ impl FlowState {
             FlowState::Drifted => "drifted while measured",
             FlowState::NotSteady => "not steady by steady_max_time_s",
             FlowState::NotFlowing => "not flowing",
+            FlowState::Layered => "steady but in ordered layers",
         }
     }
 
@@ -48,6 +53,7 @@ impl FlowState {
             FlowState::Drifted,
             FlowState::NotSteady,
             FlowState::NotFlowing,
+            FlowState::Layered,
         ]
         .into_iter()
         .find(|f| f.as_str() == s)

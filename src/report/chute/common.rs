@@ -149,6 +149,7 @@ pub(crate) fn caption(conn: &Connection, campaign: &CampaignRef, title: String) 
         FlowState::Drifted,
         FlowState::NotSteady,
         FlowState::NotFlowing,
+        FlowState::Layered,
     ]
     .into_iter()
     .filter(|&s| count(s) > 0)

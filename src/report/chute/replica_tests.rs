@@ -175,3 +175,63 @@ fn figures_draw_the_pooled_points_with_their_count() {
         fig5.table
     );
 }
+
+/// A steady replica whose density profile oscillates through the bed (ordered layers) is left
+/// out as layered: not drawn, not counted among its point's steady replicas, named with why.
+#[test]
+fn a_steady_replica_in_ordered_layers_is_left_out() {
+    let (conn, c) = db();
+    add(&conn, c, 28.0, 1, 1.0, "steady");
+    let layered: i64 = conn
+        .query_row("SELECT MAX(id) FROM jobs", [], |r| r.get(0))
+        .expect("job");
+    let heights: Vec<f64> = conn
+        .prepare("SELECT z_m FROM chute_fields WHERE job_id = ?1")
+        .expect("prepare")
+        .query_map([layered], |r| r.get(0))
+        .expect("query")
+        .collect::<rusqlite::Result<_>>()
+        .expect("heights");
+    for z in heights {
+        // Layers one particle apart: ±20 % of the mean density.
+        let rho = 1500.0 * (1.0 + 0.2 * (std::f64::consts::TAU * z / (0.87 * L)).sin());
+        conn.execute(
+            "UPDATE chute_fields SET density_kg_per_m3 = ?1 WHERE job_id = ?2 AND z_m = ?3",
+            rusqlite::params![rho, layered, z],
+        )
+        .expect("update");
+    }
+    let steady: Vec<i64> = done_chute_jobs(&conn, c, false)
+        .expect("jobs")
+        .iter()
+        .map(|j| j.job_id)
+        .collect();
+    assert!(!steady.contains(&layered), "{steady:?}");
+    assert_eq!(steady.len(), 4, "the other steady replicas stay");
+    let all = done_chute_jobs(&conn, c, true).expect("all");
+    let job = all.iter().find(|j| j.job_id == layered).expect("listed");
+    assert!(
+        !job.steady && job.layering.is_some_and(|v| v > 0.1),
+        "{job:?}"
+    );
+    // The disordered replicas' constant density: no layering.
+    assert!(all
+        .iter()
+        .filter(|j| j.job_id != layered)
+        .all(|j| j.layering == Some(0.0)));
+    let points = pooled_points(&conn, c).expect("points");
+    assert_eq!(
+        (points[1].jobs.len(), points[1].steady_jobs.len()),
+        (2, 1),
+        "the layered replica does not count as steady"
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let fig6 = crate::report::render_figure(&conn, "fig6", None, dir.path()).expect("fig6");
+    assert!(
+        fig6.table.contains(
+            "aspect_ratio=1.3,inclination_deg=28,replica=1 (steady but in ordered layers)"
+        ),
+        "{}",
+        fig6.table
+    );
+}
