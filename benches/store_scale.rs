@@ -90,7 +90,9 @@ fn main() -> anyhow::Result<()> {
     let mut claim_ms = Vec::with_capacity(claims);
     for _ in 0..claims {
         let t = Instant::now();
-        let got = jobs::claim(&mut conn, None, &lease, None, |_| Ok(Some(())))?;
+        let got = jobs::claim(&mut conn, jobs::JobScope::All, &lease, None, |_| {
+            Ok(Some(()))
+        })?;
         claim_ms.push(t.elapsed().as_secs_f64() * 1e3);
         let Some((job, ())) = got else { break };
         jobs::release(&conn, job.id, &lease, "done", None)?;

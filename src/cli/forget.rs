@@ -49,7 +49,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     // A job whose process lives is not pulled from under it.
-    for j in project.open_jobs(None)? {
+    for j in project.open_jobs(sweep::project::JobScope::All)? {
         if j.status == "running" && plan.jobs.iter().any(|(id, ..)| *id == j.id) {
             if let Liveness::Alive(why) = job_lock::liveness(&work, &j, 30.0) {
                 eprintln!("sweep: error: job {} is {why}: stop it first", j.id);

@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
 use sweep::campaign::ExecutorKind;
-use sweep::project::{Executor, Local, Outcome, PointRow, Project, Slurm, Submission, WorkRow};
+use sweep::project::{
+    Executor, JobScope, Local, Outcome, PointRow, Project, Slurm, Submission, WorkRow,
+};
 use sweep::runner::backend::{announce_auto, BackendChoice};
 use sweep::runner::pool::PoolSummary;
 use sweep::runner::PoolOptions;
@@ -13,11 +15,11 @@ use sweep::runner::PoolOptions;
 use super::run_args::{Arguments, ResumeArguments, RunArgs};
 use super::shared::{print_report, register, EXIT_PAUSED};
 
-/// Runs the pending jobs (of `campaign`, or all) and prints how they ended; returns the exit code.
+/// Runs the pending jobs of `scope` and prints how they ended; returns the exit code.
 fn run_jobs(
     r: &RunArgs,
     work: PathBuf,
-    campaign: Option<i64>,
+    scope: JobScope,
     max_attempts: Option<i64>,
     checkpoint_interval_s: f64,
     total: usize,
@@ -30,7 +32,7 @@ fn run_jobs(
         pool: PoolOptions {
             db: r.db.db.clone(),
             work_dir: work,
-            campaign,
+            scope,
             parallel: r.parallel,
             threads: r.threads,
             backend: r.backend,
@@ -43,7 +45,7 @@ fn run_jobs(
         },
     };
     let submission = Submission {
-        campaign,
+        campaign: None,
         campaign_name: "",
         jobs: &[],
         total,
@@ -141,7 +143,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     let code = run_jobs(
         &a.run,
         work.clone(),
-        Some(cid),
+        JobScope::Campaign(cid),
         None,
         file.run.checkpoint_interval_s,
         jobs.len(),
@@ -227,7 +229,7 @@ fn run_round(
     run_jobs(
         r,
         work.to_path_buf(),
-        Some(cid),
+        JobScope::Campaign(cid),
         None,
         checkpoint_interval_s,
         total,
@@ -300,22 +302,32 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         let r = Slurm::reading().collect(&mut project)?;
         print_report(&r);
     }
-    let only = match &a.campaign {
-        Some(name) => Some(sweep::report::find_campaign(project.conn(), Some(name), None)?.id),
-        None => None,
+    // A plain resume continues each campaign's latest version; an older one that a new
+    // version replaces is left as it is unless named.
+    let scope = match &a.campaign {
+        Some(name) => {
+            JobScope::Campaign(sweep::report::find_campaign(project.conn(), Some(name), None)?.id)
+        }
+        None => JobScope::LatestVersions,
     };
     let released = project.release_stale_submissions(a.stale_after)?;
-    let decisions = project.requeue(only, a.max_attempts, |j| {
+    let decisions = project.requeue(scope, a.max_attempts, |j| {
         sweep::runner::job_lock::liveness(&work, j, a.stale_after)
     })?;
     let resumed = decisions.iter().filter(|d| d.action == "pending").count();
-    let (total, done) = match only {
-        Some(cid) => campaign_totals(&project, cid)?,
-        None => {
+    let (total, done) = match scope {
+        JobScope::Campaign(cid) => campaign_totals(&project, cid)?,
+        _ => {
             let t = project.totals()?;
             (t.total, t.done)
         }
     };
+    let in_scope = match scope {
+        JobScope::Campaign(c) => vec![c],
+        _ => project.latest_campaign_ids()?,
+    };
+    let chosen =
+        |ids: Vec<i64>| -> Vec<i64> { ids.into_iter().filter(|c| in_scope.contains(c)).collect() };
     println!(
         "{} job(s) to resume, {done} of {total} already done",
         resumed + released
@@ -330,7 +342,16 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
             println!("  job {} {what}: {} ({})", d.job.id, d.why, d.job.label);
         }
     }
-    if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, only, slurm_used)? {
+    if scope == JobScope::LatestVersions {
+        let older = project.open_jobs(JobScope::All)?.len()
+            - project.open_jobs(JobScope::LatestVersions)?.len();
+        if older > 0 {
+            println!(
+                "  {older} job(s) of older campaign versions left as they are: `sweep resume --campaign NAME@vK` continues one"
+            );
+        }
+    }
+    if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, &in_scope, slurm_used)? {
         return Ok(code);
     }
     drop(project);
@@ -338,7 +359,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let code = run_jobs(
         &a.run,
         work.clone(),
-        only,
+        scope,
         a.max_attempts,
         sweep::campaign::RunSettings::default().checkpoint_interval_s,
         total as usize,
@@ -349,11 +370,6 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     // Campaigns with a target go on with their rounds where they stopped; claims without one
     // are looked at once their jobs have ended.
     let project = Project::open(db)?;
-    let chosen = |ids: Vec<i64>| -> Vec<i64> {
-        ids.into_iter()
-            .filter(|cid| only.is_none_or(|o| o == *cid))
-            .collect()
-    };
     let with_target = chosen(project.campaigns_with_target()?);
     let with_claims = chosen(project.campaigns_with_claims_only()?);
     drop(project);

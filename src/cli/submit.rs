@@ -145,15 +145,15 @@ fn print_submitted(list: &[Submitted], settings: &SubmitSettings) {
 }
 
 /// The Slurm part of `sweep resume`: resubmits the pending jobs that go to Slurm (those last
-/// submitted there, or all with `--executor slurm`), of campaign `only` when given. Returns the
-/// exit code when nothing is left to run here.
+/// submitted there, or all with `--executor slurm`) of `campaigns`. Returns the exit code when
+/// nothing is left to run here.
 ///
 /// # Errors
 /// Database errors.
 pub fn resume_on_slurm(
     project: &mut Project,
     a: &ResumeArguments,
-    only: Option<i64>,
+    campaigns: &[i64],
     slurm_used: bool,
 ) -> anyhow::Result<Option<i32>> {
     if a.executor == Some(ExecutorKind::Local) {
@@ -168,9 +168,7 @@ pub fn resume_on_slurm(
     };
     let all = a.executor == Some(ExecutorKind::Slurm);
     let mut groups = slurm::resume_groups(project.conn(), all, &fallback)?;
-    if only.is_some() {
-        groups.retain(|g| g.campaign_id == only);
-    }
+    groups.retain(|g| g.campaign_id.is_none_or(|c| campaigns.contains(&c)));
     if groups.is_empty() && !slurm_used && !all {
         return Ok(None);
     }

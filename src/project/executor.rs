@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use super::Project;
+use super::{JobScope, Project};
 use crate::runner::pool::{run_pending, PoolOptions, PoolSummary};
 use crate::runner::slurm::{self, CancelReport, CollectReport, SubmitSettings, Submitted};
 
@@ -75,7 +75,11 @@ impl Executor for Local {
         if self.pool.work_dir.as_os_str().is_empty() {
             self.pool.work_dir = project.work_dir()?;
         }
-        self.pool.campaign = s.campaign;
+        // A submission of one campaign runs its jobs; one of the whole store keeps the pool's
+        // own scope (a plain `resume`: the latest versions).
+        if let Some(c) = s.campaign {
+            self.pool.scope = JobScope::Campaign(c);
+        }
         Ok(Outcome::Ran(run_pending(&self.pool, s.total, s.done)?))
     }
 

@@ -1,7 +1,9 @@
 //! The project's jobs: how many are done or pending, the state of each, what a resume does
 //! with those that stopped, and forgetting some.
 
-use super::{Decision, ForgetPlan, JobStatus, JobTotals, Liveness, OpenJob, Project, StateTotal};
+use super::{
+    Decision, ForgetPlan, JobScope, JobStatus, JobTotals, Liveness, OpenJob, Project, StateTotal,
+};
 use crate::store::{forget, job_counts, jobs};
 
 impl Project {
@@ -66,12 +68,12 @@ impl Project {
         jobs::campaign_jobs_in(&self.conn, cid, statuses, limit)
     }
 
-    /// Jobs not ended (running, paused, pending), of campaign `cid` or all.
+    /// Jobs not ended (running, paused, pending), of `scope`.
     ///
     /// # Errors
     /// Database errors.
-    pub fn open_jobs(&self, cid: Option<i64>) -> anyhow::Result<Vec<OpenJob>> {
-        jobs::open_jobs(&self.conn, cid)
+    pub fn open_jobs(&self, scope: JobScope) -> anyhow::Result<Vec<OpenJob>> {
+        jobs::open_jobs(&self.conn, scope)
     }
 
     /// Job `id`'s label (its hash when it belongs to no campaign); None: no such job.
@@ -82,18 +84,18 @@ impl Project {
         jobs::job_label(&self.conn, id)
     }
 
-    /// Puts stopped jobs (of `campaign`, or all) back to pending (or failed, without attempts
+    /// Puts stopped jobs (of `scope`) back to pending (or failed, without attempts
     /// left) as `liveness` judges each; returns what was decided for every open job.
     ///
     /// # Errors
     /// Database errors.
     pub fn requeue(
         &mut self,
-        campaign: Option<i64>,
+        scope: JobScope,
         max_attempts: Option<i64>,
         liveness: impl FnMut(&OpenJob) -> Liveness,
     ) -> anyhow::Result<Vec<Decision>> {
-        jobs::requeue(&mut self.conn, campaign, max_attempts, liveness)
+        jobs::requeue(&mut self.conn, scope, max_attempts, liveness)
     }
 
     /// What forgetting job `id` would remove.
@@ -122,5 +124,13 @@ impl Project {
     /// Database errors.
     pub fn forget(&mut self, plan: &ForgetPlan) -> anyhow::Result<()> {
         forget::forget(&mut self.conn, plan)
+    }
+
+    /// The campaigns no later version of the same name replaces.
+    ///
+    /// # Errors
+    /// Database errors.
+    pub fn latest_campaign_ids(&self) -> anyhow::Result<Vec<i64>> {
+        crate::store::scope::latest_campaign_ids(&self.conn)
     }
 }

@@ -22,8 +22,8 @@ pub use crate::store::fields::{FieldArray, FieldSet};
 pub use crate::store::forget::ForgetPlan;
 pub use crate::store::job_counts::JobTotals;
 pub use crate::store::jobs::{
-    owner_place, CampaignRow, Decision, JobStatus, Liveness, OpenJob, OwnerPlace, Registration,
-    StateTotal,
+    owner_place, CampaignRow, Decision, JobScope, JobStatus, Liveness, OpenJob, OwnerPlace,
+    Registration, StateTotal,
 };
 pub use crate::store::slurm_tasks::SlurmTask;
 pub use crate::store::targets::{PointRow, WorkRow};

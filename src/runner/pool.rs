@@ -11,7 +11,7 @@ use super::backend::{BackendChoice, GpuSelect};
 use super::job::{job_dir, JobContext, Outcome};
 use super::job_lock::{DirLock, Heartbeat};
 use super::silo_job::run_silo_job;
-use crate::store::jobs::{self, Lease};
+use crate::store::jobs::{self, JobScope, Lease};
 use crate::store::silo_done::{silo_done, SiloDone};
 
 /// Options of a run of pending jobs.
@@ -19,7 +19,8 @@ use crate::store::silo_done::{silo_done, SiloDone};
 pub struct PoolOptions {
     pub db: PathBuf,
     pub work_dir: PathBuf,
-    pub campaign: Option<i64>,
+    /// Which pending jobs the pool takes.
+    pub scope: JobScope,
     pub parallel: usize,
     /// Engine threads per job; 0 = cores / parallel.
     pub threads: usize,
@@ -149,7 +150,7 @@ fn worker(w: Worker) -> anyhow::Result<()> {
         }
         // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
         // requeue waits for that transaction) never sees it running and unlocked.
-        let claimed = jobs::claim(&mut conn, opts.campaign, &lease, opts.max_attempts, |j| {
+        let claimed = jobs::claim(&mut conn, opts.scope, &lease, opts.max_attempts, |j| {
             Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?)
         })?;
         let Some((job, _lock)) = claimed else {

@@ -7,6 +7,8 @@ use rusqlite::{params, Connection, TransactionBehavior};
 use super::now;
 
 pub use super::lease::{owner_place, this_host, Lease, OwnerPlace};
+use super::scope::in_latest_version;
+pub use super::scope::JobScope;
 
 /// A job as stored.
 #[derive(Clone, Debug)]
@@ -24,7 +26,7 @@ pub struct JobRow {
 }
 
 /// A page of claim candidates: pending jobs after id ?3 with attempts left (?2 overrides each
-/// job's own limit), of campaign ?1 if not NULL, at most ?4.
+/// job's own limit), of campaign ?1 if not NULL, of a latest version when ?5, at most ?4.
 const CLAIM_PAGE: &str =
     "SELECT j.id, j.hash, j.params_json, j.status, j.attempts, j.sim_time_s, j.target_time_s,
         COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
@@ -34,9 +36,10 @@ const CLAIM_PAGE: &str =
    AND j.attempts < COALESCE(?2, j.max_attempts)
    AND (?1 IS NULL OR EXISTS (SELECT 1 FROM campaign_jobs cj
                               WHERE cj.campaign_id = ?1 AND cj.job_id = j.id))
+   AND {LATEST}
  ORDER BY j.id LIMIT ?4";
 
-/// Claims the next pending job (of `campaign` if given) for `lease`, in one transaction, so two
+/// Claims the next pending job (of `scope`) for `lease`, in one transaction, so two
 /// launchers never run the same job. `hold` is called inside that transaction with each
 /// candidate in turn and returns what keeps the job held (its OS lock) or `None` when another
 /// process holds it; the first job held is marked running, its attempt counted and its stage
@@ -47,7 +50,7 @@ const CLAIM_PAGE: &str =
 /// Database errors, or an error from `hold`.
 pub fn claim<T>(
     conn: &mut Connection,
-    campaign: Option<i64>,
+    scope: JobScope,
     lease: &Lease,
     max_attempts: Option<i64>,
     mut hold: impl FnMut(&JobRow) -> anyhow::Result<Option<T>>,
@@ -57,22 +60,27 @@ pub fn claim<T>(
     // store of 10⁶ pending jobs must not be read whole for each claim.
     const PAGE: i64 = 16;
     let mut after = i64::MIN;
+    let (campaign, latest_only) = scope.sql();
+    let query = CLAIM_PAGE.replace("{LATEST}", &in_latest_version("?5"));
     loop {
         let page: Vec<JobRow> = tx
-            .prepare_cached(CLAIM_PAGE)?
-            .query_map(params![campaign, max_attempts, after, PAGE], |r| {
-                Ok(JobRow {
-                    id: r.get(0)?,
-                    hash: r.get(1)?,
-                    params_json: r.get(2)?,
-                    status: r.get(3)?,
-                    attempts: r.get(4)?,
-                    sim_time_s: r.get(5)?,
-                    target_time_s: r.get(6)?,
-                    label: r.get(7)?,
-                    max_attempts: r.get(8)?,
-                })
-            })?
+            .prepare_cached(&query)?
+            .query_map(
+                params![campaign, max_attempts, after, PAGE, latest_only],
+                |r| {
+                    Ok(JobRow {
+                        id: r.get(0)?,
+                        hash: r.get(1)?,
+                        params_json: r.get(2)?,
+                        status: r.get(3)?,
+                        attempts: r.get(4)?,
+                        sim_time_s: r.get(5)?,
+                        target_time_s: r.get(6)?,
+                        label: r.get(7)?,
+                        max_attempts: r.get(8)?,
+                    })
+                },
+            )?
             .collect::<Result<_, _>>()?;
         let Some(last) = page.last() else {
             break;

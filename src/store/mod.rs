@@ -30,6 +30,7 @@ pub mod pending;
 mod register;
 mod requeue;
 mod results;
+pub mod scope;
 pub mod silo_done;
 pub mod silo_reads;
 pub mod slurm_ingest;

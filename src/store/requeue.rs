@@ -6,6 +6,7 @@ use rusqlite::{params, Connection, TransactionBehavior};
 
 use super::lease::{owner_place, OwnerPlace};
 use super::now;
+use super::scope::{in_latest_version, JobScope};
 
 /// A job that is not done and that `resume` looked at.
 #[derive(Clone, Debug)]
@@ -40,21 +41,24 @@ pub struct Decision {
     pub why: String,
 }
 
-/// Every job not done, with its lease and heartbeat age.
+/// Every job of `scope` not done, with its lease and heartbeat age.
 ///
 /// # Errors
 /// Database errors.
-pub fn open_jobs(conn: &Connection, campaign: Option<i64>) -> anyhow::Result<Vec<OpenJob>> {
+pub fn open_jobs(conn: &Connection, scope: JobScope) -> anyhow::Result<Vec<OpenJob>> {
     let t = now();
-    let mut q = conn.prepare(
+    let (campaign, latest_only) = scope.sql();
+    let mut q = conn.prepare(&format!(
         "SELECT j.id, j.hash, COALESCE((SELECT label FROM campaign_jobs cj WHERE cj.job_id = j.id LIMIT 1), ''),
                 j.status, j.attempts, j.max_attempts, j.lease_owner, ?1 - j.heartbeat_at, j.stage, j.last_error
          FROM jobs j
          WHERE j.status != 'done' AND (?2 IS NULL OR j.id IN (SELECT job_id FROM campaign_jobs WHERE campaign_id = ?2))
+           AND {}
          ORDER BY j.id",
-    )?;
+        in_latest_version("?3")
+    ))?;
     let rows = q
-        .query_map(params![t, campaign], |r| {
+        .query_map(params![t, campaign, latest_only], |r| {
             Ok(OpenJob {
                 id: r.get(0)?,
                 hash: r.get(1)?,
@@ -76,19 +80,19 @@ pub fn open_jobs(conn: &Connection, campaign: Option<i64>) -> anyhow::Result<Vec
 /// running ones whose owner `liveness` finds gone (not those handed to Slurm: `sweep collect`
 /// decides those), failed ones with attempts left. A running job whose owner is gone after its
 /// last attempt is marked failed with the cause. `max_attempts` overrides each job's own.
-/// Only campaign `campaign`'s jobs when given. Returns a decision for every job not done.
+/// Only the jobs of `scope`. Returns a decision for every such job not done.
 ///
 /// # Errors
 /// Database errors.
 pub fn requeue(
     conn: &mut Connection,
-    campaign: Option<i64>,
+    scope: JobScope,
     max_attempts: Option<i64>,
     mut liveness: impl FnMut(&OpenJob) -> Liveness,
 ) -> anyhow::Result<Vec<Decision>> {
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     let mut out = Vec::new();
-    for job in open_jobs(&tx, campaign)? {
+    for job in open_jobs(&tx, scope)? {
         let limit = max_attempts.unwrap_or(job.max_attempts);
         let (action, why) = match job.status.as_str() {
             "paused" => ("pending", "paused at its checkpoint".to_string()),

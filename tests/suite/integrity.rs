@@ -449,7 +449,7 @@ fn a_renamed_database_resumes_from_its_checkpoints_and_keeps_the_job_record() {
     assert!(attempts <= max, "attempts {attempts} > max {max}");
 }
 
-// 6. `resume --campaign` continues one version and leaves the others' paused jobs alone.
+// 6. A plain `resume` continues each campaign's latest version; `--campaign NAME@vK` an older one.
 
 /// Launches `file` (with `extra` arguments) and stops it with SIGTERM during job `job`'s fill.
 fn launch_and_pause(d: &Path, file: &Path, db: &Path, extra: &[&str], job: i64) {
@@ -465,7 +465,7 @@ fn launch_and_pause(d: &Path, file: &Path, db: &Path, extra: &[&str], job: i64) 
 }
 
 #[test]
-fn resume_of_one_campaign_version_leaves_the_others_paused() {
+fn resume_leaves_an_older_campaign_version_paused_unless_named() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
     let db = d.join("sweep.db");
@@ -477,29 +477,25 @@ fn resume_of_one_campaign_version_leaves_the_others_paused() {
     write_campaign(d, "slow.json", &v2);
     launch_and_pause(d, &file, &db, &["--new-version"], 2);
 
-    let resume = |campaign: &str| {
-        let mut args = resume_args(&db);
-        args.extend_from_slice(&["--campaign", campaign]);
-        sweep_cmd(d).args(args).output().unwrap()
-    };
-    let o = resume("slow");
-    assert!(
-        o.status.success(),
-        "resume the latest version:\n{}",
-        text(&o)
-    );
-    assert!(
-        stdout(&o).contains("1 job(s) to resume, 0 of 1 already done"),
-        "counts are the campaign's own:\n{}",
-        stdout(&o)
-    );
+    let o = sweep_cmd(d).args(resume_args(&db)).output().unwrap();
+    assert!(o.status.success(), "plain resume:\n{}", text(&o));
     assert_eq!(job_field(&db, 2, "status"), "done");
     assert_eq!(
         job_field(&db, 1, "status"),
         "paused",
         "version 1's paused job is left alone"
     );
+    assert!(
+        stdout(&o).contains("1 job(s) of older campaign versions left as they are"),
+        "{}",
+        stdout(&o)
+    );
 
+    let resume = |campaign: &str| {
+        let mut args = resume_args(&db);
+        args.extend_from_slice(&["--campaign", campaign]);
+        sweep_cmd(d).args(args).output().unwrap()
+    };
     let o = resume("nope");
     assert_ne!(o.status.code(), Some(0));
     assert!(
@@ -511,5 +507,10 @@ fn resume_of_one_campaign_version_leaves_the_others_paused() {
 
     let o = resume("slow@v1");
     assert!(o.status.success(), "resume version 1:\n{}", text(&o));
+    assert!(
+        stdout(&o).contains("1 job(s) to resume, 0 of 1 already done"),
+        "counts are the campaign's own:\n{}",
+        stdout(&o)
+    );
     assert_eq!(job_field(&db, 1, "status"), "done");
 }
