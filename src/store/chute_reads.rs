@@ -485,7 +485,8 @@ pub struct DecidingWindow {
     pub stress_ratio: Option<f64>,
 }
 
-/// The flow verdicts of the campaign's chute jobs, by job id.
+/// The flow verdicts of the campaign's chute jobs, by job id; a done steady job whose stored
+/// profile shows ordered layers reads "layered".
 ///
 /// # Errors
 /// On a database error.
@@ -524,5 +525,15 @@ pub fn flow_verdicts(
             ))
         })?
         .collect::<rusqlite::Result<_>>()?;
+    let mut rows: std::collections::BTreeMap<i64, FlowVerdict> = rows;
+    // A steady flow in ordered layers is left out as the others are; say so.
+    let steady = FlowState::Steady.as_str();
+    for job in done_chute_jobs(conn, campaign_id, true)? {
+        if let Some(v) = rows.get_mut(&job.job_id) {
+            if v.state == steady && is_layered(job.layering) {
+                v.state = FlowState::Layered.as_str().into();
+            }
+        }
+    }
     Ok(rows)
 }

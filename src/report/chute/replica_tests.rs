@@ -219,6 +219,9 @@ fn a_steady_replica_in_ordered_layers_is_left_out() {
         .iter()
         .filter(|j| j.job_id != layered)
         .all(|j| j.layering == Some(0.0)));
+    let verdicts = crate::store::chute_reads::flow_verdicts(&conn, c).expect("verdicts");
+    assert_eq!(verdicts[&layered].state, "layered", "status says why");
+    assert_eq!(verdicts[&(layered - 1)].state, "steady");
     let points = pooled_points(&conn, c).expect("points");
     assert_eq!(
         (points[1].jobs.len(), points[1].steady_jobs.len()),
