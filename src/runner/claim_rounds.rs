@@ -79,6 +79,8 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
     let rate = (wall > 0.0).then_some(steps / wall);
     let results = scene_results(ev.file.scene);
+    // A claim decided at an earlier look of this campaign stays decided (`kept_decision`).
+    let decided = crate::store::claims::first_decisions(conn, campaign_id, look)?;
     let mut out = Vec::new();
     for (k, claim) in ev.file.claims.iter().enumerate() {
         let path = format!("claims[{k}]");
@@ -140,6 +142,14 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
             wall_s: used_wall,
             forecast_particle_steps: forecast,
             forecast_wall_s: forecast.and_then(|s| rate.map(|r| s / r)),
+        };
+        let (v, row) = match decided.get(&claim.id) {
+            Some(first) => {
+                let kept = crate::store::claims::kept_decision(first, &row);
+                let decision = Verdictum::parse(&kept.verdict).unwrap_or(v.decision);
+                (Verdict { decision, ..v }, kept)
+            }
+            None => (v, row),
         };
         out.push((claim.clone(), v, row));
     }

@@ -71,47 +71,110 @@ pub fn save_verdicts(conn: &Connection, campaign_id: i64, rows: &[VerdictRow]) -
     Ok(())
 }
 
+const ROW_COLUMNS: &str = "round, claim_id, statement, paper, paper_value, test, what, verdict,
+    value, lo, hi, level, bound, points, note, particle_steps, wall_s, forecast_particle_steps,
+    forecast_wall_s";
+
+fn verdict_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<VerdictRow> {
+    Ok(VerdictRow {
+        round: r.get(0)?,
+        claim_id: r.get(1)?,
+        statement: r.get(2)?,
+        paper: r.get(3)?,
+        paper_value: r.get(4)?,
+        test: r.get(5)?,
+        what: r.get(6)?,
+        verdict: r.get(7)?,
+        value: r.get(8)?,
+        lo: r.get(9)?,
+        hi: r.get(10)?,
+        level: r.get(11)?,
+        bound: r.get(12)?,
+        points: r.get(13)?,
+        note: r.get(14)?,
+        particle_steps: r.get(15)?,
+        wall_s: r.get(16)?,
+        forecast_particle_steps: r.get(17)?,
+        forecast_wall_s: r.get(18)?,
+    })
+}
+
+/// Each claim's first decision (supported or contradicted) at a look before `before_round`,
+/// by claim id.
+///
+/// # Errors
+/// Database errors.
+pub fn first_decisions(
+    conn: &Connection,
+    campaign_id: i64,
+    before_round: u32,
+) -> Result<std::collections::BTreeMap<String, VerdictRow>> {
+    let mut q = conn.prepare(&format!(
+        "SELECT {ROW_COLUMNS} FROM claim_verdicts
+         WHERE campaign_id = ?1 AND round < ?2 AND verdict IN ('supported', 'contradicted')
+         ORDER BY round DESC"
+    ))?;
+    let rows = q
+        .query_map(params![campaign_id, before_round], verdict_row)?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    // Descending rounds: the earliest decision of a claim is inserted last and stays.
+    Ok(rows.into_iter().map(|r| (r.claim_id.clone(), r)).collect())
+}
+
+/// A claim decided at an earlier look stays decided, as a sequential test stops at its first
+/// decision: later looks spend α on the claims still open, not on re-testing this one. The row
+/// of look `now.round` keeps the deciding look's verdict, value and interval, and says what the
+/// later look saw.
+pub fn kept_decision(first: &VerdictRow, now: &VerdictRow) -> VerdictRow {
+    let num = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| format!("{x:.4}"));
+    let mut note = format!(
+        "decided at look {}; look {} reads {} [{}, {}], {}",
+        first.round,
+        now.round,
+        num(now.value),
+        num(now.lo),
+        num(now.hi),
+        now.verdict
+    );
+    if !first.note.is_empty() {
+        note = format!("{note}; {}", first.note);
+    }
+    VerdictRow {
+        round: now.round,
+        note,
+        forecast_particle_steps: None,
+        forecast_wall_s: None,
+        ..first.clone()
+    }
+}
+
 /// The verdicts of the campaign's latest look (every claim), in the file's order of first
-/// storage; empty when none was stored.
+/// storage, each claim decided at an earlier look kept as decided (`kept_decision`); empty when
+/// none was stored.
 ///
 /// # Errors
 /// Database errors.
 pub fn latest_verdicts(conn: &Connection, campaign_id: i64) -> Result<Vec<VerdictRow>> {
-    let mut q = conn.prepare(
-        "SELECT round, claim_id, statement, paper, paper_value, test, what, verdict, value, lo, hi,
-                level, bound, points, note, particle_steps, wall_s, forecast_particle_steps,
-                forecast_wall_s
-         FROM claim_verdicts
+    let mut q = conn.prepare(&format!(
+        "SELECT {ROW_COLUMNS} FROM claim_verdicts
          WHERE campaign_id = ?1
            AND round = (SELECT MAX(round) FROM claim_verdicts WHERE campaign_id = ?1)
-         ORDER BY rowid",
-    )?;
+         ORDER BY rowid"
+    ))?;
     let rows = q
-        .query_map([campaign_id], |r| {
-            Ok(VerdictRow {
-                round: r.get(0)?,
-                claim_id: r.get(1)?,
-                statement: r.get(2)?,
-                paper: r.get(3)?,
-                paper_value: r.get(4)?,
-                test: r.get(5)?,
-                what: r.get(6)?,
-                verdict: r.get(7)?,
-                value: r.get(8)?,
-                lo: r.get(9)?,
-                hi: r.get(10)?,
-                level: r.get(11)?,
-                bound: r.get(12)?,
-                points: r.get(13)?,
-                note: r.get(14)?,
-                particle_steps: r.get(15)?,
-                wall_s: r.get(16)?,
-                forecast_particle_steps: r.get(17)?,
-                forecast_wall_s: r.get(18)?,
-            })
-        })?
+        .query_map([campaign_id], verdict_row)?
         .collect::<rusqlite::Result<Vec<_>>>()?;
-    Ok(rows)
+    let Some(latest) = rows.first().map(|r| r.round) else {
+        return Ok(rows);
+    };
+    let decided = first_decisions(conn, campaign_id, latest)?;
+    Ok(rows
+        .into_iter()
+        .map(|r| match decided.get(&r.claim_id) {
+            Some(first) => kept_decision(first, &r),
+            None => r,
+        })
+        .collect())
 }
 
 /// Every (round, claim, verdict) of the campaign, by round: how its claims were decided.
@@ -141,4 +204,85 @@ pub fn spent(conn: &Connection, campaign_id: i64) -> Result<(f64, f64, f64)> {
         [campaign_id],
         |r| Ok((r.get::<_, f64>(0)?, r.get(1)?, r.get(2)?)),
     )?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::test_rows;
+
+    fn row(round: u32, claim: &str, verdict: &str, value: f64) -> VerdictRow {
+        VerdictRow {
+            round,
+            claim_id: claim.into(),
+            statement: String::new(),
+            paper: String::new(),
+            paper_value: String::new(),
+            test: "compare".into(),
+            what: "q ratio".into(),
+            verdict: verdict.into(),
+            value: Some(value),
+            lo: Some(value - 0.1),
+            hi: Some(value + 0.1),
+            level: 0.99,
+            bound: "> 0".into(),
+            points: String::new(),
+            note: String::new(),
+            particle_steps: f64::from(round),
+            wall_s: 0.0,
+            forecast_particle_steps: Some(1.0),
+            forecast_wall_s: None,
+        }
+    }
+
+    #[test]
+    fn a_claim_decided_at_a_look_stays_decided_at_later_looks() {
+        let conn = test_rows::empty_db();
+        let c = test_rows::campaign(&conn, "c", "silo", "2026-01-01T00:00:00Z");
+        let looks = [
+            [
+                row(0, "a", "undecided", 0.05),
+                row(0, "b", "undecided", 0.0),
+            ],
+            [
+                row(1, "a", "supported", 0.15),
+                row(1, "b", "contradicted", -0.2),
+            ],
+            [
+                row(2, "a", "undecided", 0.09),
+                row(2, "b", "supported", 0.2),
+            ],
+        ];
+        for rows in &looks {
+            save_verdicts(&conn, c, rows).expect("save");
+        }
+        let first = first_decisions(&conn, c, 2).expect("first");
+        assert_eq!(first["a"].round, 1);
+        assert!(first_decisions(&conn, c, 1).expect("none").is_empty());
+        let latest = latest_verdicts(&conn, c).expect("latest");
+        assert_eq!(latest.len(), 2);
+        let a = &latest[0];
+        assert_eq!(
+            (a.round, a.verdict.as_str(), a.value),
+            (2, "supported", Some(0.15))
+        );
+        assert_eq!((a.lo, a.particle_steps), (Some(0.15 - 0.1), 1.0));
+        assert!(
+            a.note
+                .starts_with("decided at look 1; look 2 reads 0.0900 [-0.0100, 0.1900], undecided"),
+            "{}",
+            a.note
+        );
+        assert_eq!(a.forecast_particle_steps, None, "nothing is still needed");
+        // The first decision stands even against a later opposite one.
+        let b = &latest[1];
+        assert_eq!((b.verdict.as_str(), b.value), ("contradicted", Some(-0.2)));
+        // A campaign without earlier decisions reads its latest look as stored.
+        let d = test_rows::campaign(&conn, "d", "silo", "2026-01-01T00:00:00Z");
+        save_verdicts(&conn, d, &[row(0, "a", "undecided", 0.05)]).expect("save");
+        assert_eq!(
+            latest_verdicts(&conn, d).expect("d"),
+            vec![row(0, "a", "undecided", 0.05)]
+        );
+    }
 }
