@@ -39,6 +39,11 @@ const CLAIM_PAGE: &str =
    AND {LATEST}
  ORDER BY j.id LIMIT ?4";
 
+/// `CLAIM_PAGE` with its latest-version condition on ?5.
+fn claim_page() -> String {
+    CLAIM_PAGE.replace("{LATEST}", &in_latest_version("?5"))
+}
+
 /// Claims the next pending job (of `scope`) for `lease`, in one transaction, so two
 /// launchers never run the same job. `hold` is called inside that transaction with each
 /// candidate in turn and returns what keeps the job held (its OS lock) or `None` when another
@@ -61,7 +66,7 @@ pub fn claim<T>(
     const PAGE: i64 = 16;
     let mut after = i64::MIN;
     let (campaign, latest_only) = scope.sql();
-    let query = CLAIM_PAGE.replace("{LATEST}", &in_latest_version("?5"));
+    let query = claim_page();
     loop {
         let page: Vec<JobRow> = tx
             .prepare_cached(&query)?
@@ -248,10 +253,11 @@ mod tests {
     #[test]
     fn a_claim_reads_no_whole_table() {
         let conn = crate::store::open_in_memory(None).unwrap();
+        // The plan is the same whatever the parameters; the latest-version condition included.
         let plan: Vec<String> = conn
-            .prepare(&format!("EXPLAIN QUERY PLAN {CLAIM_PAGE}"))
+            .prepare(&format!("EXPLAIN QUERY PLAN {}", claim_page()))
             .unwrap()
-            .query_map(params![1, 3, 0, 16], |r| r.get::<_, String>(3))
+            .query_map(params![1, 3, 0, 16, true], |r| r.get::<_, String>(3))
             .unwrap()
             .collect::<Result<_, _>>()
             .unwrap();

@@ -462,10 +462,9 @@ fn beverloo_line(rows: &[DischargeRow], points: &[FlowPoint]) -> String {
     };
     let d: Vec<f64> = still.iter().map(|p| p.d_m).collect();
     let q: Vec<f64> = still.iter().map(|p| p.q).collect();
-    let Some(first) = still.first() else {
-        return "Beverloo at f = 0 Hz: no orifice with Q at f = 0\n".into();
-    };
-    let (pd, rho) = (first.particle_d_m, first.bulk_density_kg_per_m3);
+    let (pd, rho) = still.first().map_or((f64::NAN, f64::NAN), |p| {
+        (p.particle_d_m, p.bulk_density_kg_per_m3)
+    });
     let mut text = if still.len() < 3 {
         format!(
             "Beverloo fit at f = 0 Hz: needs >= 3 orifices with Q at f = 0, have {}\n",
@@ -549,6 +548,10 @@ mod tests {
         let text = beverloo_line(&[], &low);
         assert!(text.contains("C = 0.5220 over 2"), "{text}");
         assert!(text.contains("25 mm: 0.900, 32 mm: 0.900"), "{text}");
-        assert!(beverloo_line(&[], &[]).contains("no orifice with Q at f = 0"));
+        let none = beverloo_line(&[], &[]);
+        assert_eq!(
+            none,
+            "Beverloo fit at f = 0 Hz: needs >= 3 orifices with Q at f = 0, have 0\n"
+        );
     }
 }
