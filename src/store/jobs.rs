@@ -245,6 +245,8 @@ pub use super::requeue::*;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::store::scope::latest_campaign_ids;
+    use crate::store::test_rows;
 
     /// A claim's cost must not grow with the jobs registered: SQLite's plan for a page of
     /// candidates reads the pending jobs through their index and each label through the index
@@ -268,5 +270,66 @@ mod tests {
         );
         assert!(text.contains("jobs_status"), "{text}");
         assert!(text.contains("campaign_jobs_job"), "{text}");
+    }
+
+    /// Version 1 of "c" with pending jobs 1 and 2, version 2 sharing job 2 and adding job 3,
+    /// and another campaign "d" with job 4.
+    fn two_versions() -> rusqlite::Connection {
+        let conn = test_rows::empty_db();
+        let v1 = test_rows::campaign(&conn, "c", "silo", "2026-01-01T00:00:00Z");
+        // (name, version) is unique: registered under another name, then made version 2.
+        let v2 = test_rows::campaign(&conn, "c@2", "silo", "2026-01-02T00:00:00Z");
+        conn.execute(
+            "UPDATE campaigns SET name = 'c', version = 2 WHERE id = ?1",
+            [v2],
+        )
+        .expect("version");
+        let d = test_rows::campaign(&conn, "d", "silo", "2026-01-03T00:00:00Z");
+        test_rows::silo_job(&conn, v1, "old", "pending", "{}");
+        let shared = test_rows::silo_job(&conn, v1, "shared", "pending", "{}");
+        conn.execute(
+            "INSERT INTO campaign_jobs (campaign_id, job_id, label) VALUES (?1, ?2, 'shared')",
+            [v2, shared],
+        )
+        .expect("share");
+        test_rows::silo_job(&conn, v2, "new", "pending", "{}");
+        test_rows::silo_job(&conn, d, "other", "pending", "{}");
+        conn
+    }
+
+    fn open_ids(conn: &rusqlite::Connection, scope: JobScope) -> Vec<i64> {
+        open_jobs(conn, scope)
+            .expect("open")
+            .iter()
+            .map(|j| j.id)
+            .collect()
+    }
+
+    #[test]
+    fn latest_versions_leave_out_only_what_a_newer_version_replaces() {
+        let mut conn = two_versions();
+        assert_eq!(latest_campaign_ids(&conn).expect("latest"), vec![2, 3]);
+        assert_eq!(open_ids(&conn, JobScope::All), vec![1, 2, 3, 4]);
+        assert_eq!(open_ids(&conn, JobScope::LatestVersions), vec![2, 3, 4]);
+        assert_eq!(open_ids(&conn, JobScope::Campaign(1)), vec![1, 2]);
+        let mut claimed = Vec::new();
+        while let Some((job, ())) = claim(
+            &mut conn,
+            JobScope::LatestVersions,
+            &Lease::new(),
+            None,
+            |_| Ok(Some(())),
+        )
+        .expect("claim")
+        {
+            claimed.push(job.id);
+        }
+        assert_eq!(claimed, vec![2, 3, 4], "job 1 is only version 1's");
+        let old = claim(&mut conn, JobScope::All, &Lease::new(), None, |_| {
+            Ok(Some(()))
+        })
+        .expect("claim")
+        .map(|(j, ())| j.id);
+        assert_eq!(old, Some(1));
     }
 }
