@@ -343,8 +343,11 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         }
     }
     if scope == JobScope::LatestVersions {
-        let older = project.open_jobs(JobScope::All)?.len()
-            - project.open_jobs(JobScope::LatestVersions)?.len();
+        // `decisions` has one row per open job of the latest versions.
+        let older = project
+            .open_jobs(JobScope::All)?
+            .len()
+            .saturating_sub(decisions.len());
         if older > 0 {
             println!(
                 "  {older} job(s) of older campaign versions left as they are: `sweep resume --campaign NAME@vK` continues one"

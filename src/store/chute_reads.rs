@@ -502,7 +502,7 @@ pub fn flow_verdicts(
              (SELECT MIN(phase) FROM chute_stationarity x WHERE x.job_id = f.job_id) \
          WHERE cj.campaign_id = ?1",
     )?;
-    let rows = stmt
+    let mut rows: std::collections::BTreeMap<i64, FlowVerdict> = stmt
         .query_map(params![campaign_id], |r| {
             let phase: Option<String> = r.get(4)?;
             Ok((
@@ -525,7 +525,6 @@ pub fn flow_verdicts(
             ))
         })?
         .collect::<rusqlite::Result<_>>()?;
-    let mut rows: std::collections::BTreeMap<i64, FlowVerdict> = rows;
     // A steady flow in ordered layers is left out as the others are; say so.
     let steady = FlowState::Steady.as_str();
     for job in done_chute_jobs(conn, campaign_id, true)? {

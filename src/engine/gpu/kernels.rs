@@ -105,6 +105,24 @@ pub struct KernelSpec {
     pub bindings: &'static [u32],
 }
 
+/// What the contact kernels bind: both evaluate the same contacts, one to forces, one to
+/// records.
+const CONTACT_BINDINGS: &[u32] = &[
+    b::PARAMS,
+    b::WALLS,
+    b::POS_R,
+    b::VEL_IM,
+    b::OMEGA,
+    b::INFO,
+    b::LOAD,
+    b::HIST,
+    b::HIST_HI,
+    b::NBR,
+    b::NBR_HI,
+    b::STATUS,
+    b::RECORDS,
+];
+
 /// Kernel indices into `KERNELS`.
 pub mod kernel {
     /// The step's kick and drift (and, oriented, rotation), sink and skin check.
@@ -261,40 +279,12 @@ pub const KERNELS: [KernelSpec; 17] = [
     KernelSpec {
         module: Module::Contacts,
         entry: "compute_forces",
-        bindings: &[
-            b::PARAMS,
-            b::WALLS,
-            b::POS_R,
-            b::VEL_IM,
-            b::OMEGA,
-            b::INFO,
-            b::LOAD,
-            b::HIST,
-            b::HIST_HI,
-            b::NBR,
-            b::NBR_HI,
-            b::STATUS,
-            b::RECORDS,
-        ],
+        bindings: CONTACT_BINDINGS,
     },
     KernelSpec {
         module: Module::Contacts,
         entry: "record_contacts",
-        bindings: &[
-            b::PARAMS,
-            b::WALLS,
-            b::POS_R,
-            b::VEL_IM,
-            b::OMEGA,
-            b::INFO,
-            b::LOAD,
-            b::HIST,
-            b::HIST_HI,
-            b::NBR,
-            b::NBR_HI,
-            b::STATUS,
-            b::RECORDS,
-        ],
+        bindings: CONTACT_BINDINGS,
     },
     KernelSpec {
         module: Module::Integrate,
