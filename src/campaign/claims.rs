@@ -41,6 +41,7 @@ pub fn points_of(jobs: &[JobSpec]) -> Vec<(String, PointData)> {
                 results: BTreeMap::new(),
                 missing: None,
                 clogged: false,
+                replicas_short: 0,
                 particle_steps: 0.0,
             },
         ));

@@ -39,6 +39,7 @@ pub fn claim_points(
             results: BTreeMap::new(),
             missing: None,
             clogged: false,
+            replicas_short: 0,
             particle_steps: p.row.particle_steps as f64,
         })
         .collect();
@@ -100,6 +101,7 @@ pub fn claim_points(
                     ));
                 }
                 if steady.len() < CHUTE_MIN_REPLICAS as usize {
+                    p.replicas_short = CHUTE_MIN_REPLICAS - steady.len() as u32;
                     p.missing = Some(format!(
                         "{} of {CHUTE_MIN_REPLICAS} steady replicas",
                         steady.len()

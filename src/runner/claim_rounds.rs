@@ -289,6 +289,16 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
             let state = as_claims_see_it(&p.state, chute);
             let ci = state.estimate.map_or(1.0, |e| e.ci95_rel());
             match work_for(&state, &ev.target, ci * keep.sqrt()) {
+                d @ Decision::Work {
+                    work: Work::Replica,
+                    ..
+                } => {
+                    let short = l.points[i].replicas_short;
+                    let max = ev.target.max_replicas;
+                    for next in replicas_to_add(&p.next, short, p.state.runs.len(), max) {
+                        planned.push((d.clone(), next, p.state.label.clone()));
+                    }
+                }
                 d @ Decision::Work { .. } => {
                     planned.push((d, p.next.clone(), p.state.label.clone()))
                 }
@@ -300,6 +310,19 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
         }
     }
     (planned, capped)
+}
+
+/// The replicas a round adds to a point whose next new replica is `next`: one, or as many as
+/// the point's steady replicas are `short` of (a chute point has no result before it has three,
+/// and finding them one per round would cost a round each), within `max_replicas` over its
+/// `runs`.
+fn replicas_to_add(next: &JobSpec, short: u32, runs: usize, max_replicas: u32) -> Vec<JobSpec> {
+    let room = max_replicas.saturating_sub(runs as u32).max(1);
+    let mut out = vec![next.clone()];
+    if let Some(first) = next.chute.as_ref().map(|c| c.replica) {
+        out.extend((1..short.clamp(1, room)).map(|k| next.replica(first + k)));
+    }
+    out
 }
 
 /// The uniform round: every point's shortest run goes on by the campaign's own time (a point
@@ -426,4 +449,40 @@ pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<V
     claims::save_verdicts(&tx, campaign_id, &rows)?;
     tx.commit()?;
     Ok(Some(rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::replicas_to_add;
+    use crate::campaign::{expand, CampaignFile, JobSpec};
+
+    fn replica_of(scene: &str, replica: u32) -> JobSpec {
+        let s = format!(r#"{{"name":"c","scene":"{scene}","base":{{}},"replicas":1}}"#);
+        let file = CampaignFile::parse_str(&s, "c.json").expect("campaign");
+        let jobs = expand(&file, "c.json").expect("jobs");
+        jobs.get(0).replica(replica)
+    }
+
+    fn chute_replica(replica: u32) -> JobSpec {
+        replica_of("chute", replica)
+    }
+
+    #[test]
+    fn a_point_short_of_steady_replicas_gets_them_in_one_round() {
+        let indices = |v: Vec<JobSpec>| -> Vec<u32> {
+            v.iter()
+                .map(|j| j.chute.as_ref().unwrap().replica)
+                .collect()
+        };
+        let next = chute_replica(3);
+        // 1 of 3 steady after 3 runs: two new replicas, numbered on from the next.
+        assert_eq!(indices(replicas_to_add(&next, 2, 3, 6)), [3, 4]);
+        // Not short (a silo point, or a chute point whose interval is wide): one.
+        assert_eq!(indices(replicas_to_add(&next, 0, 3, 6)), [3]);
+        // max_replicas leaves room for one only.
+        assert_eq!(indices(replicas_to_add(&next, 3, 5, 6)), [3]);
+        // A silo point's next replica is the one it names.
+        let silo = replica_of("silo", 2);
+        assert_eq!(replicas_to_add(&silo, 0, 2, 6), std::slice::from_ref(&silo));
+    }
 }

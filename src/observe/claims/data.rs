@@ -28,6 +28,8 @@ pub struct PointData {
     /// Every run of the point clogged for good: it has no flow to measure. Fits and series
     /// leave it out, as the figures do; a `compare` that names it stays undecided.
     pub clogged: bool,
+    /// Steady replicas a chute point still lacks before it has results (0 otherwise).
+    pub replicas_short: u32,
     /// Particle-steps its jobs ran.
     pub particle_steps: f64,
 }

@@ -25,6 +25,7 @@ fn profile(result: &str, values: &[f64], se: f64) -> Vec<PointData> {
         results,
         missing: None,
         clogged: false,
+        replicas_short: 0,
         particle_steps: 1.0,
     }]
 }

@@ -26,6 +26,7 @@ fn point(d: f64, f: f64, q: f64, se: f64) -> PointData {
         )]),
         missing: None,
         clogged: false,
+        replicas_short: 0,
         particle_steps: 1e6,
     }
 }
@@ -223,6 +224,7 @@ fn fit_line_through_results() {
             ]),
             missing: None,
             clogged: false,
+            replicas_short: 0,
             particle_steps: 1.0,
         });
     }
