@@ -8,7 +8,8 @@ use sweep::runner::claim_rounds::ClaimsRound;
 
 fn value(r: &VerdictRow) -> String {
     let s = sweep::observe::claims::short;
-    match (r.value, r.lo, r.hi) {
+    // A value not yet stored is NaN where the store would hold NULL: both read n/a.
+    match (r.value.filter(|v| v.is_finite()), r.lo, r.hi) {
         (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", s(v), s(lo), s(hi)),
         (Some(v), _, _) => s(v),
         _ => "n/a".into(),

@@ -88,7 +88,8 @@ pub fn scale_of(scene: &str, params_json: &str, precision: &str) -> String {
 }
 
 fn value_text(r: &VerdictRow) -> String {
-    match (r.value, r.lo, r.hi) {
+    // A value not yet stored is NaN where the store would hold NULL: both read n/a.
+    match (r.value.filter(|v| v.is_finite()), r.lo, r.hi) {
         (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", short(v), short(lo), short(hi)),
         (Some(v), _, _) => format!("{} (no interval)", short(v)),
         _ => "n/a".into(),
