@@ -18,7 +18,7 @@ use crate::observe::claims::{
     decide, seed_of, spending_level, Claim, Decision as Verdictum, PointData, Statistic, Verdict,
     ALPHA,
 };
-use crate::observe::fits::{Pooled, PooledFrom};
+use crate::observe::fits::{t_975, Pooled, PooledFrom};
 use crate::store::claims::{self, VerdictRow};
 use crate::store::looks;
 use crate::store::targets::WorkRow;
@@ -293,9 +293,15 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                     work: Work::Replica,
                     ..
                 } => {
-                    let short = l.points[i].replicas_short;
+                    let wanted = match state.estimate {
+                        Some(e) if chute && e.ci95_rel().is_finite() => {
+                            replicas_for_goal(e.ci95_rel(), ci * keep.sqrt(), e.replicas as f64)
+                        }
+                        _ => 1,
+                    }
+                    .max(l.points[i].replicas_short);
                     let max = ev.target.max_replicas;
-                    for next in replicas_to_add(&p.next, short, p.state.runs.len(), max) {
+                    for next in replicas_to_add(&p.next, wanted, p.state.runs.len(), max) {
                         planned.push((d.clone(), next, p.state.label.clone()));
                     }
                 }
@@ -312,15 +318,24 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
     (planned, capped)
 }
 
-/// The replicas a round adds to a point whose next new replica is `next`: one, or as many as
-/// the point's steady replicas are `short` of (a chute point has no result before it has three,
-/// and finding them one per round would cost a round each), within `max_replicas` over its
-/// `runs`.
-fn replicas_to_add(next: &JobSpec, short: u32, runs: usize, max_replicas: u32) -> Vec<JobSpec> {
+/// Replicas a point whose interval is its `r` replicas' spread needs for the interval to shrink
+/// from `ci` to `goal` (relative): the t quantile falls with the degrees of freedom as the
+/// standard error falls as 1/√r. At least one, at most `r` (a round at most doubles them).
+fn replicas_for_goal(ci: f64, goal: f64, r: f64) -> u32 {
+    let after = |k: f64| ci * t_975(r + k - 1.0) / t_975(r - 1.0) * (r / (r + k)).sqrt();
+    let most = r.max(1.0) as u32;
+    (1..most).find(|&k| after(k as f64) <= goal).unwrap_or(most)
+}
+
+/// The replicas a round adds to a point whose next new replica is `next`: `wanted` of them (a
+/// chute point's claims shrink only with replicas, and it has no result before three of them
+/// are steady; finding them one per round would cost a round each), within `max_replicas` over
+/// its `runs`. A silo point gets one.
+fn replicas_to_add(next: &JobSpec, wanted: u32, runs: usize, max_replicas: u32) -> Vec<JobSpec> {
     let room = max_replicas.saturating_sub(runs as u32).max(1);
     let mut out = vec![next.clone()];
     if let Some(first) = next.chute.as_ref().map(|c| c.replica) {
-        out.extend((1..short.clamp(1, room)).map(|k| next.replica(first + k)));
+        out.extend((1..wanted.clamp(1, room)).map(|k| next.replica(first + k)));
     }
     out
 }
@@ -453,7 +468,7 @@ pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<V
 
 #[cfg(test)]
 mod tests {
-    use super::replicas_to_add;
+    use super::{replicas_for_goal, replicas_to_add};
     use crate::campaign::{expand, CampaignFile, JobSpec};
 
     fn replica_of(scene: &str, replica: u32) -> JobSpec {
@@ -484,5 +499,18 @@ mod tests {
         // A silo point's next replica is the one it names.
         let silo = replica_of("silo", 2);
         assert_eq!(replicas_to_add(&silo, 0, 2, 6), std::slice::from_ref(&silo));
+    }
+
+    #[test]
+    fn replicas_are_sized_to_the_interval_they_should_reach() {
+        // 3 replicas (2 degrees of freedom): one more brings ±25 % to 25 · t(3)/t(2) · √(3/4)
+        // = ±16.0 %; two to ±12.5 %; three (all a round allows) to ±10.6 %.
+        assert_eq!(replicas_for_goal(0.25, 0.17, 3.0), 1);
+        assert_eq!(replicas_for_goal(0.25, 0.15, 3.0), 2);
+        assert_eq!(replicas_for_goal(0.25, 0.12, 3.0), 3);
+        assert_eq!(replicas_for_goal(0.25, 0.01, 3.0), 3);
+        // Many replicas: the quantile barely moves, the error falls as 1/√r.
+        let k = replicas_for_goal(0.10, 0.10 / 2f64.sqrt(), 40.0);
+        assert!((38..=40).contains(&k), "{k}");
     }
 }
