@@ -9,7 +9,8 @@ use sweep::runner::claim_rounds::ClaimsRound;
 fn value(r: &VerdictRow) -> String {
     let s = sweep::observe::claims::short;
     // A value not yet stored is NaN where the store would hold NULL: both read n/a.
-    match (r.value.filter(|v| v.is_finite()), r.lo, r.hi) {
+    let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
+    match (finite(r.value), finite(r.lo), finite(r.hi)) {
         (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", s(v), s(lo), s(hi)),
         (Some(v), _, _) => s(v),
         _ => "n/a".into(),

@@ -89,7 +89,8 @@ pub fn scale_of(scene: &str, params_json: &str, precision: &str) -> String {
 
 fn value_text(r: &VerdictRow) -> String {
     // A value not yet stored is NaN where the store would hold NULL: both read n/a.
-    match (r.value.filter(|v| v.is_finite()), r.lo, r.hi) {
+    let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
+    match (finite(r.value), finite(r.lo), finite(r.hi)) {
         (Some(v), Some(lo), Some(hi)) => format!("{} [{}, {}]", short(v), short(lo), short(hi)),
         (Some(v), _, _) => format!("{} (no interval)", short(v)),
         _ => "n/a".into(),

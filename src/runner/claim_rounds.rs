@@ -184,10 +184,14 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
         if missing.is_empty() {
             return None;
         }
+        // A chute point short of steady replicas gets them all in one round.
         return Some(
             missing
                 .iter()
-                .map(|&i| ev.points[i].state.replica_cost)
+                .map(|&i| {
+                    let short = points[i].replicas_short.max(1);
+                    f64::from(short) * ev.points[i].state.replica_cost
+                })
                 .sum(),
         );
     }
@@ -289,20 +293,38 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
             let state = as_claims_see_it(&p.state, chute);
             let ci = state.estimate.map_or(1.0, |e| e.ci95_rel());
             match work_for(&state, &ev.target, ci * keep.sqrt()) {
-                d @ Decision::Work {
+                Decision::Work {
                     work: Work::Replica,
-                    ..
+                    ci_rel_before,
+                    ci_rel_expected,
+                    cost,
                 } => {
-                    let wanted = match state.estimate {
-                        Some(e) if chute && e.ci95_rel().is_finite() => {
-                            replicas_for_goal(e.ci95_rel(), ci * keep.sqrt(), e.replicas as f64)
-                        }
+                    // The steady replicas the claims pool (the estimate's own count may leave
+                    // out a replica without a value in its block).
+                    let r = p.row.replicas as f64;
+                    let spread = state
+                        .estimate
+                        .map(|e| e.ci95_rel())
+                        .filter(|c| c.is_finite());
+                    let wanted = match spread {
+                        Some(c) if chute => replicas_for_goal(c, ci * keep.sqrt(), r),
                         _ => 1,
                     }
                     .max(l.points[i].replicas_short);
                     let max = ev.target.max_replicas;
-                    for next in replicas_to_add(&p.next, wanted, p.state.runs.len(), max) {
-                        planned.push((d.clone(), next, p.state.label.clone()));
+                    let added = replicas_to_add(&p.next, wanted, p.state.runs.len(), max);
+                    for (k, next) in added.into_iter().enumerate() {
+                        let expected = match spread {
+                            Some(c) if chute && r >= 2.0 => Some(after_replicas(c, r, k + 1)),
+                            _ => ci_rel_expected,
+                        };
+                        let d = Decision::Work {
+                            work: Work::Replica,
+                            ci_rel_before,
+                            ci_rel_expected: expected,
+                            cost,
+                        };
+                        planned.push((d, next, p.state.label.clone()));
                     }
                 }
                 d @ Decision::Work { .. } => {
@@ -322,9 +344,16 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
 /// from `ci` to `goal` (relative): the t quantile falls with the degrees of freedom as the
 /// standard error falls as 1/√r. At least one, at most `r` (a round at most doubles them).
 fn replicas_for_goal(ci: f64, goal: f64, r: f64) -> u32 {
-    let after = |k: f64| ci * t_975(r + k - 1.0) / t_975(r - 1.0) * (r / (r + k)).sqrt();
     let most = r.max(1.0) as u32;
-    (1..most).find(|&k| after(k as f64) <= goal).unwrap_or(most)
+    (1..most)
+        .find(|&k| after_replicas(ci, r, k as usize) <= goal)
+        .unwrap_or(most)
+}
+
+/// The relative interval `ci` of `r` replicas' spread expected after `k` more.
+fn after_replicas(ci: f64, r: f64, k: usize) -> f64 {
+    let k = k as f64;
+    ci * t_975(r + k - 1.0) / t_975(r - 1.0) * (r / (r + k)).sqrt()
 }
 
 /// The replicas a round adds to a point whose next new replica is `next`: `wanted` of them (a
