@@ -23,8 +23,11 @@ pub fn chute_replica_results(
 ) -> BTreeMap<String, f64> {
     let mut out = BTreeMap::new();
     let d2 = d_perp_m * d_perp_m;
-    let d_max = positive_max(rows.iter().filter_map(|r| r.diffusion_m2_per_s));
-    let shear_max = positive_max(rows.iter().map(|r| r.shear_rate_per_s));
+    // The maxima come from the bed's full blocks: the dilute block the free surface cuts holds
+    // a few particles whose shear rate can exceed the bed's and would shrink the whole profile.
+    let full = full_blocks(rows);
+    let d_max = positive_max(full.iter().filter_map(|r| r.diffusion_m2_per_s));
+    let shear_max = positive_max(full.iter().map(|r| r.shear_rate_per_s));
     let mut bulk: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
     let mut gap_sq = (Vec::new(), Vec::new());
     for r in rows {
@@ -103,14 +106,19 @@ fn base_block(rows: &[BlockRow]) -> Option<&BlockRow> {
     rows.iter().min_by(|a, b| a.z_m.total_cmp(&b.z_m))
 }
 
-/// The highest full block: the highest whose solid fraction is at least half the densest
-/// block's, so not the dilute block the free surface cuts (the paper's block "close to the
-/// surface" of Fig. 5).
-fn surface_block(rows: &[BlockRow]) -> Option<&BlockRow> {
-    let phi: Vec<f64> = rows.iter().map(|r| r.solid_fraction).collect();
-    let dense = phi.iter().copied().fold(0.0, f64::max);
+/// The full blocks: those whose solid fraction is at least half the densest block's, so not
+/// the dilute block the free surface cuts.
+fn full_blocks(rows: &[BlockRow]) -> Vec<&BlockRow> {
+    let dense = rows.iter().map(|r| r.solid_fraction).fold(0.0, f64::max);
     rows.iter()
         .filter(|r| r.solid_fraction >= 0.5 * dense)
+        .collect()
+}
+
+/// The highest full block (the paper's block "close to the surface" of Fig. 5).
+fn surface_block(rows: &[BlockRow]) -> Option<&BlockRow> {
+    full_blocks(rows)
+        .into_iter()
         .max_by(|a, b| a.z_m.total_cmp(&b.z_m))
 }
 
@@ -200,6 +208,27 @@ mod tests {
         assert_eq!(v["profile_gap"], -0.125);
         assert!((v["profile_gap_rms"] - (0.0625f64 / 2.0).sqrt()).abs() < 1e-15);
         assert_eq!(v["profile_gap_rms_base"], 0.5);
+    }
+
+    #[test]
+    fn a_dilute_surface_block_does_not_set_the_maxima() {
+        // The surface block (φ a tenth of the bed's) shears at 20, twice the bed's 8: the
+        // profile is still normalised by the bed's maximum, as without that block.
+        let mut rows = four_blocks().to_vec();
+        let mut surface = row(4, 0.95, 9.0, 20.0);
+        surface.solid_fraction = 0.055;
+        rows.push(surface);
+        let with = chute_replica_results(&rows, 1.0, 0.1);
+        let without = chute_replica_results(&four_blocks(), 1.0, 0.1);
+        for key in [
+            "shear_rate_norm@3",
+            "D_norm@0",
+            "profile_gap_rms",
+            "profile_gap_rms_base",
+        ] {
+            assert_eq!(with[key], without[key], "{key}");
+        }
+        assert_eq!(with["shear_rate_norm@4"], 2.5);
     }
 
     #[test]
