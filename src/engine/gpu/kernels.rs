@@ -123,6 +123,32 @@ const CONTACT_BINDINGS: &[u32] = &[
     b::RECORDS,
 ];
 
+/// What the one-dispatch step binds: the contact kernels' bindings, then what its kick and
+/// drift read and write (the second copy of the state among them).
+const FUSED_BINDINGS: [u32; CONTACT_BINDINGS.len() + 6] = concat(
+    CONTACT_BINDINGS,
+    &[
+        b::REF_POS,
+        b::EVENTS,
+        b::ROD,
+        b::POS_W,
+        b::VEL_W,
+        b::OMEGA_W,
+    ],
+);
+
+/// `a` then `b`, at compile time (`N` must be their total length).
+const fn concat<const N: usize>(a: &[u32], b: &[u32]) -> [u32; N] {
+    assert!(a.len() + b.len() == N);
+    let mut out = [0; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = if i < a.len() { a[i] } else { b[i - a.len()] };
+        i += 1;
+    }
+    out
+}
+
 /// Kernel indices into `KERNELS`.
 pub mod kernel {
     /// The step's kick and drift (and, oriented, rotation), sink and skin check.
@@ -336,27 +362,7 @@ pub const KERNELS: [KernelSpec; 17] = [
     KernelSpec {
         module: Module::Fused,
         entry: "fused_step",
-        bindings: &[
-            b::PARAMS,
-            b::WALLS,
-            b::POS_R,
-            b::VEL_IM,
-            b::OMEGA,
-            b::INFO,
-            b::LOAD,
-            b::HIST,
-            b::HIST_HI,
-            b::NBR,
-            b::NBR_HI,
-            b::STATUS,
-            b::RECORDS,
-            b::REF_POS,
-            b::EVENTS,
-            b::ROD,
-            b::POS_W,
-            b::VEL_W,
-            b::OMEGA_W,
-        ],
+        bindings: &FUSED_BINDINGS,
     },
     KernelSpec {
         module: Module::Fused,
