@@ -25,7 +25,7 @@ pub fn chute_replica_results(
     let d2 = d_perp_m * d_perp_m;
     // The maxima come from the bed's full blocks: the dilute block the free surface cuts holds
     // a few particles whose shear rate can exceed the bed's and would shrink the whole profile.
-    let full = full_blocks(rows);
+    let full = full_blocks(rows, |r| r.solid_fraction);
     let d_max = positive_max(full.iter().filter_map(|r| r.diffusion_m2_per_s));
     let shear_max = positive_max(full.iter().map(|r| r.shear_rate_per_s));
     let mut bulk: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
@@ -106,18 +106,20 @@ fn base_block(rows: &[BlockRow]) -> Option<&BlockRow> {
     rows.iter().min_by(|a, b| a.z_m.total_cmp(&b.z_m))
 }
 
-/// The full blocks: those whose solid fraction is at least half the densest block's, so not
-/// the dilute block the free surface cuts.
-fn full_blocks(rows: &[BlockRow]) -> Vec<&BlockRow> {
-    let dense = rows.iter().map(|r| r.solid_fraction).fold(0.0, f64::max);
-    rows.iter()
-        .filter(|r| r.solid_fraction >= 0.5 * dense)
-        .collect()
+/// The full blocks: those whose solid fraction `phi` is at least half the densest block's, so
+/// not the dilute block the free surface cuts. Claims and Figs. 3–4 take the maxima over them.
+pub fn full_blocks<T>(rows: &[T], phi: impl Fn(&T) -> f64) -> Vec<&T> {
+    let dense = rows
+        .iter()
+        .map(&phi)
+        .filter(|x| x.is_finite())
+        .fold(0.0, f64::max);
+    rows.iter().filter(|r| phi(r) >= 0.5 * dense).collect()
 }
 
 /// The highest full block (the paper's block "close to the surface" of Fig. 5).
 fn surface_block(rows: &[BlockRow]) -> Option<&BlockRow> {
-    full_blocks(rows)
+    full_blocks(rows, |r| r.solid_fraction)
         .into_iter()
         .max_by(|a, b| a.z_m.total_cmp(&b.z_m))
 }
@@ -229,6 +231,14 @@ mod tests {
             assert_eq!(with[key], without[key], "{key}");
         }
         assert_eq!(with["shear_rate_norm@4"], 2.5);
+    }
+
+    #[test]
+    fn full_blocks_keep_half_the_densest_and_skip_an_unknown_density() {
+        // φ per block; NaN (no replica measured it) neither sets the densest nor is full.
+        let phi = [0.56, 0.55, 0.30, 0.27, f64::NAN, 0.02];
+        let full: Vec<f64> = full_blocks(&phi, |p| *p).into_iter().copied().collect();
+        assert_eq!(full, vec![0.56, 0.55, 0.30]);
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //! every inclination α of one aspect ratio ξ — Fig. 3 the campaign's ξ closest to 1.3, Fig. 4
 //! the one closest to 2.5 (the paper's choices). D comes from chute_blocks; γ̇ from the
 //! coarse-grained chute_fields profile for 0 ≤ z ≤ H, or from the block averages when a job has
-//! no field rows. D_max and γ̇_max are the maxima of what is drawn. Replicas of one point are
-//! combined (`replicas`): D pooled with its 95 % CI, γ̇ their mean.
+//! no field rows. D_max and γ̇_max are the maxima over the full blocks (φ at least half the
+//! densest block's), γ̇_max of the block averages: the normalisation the claims use. Replicas
+//! of one point are combined (`replicas`): D pooled with its 95 % CI, γ̇ their mean.
 
 use std::fmt::Write as _;
 
@@ -12,6 +13,7 @@ use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, group_points, replicas_caption};
 use crate::pooled::chute_jobs::{closest, done_chute_jobs, ChuteJob};
+use crate::pooled::replica_results::full_blocks;
 use crate::pooled::silo::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{caption, color, empty_panel, preface};
@@ -144,7 +146,9 @@ fn draw_xi(
          and its standard error over msd_error_windows windows (Student t over the \
          replicas when one lacks its error), error bars 95 % CI / D_max; lines: shear \
          rate / its max, replica mean, from chute_fields for 0 <= z <= H (block \
-         averages when a job has no field rows); D in L^2/s with L = total_length_m",
+         averages when a job has no field rows); D_max and shear_max over the full blocks \
+         (phi >= half the densest block's), shear_max of the block averages, as the claims \
+         normalise; D in L^2/s with L = total_length_m",
         short(xi),
         short(target_xi),
         xis.iter().map(|x| short(*x)).collect::<Vec<_>>().join(", ")
@@ -226,15 +230,29 @@ fn draw_alpha(
             .map(|&(z, g)| (z / l, g.mean, g.ci95, g.replicas));
         (f.collect(), "fields")
     };
+    // The maxima the claims use: over the full blocks, not the dilute one the surface cuts,
+    // and γ̇_max from the block averages even where the finer field is drawn, so that the
+    // drawn gap is the one the claims test (the field's wall-layering peaks would set it).
+    let full = full_blocks(&point.blocks, |b| b.solid_fraction.mean);
+    let full_d: Vec<ProfilePoint> = diffusion
+        .iter()
+        .copied()
+        .filter(|p| full.iter().any(|b| same_value(b.z_m / l, p.0)))
+        .collect();
     let xy = |v: &[ProfilePoint]| -> Vec<(f64, f64)> { v.iter().map(|p| (p.0, p.1)).collect() };
-    let d_max = max_point(&xy(&diffusion));
+    let d_max = max_point(&xy(&full_d));
     let d_max_ci = d_max.and_then(|m| {
-        diffusion
+        full_d
             .iter()
             .find(|p| p.0 == m.0 && p.1 == m.1)
             .and_then(|p| p.2)
     });
-    let g_max = max_point(&xy(&shear));
+    let g_max = max_point(
+        &full
+            .iter()
+            .map(|b| (b.z_m / l, b.shear_rate.mean))
+            .collect::<Vec<_>>(),
+    );
     d.table.push(vec![
         short(alpha),
         sci(d_max.map(|p| p.1), 3),
