@@ -326,8 +326,6 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         JobScope::Campaign(c) => vec![c],
         _ => project.latest_campaign_ids()?,
     };
-    let chosen =
-        |ids: Vec<i64>| -> Vec<i64> { ids.into_iter().filter(|c| in_scope.contains(c)).collect() };
     println!(
         "{} job(s) to resume, {done} of {total} already done",
         resumed + released
@@ -357,38 +355,33 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, &in_scope, slurm_used)? {
         return Ok(code);
     }
-    drop(project);
-    // Each job's own campaign sets its checkpoint interval; this is the fallback.
-    let code = run_jobs(
-        &a.run,
-        work.clone(),
-        scope,
-        a.max_attempts,
-        sweep::campaign::RunSettings::default().checkpoint_interval_s,
-        total as usize,
-        done as usize,
-    )?;
-    let marked_failed = decisions.iter().any(|d| d.action == "failed");
-    let mut code = if code == 0 && marked_failed { 1 } else { code };
-    // Campaigns with a target go on with their rounds where they stopped; claims without one
-    // are looked at once their jobs have ended.
-    let project = Project::open(db)?;
-    let with_target = chosen(project.campaigns_with_target()?);
-    let with_claims = chosen(project.campaigns_with_claims_only()?);
-    drop(project);
-    if code == 0 {
-        for cid in with_claims {
-            look_once(db, cid)?;
+    let order = campaigns_in_turn(&project, &in_scope)?;
+    if order.len() > 1 {
+        let mut names = Vec::new();
+        for &(open, cid) in &order {
+            let name = project
+                .campaign_file(cid)?
+                .map_or(cid.to_string(), |f| f.name);
+            names.push(format!("{name} ({open} open)"));
         }
-    }
-    for cid in with_target {
-        let project = Project::open(db)?;
-        let interval = project.campaign_file(cid)?.map_or(
-            sweep::campaign::RunSettings::default().checkpoint_interval_s,
-            |f| f.run.checkpoint_interval_s,
+        println!(
+            "campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: {}",
+            names.join(", ")
         );
-        drop(project);
-        code = pursue_target(&a.run, &work, cid, interval, code)?;
+    }
+    drop(project);
+    let mut code = 0;
+    for (open, cid) in order {
+        let c = continue_campaign(&a, &work, cid, open)?;
+        if c == EXIT_PAUSED {
+            // Interrupted: the other campaigns wait for the next resume.
+            return Ok(c);
+        }
+        code = code.max(c);
+    }
+    let marked_failed = decisions.iter().any(|d| d.action == "failed");
+    if code == 0 && marked_failed {
+        code = 1;
     }
     // Failed jobs left alone (no attempts left) are still failures of the store's campaigns.
     let failed = Project::open(db)?.failed_count()?;
@@ -399,6 +392,61 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         code = 1;
     }
     Ok(code)
+}
+
+/// The campaigns of `in_scope` as (open jobs, id), the fewest open jobs first: a plain resume
+/// takes them in this order, each through its jobs and then its look or its target's rounds, so
+/// a small campaign reaches its verdict without waiting behind every job of a large one.
+fn campaigns_in_turn(project: &Project, in_scope: &[i64]) -> anyhow::Result<Vec<(usize, i64)>> {
+    let mut order = Vec::new();
+    for &cid in in_scope {
+        order.push((project.open_jobs(JobScope::Campaign(cid))?.len(), cid));
+    }
+    order.sort_unstable();
+    Ok(order)
+}
+
+/// Runs campaign `cid`'s `open` jobs (jobs it shares with another campaign included), then
+/// looks at its claims or goes on with its target's rounds; returns the exit code.
+fn continue_campaign(
+    a: &ResumeArguments,
+    work: &Path,
+    cid: i64,
+    open: usize,
+) -> anyhow::Result<i32> {
+    let db = &a.run.db.db;
+    let project = Project::open(db)?;
+    let file = project.campaign_file(cid)?;
+    let (total, done) = campaign_totals(&project, cid)?;
+    drop(project);
+    // Each job's own campaign sets its checkpoint interval; this is the fallback.
+    let interval = file.as_ref().map_or(
+        sweep::campaign::RunSettings::default().checkpoint_interval_s,
+        |f| f.run.checkpoint_interval_s,
+    );
+    let code = if open > 0 {
+        run_jobs(
+            &a.run,
+            work.to_path_buf(),
+            JobScope::Campaign(cid),
+            a.max_attempts,
+            interval,
+            total as usize,
+            done as usize,
+        )?
+    } else {
+        0
+    };
+    match file {
+        Some(f) if f.target.is_some() => pursue_target(&a.run, work, cid, interval, code),
+        Some(f) if !f.claims.is_empty() => {
+            if code == 0 {
+                look_once(db, cid)?;
+            }
+            Ok(code)
+        }
+        _ => Ok(code),
+    }
 }
 
 /// Campaign `cid`'s jobs: (all, done).

@@ -36,6 +36,7 @@ mod observe_chute;
 mod precision;
 mod report_chute;
 mod report_chute_profiles;
+mod resume_turns;
 mod schema_migration;
 mod silo;
 mod silo_fields;

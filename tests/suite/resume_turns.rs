@@ -1,0 +1,77 @@
+//! A plain `sweep resume` of a store that holds several campaigns takes them in turn, the
+//! fewest open jobs first, each through its jobs and then its claims' look or its target's
+//! rounds: a small campaign's verdict does not wait behind every job of a large one.
+
+use std::path::Path;
+
+use crate::common::cli::*;
+use serde_json::json;
+use tempfile::TempDir;
+
+/// Launches `file` into `db` and SIGKILLs it once one of campaign `name`'s jobs runs.
+fn launch_killed_once_running(dir: &Path, file: &Path, db: &Path, name: &str) {
+    let mut child = spawn_launch(dir, file, db);
+    let seen = wait_for(&mut child, "a job running", || {
+        db.exists()
+            && read_db(db)
+                .query_row(
+                    "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
+                     JOIN campaigns c ON c.id = cj.campaign_id
+                     WHERE c.name = ?1 AND j.status = 'running'",
+                    [name],
+                    |r| r.get::<_, i64>(0),
+                )
+                .unwrap_or(0)
+                > 0
+    });
+    assert!(seen, "campaign {name} ended before it was killed");
+    kill(&mut child);
+}
+
+#[test]
+fn a_small_campaign_is_looked_at_before_a_large_one_runs() {
+    let dir = TempDir::new().unwrap();
+    let db = dir.path().join("sweep.db");
+    // Four jobs, launched first (jobs 1–4), and two of other orifices with a claim (jobs 5–6).
+    let large = campaign("large", &[0.02, 0.022], &[0.0, 1.0], 0.2);
+    let mut small = campaign("small", &[0.024], &[0.0, 1.0], 0.2);
+    small["claims"] = json!([{
+        "id": "q_rises_with_f", "paper": "PRE 102, 042902, Fig. 4",
+        "statement": "Q at 1 Hz exceeds Q at rest",
+        "compare": {
+            "result": "q",
+            "at": { "orifice_diameter_m": 0.024, "rotation_frequency_hz": 1.0 },
+            "against": { "orifice_diameter_m": 0.024, "rotation_frequency_hz": 0.0 },
+            "above": 1.0
+        }
+    }]);
+    let large = write_campaign(dir.path(), "large.json", &large);
+    let small = write_campaign(dir.path(), "small.json", &small);
+    launch_killed_once_running(dir.path(), &large, &db, "large");
+    launch_killed_once_running(dir.path(), &small, &db, "small");
+
+    let o = resume(dir.path(), &db);
+    let out = stdout(&o);
+    assert!(o.status.success(), "{out}\n{}", stderr(&o));
+    assert!(
+        out.contains("campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: small (2 open), large (4 open)"),
+        "{out}"
+    );
+    let lines: Vec<&str> = out.lines().collect();
+    let at = |p: &dyn Fn(&str) -> bool| lines.iter().position(|l| p(l));
+    let look = at(&|l| l.starts_with("claims: ")).expect("the small campaign's look");
+    let small_done = at(&|l| l.starts_with("job 6 done")).expect("job 6 done");
+    let large_start = at(&|l| (1..=4).any(|k| l.starts_with(&format!("job {k} started"))))
+        .expect("a large job started");
+    assert!(small_done < look && look < large_start, "{out}");
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        6,
+        "{out}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM claim_verdicts"),
+        1,
+        "one look, once the small campaign's jobs had ended"
+    );
+}
