@@ -75,9 +75,17 @@ pub(crate) fn orientation(
         "abs_cos_theta_ci95",
         "replicas",
     ]);
-    let mut a = Panel::new(Axis::linear("z / L"), Axis::linear("S2"));
+    // Each quantity's own range: a dilute block's interval over two replicas would otherwise
+    // set the scale and flatten every profile.
+    let mut a = Panel::new(
+        Axis::linear("z / L"),
+        physical(Axis::linear("S2"), -0.5, 1.0),
+    );
     a.title = Some("(a) nematic order S2(z)".into());
-    let mut b = Panel::new(Axis::linear("z / L"), Axis::linear("⟨|cos θ|⟩"));
+    let mut b = Panel::new(
+        Axis::linear("z / L"),
+        physical(Axis::linear("⟨|cos θ|⟩"), 0.0, 1.0),
+    );
     b.title = Some("(b) ⟨|cos θ|⟩(z), θ to the flow".into());
     b.legend = Legend::Outside;
     let (mut z_lo, mut z_hi, mut max_replicas) = (f64::INFINITY, f64::NEG_INFINITY, 0);
@@ -183,4 +191,10 @@ pub(crate) fn orientation(
         out_dir,
         "chute_orientation",
     )
+}
+
+/// `axis` fixed to a quantity's possible values [lo, hi].
+fn physical(mut axis: Axis, lo: f64, hi: f64) -> Axis {
+    axis.range = Some((lo, hi));
+    axis
 }
