@@ -190,7 +190,13 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
                 .iter()
                 .map(|&i| {
                     let short = points[i].replicas_short.max(1);
-                    f64::from(short) * ev.points[i].state.replica_cost
+                    let p = &ev.points[i];
+                    let share = if ev.file.scene == crate::campaign::SceneKind::Chute {
+                        steady_share(p.row.replicas as f64, p.state.runs.len())
+                    } else {
+                        1.0
+                    };
+                    f64::from(short) / share * p.state.replica_cost
                 })
                 .sum(),
         );
@@ -311,11 +317,19 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                         _ => 1,
                     }
                     .max(l.points[i].replicas_short);
+                    let ran = p.state.runs.len();
+                    let steady_share = if chute { steady_share(r, ran) } else { 1.0 };
+                    let jobs = (f64::from(wanted) / steady_share).ceil() as u32;
                     let max = ev.target.max_replicas;
-                    let added = replicas_to_add(&p.next, wanted, p.state.runs.len(), max);
+                    let added = replicas_to_add(&p.next, jobs, ran, max);
                     for (k, next) in added.into_iter().enumerate() {
+                        // The steady replicas k + 1 new jobs are expected to give.
+                        let steady = ((k + 1) as f64 * steady_share).floor() as usize;
                         let expected = match spread {
-                            Some(c) if chute && r >= 2.0 => Some(after_replicas(c, r, k + 1)),
+                            Some(c) if chute && r >= 2.0 && steady > 0 => {
+                                Some(after_replicas(c, r, steady))
+                            }
+                            Some(c) if chute && r >= 2.0 => Some(c),
                             _ => ci_rel_expected,
                         };
                         let d = Decision::Work {
@@ -349,6 +363,20 @@ fn replicas_for_goal(ci: f64, goal: f64, r: f64) -> u32 {
         .find(|&k| after_replicas(ci, r, k as usize) <= goal)
         .unwrap_or(most)
 }
+
+/// The share of a chute point's `ran` replicas that were steady (`steady` of them), at least
+/// [`MIN_STEADY_SHARE`]; 1 before any ran. A replica whose flow drifts while measured gives no
+/// result, so a round that counted on every new replica being steady would fall short.
+fn steady_share(steady: f64, ran: usize) -> f64 {
+    if ran == 0 {
+        return 1.0;
+    }
+    (steady / ran as f64).clamp(MIN_STEADY_SHARE, 1.0)
+}
+
+/// The least steady share a round plans for: it starts at most three jobs per steady replica
+/// wanted, so a point whose first replicas all drifted is not flooded with work.
+const MIN_STEADY_SHARE: f64 = 1.0 / 3.0;
 
 /// The relative interval `ci` of `r` replicas' spread expected after `k` more.
 fn after_replicas(ci: f64, r: f64, k: usize) -> f64 {
@@ -497,7 +525,7 @@ pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<V
 
 #[cfg(test)]
 mod tests {
-    use super::{replicas_for_goal, replicas_to_add};
+    use super::{replicas_for_goal, replicas_to_add, steady_share};
     use crate::campaign::{expand, CampaignFile, JobSpec};
 
     fn replica_of(scene: &str, replica: u32) -> JobSpec {
@@ -528,6 +556,19 @@ mod tests {
         // A silo point's next replica is the one it names.
         let silo = replica_of("silo", 2);
         assert_eq!(replicas_to_add(&silo, 0, 2, 6), std::slice::from_ref(&silo));
+    }
+
+    #[test]
+    fn a_round_plans_for_the_replicas_that_drift() {
+        // 6 of 12 steady: two steady replicas wanted take four jobs.
+        let share = steady_share(6.0, 12);
+        assert_eq!(share, 0.5);
+        assert_eq!((2.0 / share).ceil(), 4.0);
+        // None ran yet, or all steady: as many jobs as replicas wanted.
+        assert_eq!(steady_share(0.0, 0), 1.0);
+        assert_eq!(steady_share(3.0, 3), 1.0);
+        // None of four steady: at most three jobs per replica wanted.
+        assert_eq!(steady_share(0.0, 4), 1.0 / 3.0);
     }
 
     #[test]
