@@ -399,10 +399,11 @@ fn replicas_to_add(next: &JobSpec, wanted: u32, runs: usize, max_replicas: u32) 
 
 /// The uniform round: every point's shortest run goes on by the campaign's own time (a point
 /// that cannot run on gets a replica).
-fn uniform_work(ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
+fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
+    let chute = ev.file.scene == crate::campaign::SceneKind::Chute;
     let mut planned = Vec::new();
     let mut capped = Vec::new();
-    for p in &ev.points {
+    for (i, p) in ev.points.iter().enumerate() {
         let s = &p.state;
         let run = s
             .runs
@@ -431,6 +432,19 @@ fn uniform_work(ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<Strin
         };
         match d {
             Decision::Capped(why) => capped.push(format!("{}: {why}", s.label)),
+            // A chute point short of steady replicas gets all it lacks, as in the adaptive
+            // round (it has no result before then).
+            d @ Decision::Work {
+                work: Work::Replica,
+                ..
+            } if chute => {
+                let short = l.points[i].replicas_short.max(1);
+                let share = steady_share(p.row.replicas as f64, s.runs.len());
+                let jobs = (f64::from(short) / share).ceil() as u32;
+                for next in replicas_to_add(&p.next, jobs, s.runs.len(), ev.target.max_replicas) {
+                    planned.push((d.clone(), next, s.label.clone()));
+                }
+            }
             d => planned.push((d, p.next.clone(), s.label.clone())),
         }
     }
@@ -478,7 +492,7 @@ pub fn next_claims_round(
     let planned = if stop.is_none() {
         let (planned, capped) = match t.allocation {
             Allocation::Adaptive => adaptive_work(&l, &ev),
-            Allocation::Uniform => uniform_work(&ev),
+            Allocation::Uniform => uniform_work(&l, &ev),
         };
         if planned.is_empty() {
             stop = Some(format!(
