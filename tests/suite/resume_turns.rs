@@ -10,21 +10,12 @@ use tempfile::TempDir;
 
 /// Launches `file` into `db` and SIGKILLs it once one of campaign `name`'s jobs runs.
 fn launch_killed_once_running(dir: &Path, file: &Path, db: &Path, name: &str) {
-    let mut child = spawn_launch(dir, file, db);
-    let seen = wait_for(&mut child, "a job running", || {
-        db.exists()
-            && read_db(db)
-                .query_row(
-                    "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
-                     JOIN campaigns c ON c.id = cj.campaign_id
-                     WHERE c.name = ?1 AND j.status = 'running'",
-                    [name],
-                    |r| r.get::<_, i64>(0),
-                )
-                .unwrap_or(0)
-                > 0
-    });
-    assert!(seen, "campaign {name} ended before it was killed");
+    let sql = format!(
+        "SELECT COUNT(*) FROM jobs j JOIN campaign_jobs cj ON cj.job_id = j.id
+         JOIN campaigns c ON c.id = cj.campaign_id
+         WHERE c.name = '{name}' AND j.status = 'running'"
+    );
+    let mut child = launch_until(dir, file, db, &format!("a job of {name} running"), &sql);
     kill(&mut child);
 }
 

@@ -352,24 +352,32 @@ pub fn resume(dir: &Path, db: &Path) -> Output {
         .unwrap()
 }
 
-/// Launches campaign `file` into `db` (CPU, 1 thread) and returns it once work a round added
-/// is running past where it started (`target_work`). Panics if the campaign ends before.
-pub fn launch_until_a_round_runs(dir: &Path, file: &Path, db: &Path) -> Child {
+/// Launches campaign `file` into `db` (CPU, 1 thread) and returns it once `sql` (a count)
+/// is positive. Panics, naming `what`, if the campaign ends before.
+pub fn launch_until(dir: &Path, file: &Path, db: &Path, what: &str, sql: &str) -> Child {
     let mut child = spawn_launch(dir, file, db);
-    let seen = wait_for(&mut child, "a round's work running", || {
+    let seen = wait_for(&mut child, what, || {
         db.exists()
             && read_db(db)
-                .query_row(
-                    "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
-                     WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
-                    [],
-                    |r| r.get::<_, i64>(0),
-                )
+                .query_row(sql, [], |r| r.get::<_, i64>(0))
                 .unwrap_or(0)
                 > 0
     });
-    assert!(seen, "the campaign ended before its first round ran");
+    assert!(seen, "the campaign ended before {what}");
     child
+}
+
+/// Launches campaign `file` into `db` (CPU, 1 thread) and returns it once work a round added
+/// is running past where it started (`target_work`). Panics if the campaign ends before.
+pub fn launch_until_a_round_runs(dir: &Path, file: &Path, db: &Path) -> Child {
+    launch_until(
+        dir,
+        file,
+        db,
+        "a round's work running",
+        "SELECT COUNT(*) FROM target_work w JOIN jobs j ON j.id = w.job_id
+         WHERE j.status = 'running' AND j.sim_time_s > w.from_s",
+    )
 }
 
 /// As [`launch_until_a_round_runs`], then SIGKILLed: for resume tests of targets and claims.
