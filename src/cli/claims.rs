@@ -67,6 +67,9 @@ pub fn print_round(r: &ClaimsRound) {
         r.max_core_hours
             .map_or(String::new(), |h| format!(" of {h}"))
     );
+    for why in &r.limited {
+        println!("claims: limited: {why}");
+    }
     if let Some(why) = &r.stop {
         println!("claims: stopped: {why}");
         let open: Vec<&VerdictRow> = r

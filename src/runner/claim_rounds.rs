@@ -48,6 +48,8 @@ pub struct ClaimsRound {
     pub work: Vec<WorkRow>,
     /// Why no more work is added (None while working).
     pub stop: Option<String>,
+    /// What the caps left out of the work added (a point capped, replicas cut short).
+    pub limited: Vec<String>,
     pub spent: Spent,
     pub max_core_hours: Option<f64>,
 }
@@ -322,6 +324,9 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                     let jobs = (f64::from(wanted) / steady_share).ceil() as u32;
                     let max = ev.target.max_replicas;
                     let added = replicas_to_add(&p.next, jobs, ran, max);
+                    if added.len() < jobs as usize {
+                        capped.push(cut_short(&claim.id, &p.state.label, max, added.len(), jobs));
+                    }
                     for (k, next) in added.into_iter().enumerate() {
                         // The steady replicas k + 1 new jobs are expected to give.
                         let steady = ((k + 1) as f64 * steady_share).floor() as usize;
@@ -397,6 +402,13 @@ fn replicas_to_add(next: &JobSpec, wanted: u32, runs: usize, max_replicas: u32) 
     out
 }
 
+/// Says that `max_replicas` let a round start only `added` of the `wanted` replicas at a point.
+fn cut_short(claim: &str, label: &str, max: u32, added: usize, wanted: u32) -> String {
+    format!(
+        "{claim} ({label}): max_replicas = {max} leaves room for {added} of the {wanted} replica(s) wanted"
+    )
+}
+
 /// The uniform round: every point's shortest run goes on by the campaign's own time (a point
 /// that cannot run on gets a replica).
 fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
@@ -441,7 +453,12 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
                 let short = l.points[i].replicas_short.max(1);
                 let share = steady_share(p.row.replicas as f64, s.runs.len());
                 let jobs = (f64::from(short) / share).ceil() as u32;
-                for next in replicas_to_add(&p.next, jobs, s.runs.len(), ev.target.max_replicas) {
+                let max = ev.target.max_replicas;
+                let added = replicas_to_add(&p.next, jobs, s.runs.len(), max);
+                if added.len() < jobs as usize {
+                    capped.push(cut_short("its claims", &s.label, max, added.len(), jobs));
+                }
+                for next in added {
                     planned.push((d.clone(), next, s.label.clone()));
                 }
             }
@@ -489,6 +506,7 @@ pub fn next_claims_round(
     } else {
         None
     };
+    let mut limited = Vec::new();
     let planned = if stop.is_none() {
         let (planned, capped) = match t.allocation {
             Allocation::Adaptive => adaptive_work(&l, &ev),
@@ -499,6 +517,8 @@ pub fn next_claims_round(
                 "no work can be added for the {undecided} undecided claim(s): {}",
                 capped.join("; ")
             ));
+        } else {
+            limited = capped;
         }
         planned
     } else {
@@ -514,6 +534,7 @@ pub fn next_claims_round(
         verdicts: rows,
         work,
         stop,
+        limited,
         spent: l.spent,
         max_core_hours: t.max_core_hours,
     })
