@@ -23,10 +23,10 @@ pub fn print_verdicts(rows: &[VerdictRow]) {
     let Some(first) = rows.first() else { return };
     let decided = rows.iter().filter(|r| r.verdict != "undecided").count();
     println!(
-        "claims: {decided} of {} decided at look {} (intervals at {:.2} % at this look, 95 % over all looks)",
+        "claims: {decided} of {} decided at look {} (intervals at {} at this look, 95 % over all looks)",
         rows.len(),
         first.round,
-        100.0 * first.level
+        sweep::report::claims::levels_text(rows)
     );
     for r in rows {
         let mut line = format!(

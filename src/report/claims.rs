@@ -128,13 +128,12 @@ pub fn claims_markdown(
 ) -> String {
     let mut m = String::new();
     let look = rows.first().map_or(0, |r| r.round);
-    let level = rows.first().map_or(0.95, |r| r.level);
+    let level = levels_text(rows);
     let _ = writeln!(m, "## Claims of `{campaign}`\n");
     let _ = writeln!(m, "Scale: {scale}.\n");
     let _ = writeln!(
         m,
-        "Look {look}: intervals at {:.2} % at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
-        100.0 * level,
+        "Look {look}: intervals at {level} at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
         spent.particle_steps,
         hours(spent.wall_s),
         spent.core_hours
@@ -215,12 +214,12 @@ pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
 /// The claims table as an HTML section (for the index of `--figure all`).
 pub fn claims_html(scale: &str, rows: &[VerdictRow]) -> String {
     let mut h = String::new();
-    let level = rows.first().map_or(0.95, |r| r.level);
+    let level = levels_text(rows);
     let _ = writeln!(
         h,
-        "<h2 id=\"claims\">Claims</h2>\n<p>Scale: {}. Intervals at {:.2} % per look (95 % over all looks).</p>\n<table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\n<tr><th>claim</th><th>paper</th><th>paper's value</th><th>sweep's value [interval]</th><th>bound</th><th>verdict</th><th>particle-steps</th><th>wall</th><th>still needed</th></tr>",
+        "<h2 id=\"claims\">Claims</h2>\n<p>Scale: {}. Intervals at {} per look (95 % over all looks).</p>\n<table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\n<tr><th>claim</th><th>paper</th><th>paper's value</th><th>sweep's value [interval]</th><th>bound</th><th>verdict</th><th>particle-steps</th><th>wall</th><th>still needed</th></tr>",
         escape(scale),
-        100.0 * level
+        level
     );
     for r in rows {
         let _ = writeln!(
@@ -293,4 +292,21 @@ pub fn spending(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
         wall_s,
         core_hours,
     })
+}
+
+/// The rows' interval level as text: one level, or the range of each claim's own (a look that
+/// could not test a claim spent none of its α, so claims' levels may differ).
+pub fn levels_text(rows: &[VerdictRow]) -> String {
+    let lo = rows.iter().map(|r| r.level).fold(f64::INFINITY, f64::min);
+    let hi = rows
+        .iter()
+        .map(|r| r.level)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if rows.is_empty() {
+        "95.00 %".into()
+    } else if hi - lo < 5e-5 {
+        format!("{:.2} %", 100.0 * lo)
+    } else {
+        format!("{:.2}–{:.2} % by claim", 100.0 * lo, 100.0 * hi)
+    }
 }

@@ -57,13 +57,13 @@ pub struct ClaimsRound {
 /// The claims of a campaign decided at one look.
 pub struct Look {
     pub look: u32,
-    pub level: f64,
     pub points: Vec<PointData>,
     pub claims: Vec<(Claim, Verdict, VerdictRow)>,
     pub spent: Spent,
     /// The campaign's throughput so far (particle-steps per wall second of its jobs).
     pub rate: Option<f64>,
-    /// Earlier looks (of this version or earlier ones) spent all of α: nothing can be decided.
+    /// Earlier looks (of this version or earlier ones) spent all of every claim's α: nothing
+    /// can be decided.
     pub no_alpha_left: bool,
 }
 
@@ -74,17 +74,21 @@ pub struct Look {
 pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look> {
     let (points, constants) = claim_points(conn, campaign_id, ev)?;
     let look = ev.look();
-    let before = looks::levels_before(conn, campaign_id, look)?;
-    let spending = spending_level(ev.looks(), look, ev.carried.alpha, &before);
-    // No α left (earlier versions spent it): the claims are shown, none decided.
-    let level = spending.unwrap_or(1.0);
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
     let rate = (wall > 0.0).then_some(steps / wall);
     let results = scene_results(ev.file.scene);
     // A claim decided at an earlier look of this campaign stays decided (`kept_decision`).
     let decided = crate::store::claims::first_decisions(conn, campaign_id, look)?;
     let mut out = Vec::new();
+    let mut any_alpha_left = false;
     for (k, claim) in ev.file.claims.iter().enumerate() {
+        // Each claim spends α only at the looks that tested it: a look where one of its
+        // results was missing could not decide it, so it risked no false verdict.
+        let before = looks::claim_levels_before(conn, campaign_id, &claim.id, look)?;
+        let spending = spending_level(ev.looks(), look, ev.carried.alpha, &before);
+        any_alpha_left |= spending.is_some();
+        // No α left (earlier looks spent it): the claim is shown, not decided.
+        let level = spending.unwrap_or(1.0);
         let path = format!("claims[{k}]");
         let test = claim.tests().first().map_or("none", |t| t.name());
         let v = match Statistic::resolve(claim, &path, &points, results, constants) {
@@ -157,7 +161,6 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
     }
     Ok(Look {
         look,
-        level,
         points,
         claims: out,
         spent: Spent {
@@ -166,7 +169,7 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
             core_hours,
         },
         rate,
-        no_alpha_left: spending.is_none(),
+        no_alpha_left: !any_alpha_left,
     })
 }
 

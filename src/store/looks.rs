@@ -54,6 +54,29 @@ pub fn levels_before(conn: &Connection, cid: i64, look: u32) -> Result<Vec<f64>>
     Ok(rows)
 }
 
+/// The level each of campaign `cid`'s own looks before look `look` tested claim `claim_id`
+/// at, by look: 1 (no α spent) at a look where the claim had no value (a result missing, so
+/// it could not be decided there). A look stored twice counts once, at its lowest level.
+///
+/// # Errors
+/// Database errors.
+pub fn claim_levels_before(
+    conn: &Connection,
+    cid: i64,
+    claim_id: &str,
+    look: u32,
+) -> Result<Vec<f64>> {
+    let mut q = conn.prepare(
+        "SELECT MIN(CASE WHEN value IS NULL THEN 1.0 ELSE level END) FROM claim_verdicts
+         WHERE campaign_id = ?1 AND claim_id = ?2 AND round < ?3
+         GROUP BY round ORDER BY round",
+    )?;
+    let rows = q
+        .query_map(params![cid, claim_id, look], |r| r.get(0))?
+        .collect::<rusqlite::Result<Vec<f64>>>()?;
+    Ok(rows)
+}
+
 /// Everything campaign `cid` has taken: its carried looks and α, and its own looks.
 ///
 /// # Errors
@@ -127,4 +150,52 @@ pub fn previous_version(conn: &Connection, cid: i64) -> Result<Option<i64>> {
             |r| r.get(0),
         )
         .optional()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stores claim `claim` at look `round` with level `level` and `value` (None: untested).
+    fn store(conn: &Connection, round: u32, claim: &str, level: f64, value: Option<f64>) {
+        conn.execute(
+            "INSERT INTO claim_verdicts (campaign_id, round, claim_id, statement, paper,
+               paper_value, test, what, verdict, value, lo, hi, level, bound, points, note,
+               particle_steps, wall_s)
+             VALUES (1, ?1, ?2, '', '', '', 'trend', '', 'undecided', ?3, ?3, ?3, ?4, '> 0',
+               '', '', 0, 0)",
+            params![round, claim, value, level],
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn a_look_that_could_not_test_a_claim_spends_none_of_its_alpha() {
+        let conn = crate::store::open_in_memory(None).unwrap();
+        conn.execute(
+            "INSERT INTO campaigns (id, name, file, scene, spec_json) VALUES (1, 'c', 'c.json',
+               'chute', '{}')",
+            [],
+        )
+        .unwrap();
+        // Look 0 tested `a` only; look 1 tested both; look 2 neither.
+        store(&conn, 0, "a", 0.99, Some(0.3));
+        store(&conn, 0, "b", 0.99, None);
+        store(&conn, 1, "a", 0.99, Some(0.2));
+        store(&conn, 1, "b", 0.99, Some(0.1));
+        store(&conn, 2, "a", 0.99, None);
+        store(&conn, 2, "b", 0.99, None);
+        assert_eq!(
+            claim_levels_before(&conn, 1, "a", 3).unwrap(),
+            [0.99, 0.99, 1.0]
+        );
+        assert_eq!(
+            claim_levels_before(&conn, 1, "b", 3).unwrap(),
+            [1.0, 0.99, 1.0]
+        );
+        assert_eq!(claim_levels_before(&conn, 1, "b", 1).unwrap(), [1.0]);
+        // The campaign's own looks still count every look at its level (a new version carries
+        // them: conservative).
+        assert_eq!(levels_before(&conn, 1, 3).unwrap(), [0.99, 0.99, 0.99]);
+    }
 }
