@@ -1,7 +1,8 @@
 //! The ESI's D_y: (a) D_y/D_y,max (markers) beside γ̇/γ̇_max (lines) against z/L, and (b) D_y
 //! against γ̇ d_⊥² in the central bed (0.3 H < z < 0.7 H, as Fig. 6), one series per (ξ, α)
 //! point, from `chute_blocks`. D_y is pooled over a point's replicas as D_z is (each one's
-//! window error; bars 95 % CI); γ̇ is the block mean over replicas. The table gives, per point,
+//! window error; bars 95 % CI); γ̇ is the block mean over replicas. Both are normalised by
+//! their maxima over the full blocks (φ at least half the densest). The table gives, per point,
 //! the correlation coefficient of D_y and of D_z with γ̇ over the central blocks: the paper
 //! finds D_z ∝ γ̇ d_⊥² and no such relation for D_y.
 
@@ -13,6 +14,7 @@ use rusqlite::Connection;
 use crate::observe::fits::linear_fit;
 use crate::pooled::chute::{combine_point, group_points, PointProfiles, CENTRAL_BED};
 use crate::pooled::chute_jobs::done_chute_jobs;
+use crate::pooled::replica_results::full_blocks;
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure};
@@ -101,10 +103,24 @@ impl Drawing {
             return;
         }
         self.max_replicas = self.max_replicas.max(point.pooled.len());
-        let d_max = positive_max(rows.iter().map(|r| r.d_y));
-        // γ̇ is drawn within the bed (z ≤ H), as Figs. 3 and 4 draw it.
-        let bed = |b: &&crate::pooled::chute::PointBlock| b.z_m <= point.bed_height_m;
-        let g_max = positive_max(point.blocks.iter().filter(bed).map(|b| b.shear_rate.mean));
+        // The maxima over the full blocks, as Figs. 3–4 and the claims take them: the dilute
+        // block the surface cuts holds few particles and would set them by chance.
+        let full: Vec<i64> = full_blocks(&point.blocks, |b| b.solid_fraction.mean)
+            .iter()
+            .map(|b| b.block)
+            .collect();
+        let d_max = positive_max(
+            rows.iter()
+                .filter(|r| full.contains(&r.block))
+                .map(|r| r.d_y),
+        );
+        let g_max = positive_max(
+            point
+                .blocks
+                .iter()
+                .filter(|b| full.contains(&b.block))
+                .map(|b| b.shear_rate.mean),
+        );
         for r in &rows {
             self.csv.push(vec![
                 label.clone(),
@@ -139,10 +155,11 @@ impl Drawing {
         ]);
         let c = color(i);
         if let Some(m) = g_max {
+            // γ̇ is drawn within the bed (z ≤ H), as Figs. 3 and 4 draw it.
             let (z, g): (Vec<f64>, Vec<f64>) = point
                 .blocks
                 .iter()
-                .filter(bed)
+                .filter(|b| b.z_m <= point.bed_height_m)
                 .map(|b| (b.z_m / point.total_length_m, b.shear_rate.mean / m))
                 .unzip();
             self.a.series.push(Series::line(None, c, z, g));
