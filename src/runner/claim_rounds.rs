@@ -198,13 +198,7 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
                 .iter()
                 .map(|&i| {
                     let short = points[i].replicas_short.max(1);
-                    let p = &ev.points[i];
-                    let share = if ev.file.scene == crate::campaign::SceneKind::Chute {
-                        steady_share(p.row.replicas as f64, p.state.runs.len())
-                    } else {
-                        1.0
-                    };
-                    f64::from(short) / share * p.state.replica_cost
+                    f64::from(short) / point_steady_share(ev, i) * ev.points[i].state.replica_cost
                 })
                 .sum(),
         );
@@ -215,6 +209,17 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
     }
     let factor = (half / gap).powi(2).max(1.1);
     Some((factor - 1.0) * used)
+}
+
+/// The share of point `i`'s ended replicas that were steady ([`steady_share`]); 1 for a silo
+/// point, whose every run gives a result.
+fn point_steady_share(ev: &Evaluation, i: usize) -> f64 {
+    let p = &ev.points[i];
+    if ev.file.scene == crate::campaign::SceneKind::Chute {
+        steady_share(p.row.replicas as f64, p.state.runs.len())
+    } else {
+        1.0
+    }
 }
 
 /// Work for one point: a target whose interval goal for the point is `goal` (relative), under
@@ -326,8 +331,8 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                     }
                     .max(l.points[i].replicas_short);
                     let ran = p.state.runs.len();
-                    let steady_share = if chute { steady_share(r, ran) } else { 1.0 };
-                    let jobs = (f64::from(wanted) / steady_share).ceil() as u32;
+                    let share = point_steady_share(ev, i);
+                    let jobs = (f64::from(wanted) / share).ceil() as u32;
                     let max = ev.target.max_replicas;
                     let added = replicas_to_add(&p.next, jobs, ran, max);
                     if added.len() < jobs as usize {
@@ -335,7 +340,7 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                     }
                     for (k, next) in added.into_iter().enumerate() {
                         // The steady replicas k + 1 new jobs are expected to give.
-                        let steady = ((k + 1) as f64 * steady_share).floor() as usize;
+                        let steady = ((k + 1) as f64 * share).floor() as usize;
                         let expected = match spread {
                             Some(c) if chute && r >= 2.0 && steady > 0 => {
                                 Some(after_replicas(c, r, steady))
@@ -407,8 +412,7 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
                 ..
             } if chute => {
                 let short = l.points[i].replicas_short.max(1);
-                let share = steady_share(p.row.replicas as f64, s.runs.len());
-                let jobs = (f64::from(short) / share).ceil() as u32;
+                let jobs = (f64::from(short) / point_steady_share(ev, i)).ceil() as u32;
                 let max = ev.target.max_replicas;
                 let added = replicas_to_add(&p.next, jobs, s.runs.len(), max);
                 if added.len() < jobs as usize {
