@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
-use sweep::project::{Project, RateQuery};
+use sweep::project::{Project, RateQuery, StoredJob};
 use sweep::scene::silo::{SiloPhase, SiloScene};
 use sweep::scene::ChuteScene;
 
@@ -99,6 +99,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         FIRST_LINES
     };
     let replicas = jobs.replicas() as usize;
+    let mut in_store = InStore::default();
     for (p, point) in jobs.points().iter().enumerate() {
         let cost = match point.scene {
             SceneKind::Chute => chute_cost(point)?,
@@ -122,20 +123,27 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                     jobs.len() - lines
                 );
             }
-            if k >= lines && a.lammps.is_none() {
+            // Past the listed lines a job is only looked up in the store (or exported).
+            if k >= lines && a.lammps.is_none() && project.is_none() {
                 break;
             }
             let j = point.replica(r as u32);
+            let stored = match &project {
+                Some(p) => p.job_by_hash(&j.hash())?,
+                None => None,
+            };
+            in_store.add(stored.as_ref(), cost.particle_steps);
             if k < lines {
                 println!(
-                    "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}",
+                    "{:>4}  {:>10.3e} {:>8} {:>10.0} {:>12.3e} {:>10}  {}{}",
                     k + 1,
                     cost.dt,
                     j.particle_count(),
                     cost.steps,
                     cost.particle_steps,
                     wall,
-                    j.label
+                    j.label,
+                    stored.as_ref().map_or(String::new(), stored_note)
                 );
             }
             if k == 0 {
@@ -161,6 +169,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             w
         ))
     );
+    in_store.print(jobs.len());
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.
         let bench_rate = rates.found.values().flatten().next().copied();
@@ -174,6 +183,73 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     }
     rates.print_missing();
     Ok(0)
+}
+
+/// The campaign's jobs that the store already holds (by their parameters: another campaign's
+/// job with the same parameters is the same job, run once), and the work still left of all.
+#[derive(Default)]
+struct InStore {
+    ids: Vec<i64>,
+    ended: usize,
+    left_particle_steps: f64,
+}
+
+impl InStore {
+    fn add(&mut self, stored: Option<&StoredJob>, planned_particle_steps: f64) {
+        let Some(s) = stored else {
+            self.left_particle_steps += planned_particle_steps;
+            return;
+        };
+        self.ids.push(s.id);
+        if matches!(s.status.as_str(), "done" | "failed") {
+            self.ended += 1;
+        } else {
+            self.left_particle_steps += (planned_particle_steps - s.particle_steps as f64).max(0.0);
+        }
+    }
+
+    fn print(&self, jobs: usize) {
+        if self.ids.is_empty() {
+            return;
+        }
+        println!(
+            "in this store: {} of {jobs} job(s) already (job(s) {}), {} of them ended; still to run: at most {:.3e} particle-steps",
+            self.ids.len(),
+            id_ranges(&self.ids),
+            self.ended,
+            self.left_particle_steps
+        );
+    }
+}
+
+/// ` [job 14: running, 100.5 of 420.0 s]`: where a planned job stands in the store.
+fn stored_note(s: &StoredJob) -> String {
+    format!(
+        "  [job {}: {}, {:.1} of {:.1} s]",
+        s.id, s.status, s.sim_time_s, s.target_time_s
+    )
+}
+
+/// `14-16, 20`: sorted ids with runs of consecutive ones joined.
+fn id_ranges(ids: &[i64]) -> String {
+    let mut ids = ids.to_vec();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let mut k = i;
+        while k + 1 < ids.len() && ids[k + 1] == ids[k] + 1 {
+            k += 1;
+        }
+        parts.push(if k == i {
+            ids[i].to_string()
+        } else {
+            format!("{}-{}", ids[i], ids[k])
+        });
+        i = k + 1;
+    }
+    parts.join(", ")
 }
 
 /// The bench scene that resembles the campaign's, and the name of its settled bed: a settled
@@ -401,7 +477,7 @@ fn claims_forecast(
         );
     } else {
         println!(
-        "target: every claim decided (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {})",
+        "target: decide every claim (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {})",
         t.max_rounds,
         t.max_replicas,
         t.max_time_s.map_or_else(|| "none".into(), |m| format!("{m} s")),
@@ -452,4 +528,15 @@ fn claims_forecast(
             ))
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::id_ranges;
+
+    #[test]
+    fn ids_read_as_ranges() {
+        assert_eq!(id_ranges(&[16, 14, 15, 20, 22, 21, 3]), "3, 14-16, 20-22");
+        assert_eq!(id_ranges(&[7]), "7");
+    }
 }

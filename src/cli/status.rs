@@ -197,7 +197,7 @@ fn print_target(project: &Project, campaign_id: i64) -> anyhow::Result<()> {
         let work = project.target_work(campaign_id)?;
         let (steps, wall, core_hours) = project.spent(campaign_id)?;
         println!(
-            "target: every claim decided — {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e} particle-steps, {:.1} min of job wall time, {core_hours:.3} core-hours{}",
+            "target: decide every claim — so far {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e} particle-steps, {:.1} min of job wall time, {core_hours:.3} core-hours{}",
             work.iter().map(|w| w.round).max().unwrap_or(0),
             work.iter().filter(|w| w.action == "extend").count(),
             work.iter().filter(|w| w.action == "replica").count(),

@@ -3,6 +3,7 @@
 
 use super::{
     Decision, ForgetPlan, JobScope, JobStatus, JobTotals, Liveness, OpenJob, Project, StateTotal,
+    StoredJob,
 };
 use crate::store::{forget, job_counts, jobs};
 
@@ -74,6 +75,14 @@ impl Project {
     /// Database errors.
     pub fn open_jobs(&self, scope: JobScope) -> anyhow::Result<Vec<OpenJob>> {
         jobs::open_jobs(&self.conn, scope)
+    }
+
+    /// The job whose parameters hash to `hash` (any campaign's), or `None`.
+    ///
+    /// # Errors
+    /// Database errors.
+    pub fn job_by_hash(&self, hash: &str) -> anyhow::Result<Option<StoredJob>> {
+        jobs::job_by_hash(&self.conn, hash)
     }
 
     /// Job `id`'s label (its hash when it belongs to no campaign); None: no such job.

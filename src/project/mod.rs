@@ -23,7 +23,7 @@ pub use crate::store::forget::ForgetPlan;
 pub use crate::store::job_counts::JobTotals;
 pub use crate::store::jobs::{
     owner_place, CampaignRow, Decision, JobScope, JobStatus, Liveness, OpenJob, OwnerPlace,
-    Registration, StateTotal,
+    Registration, StateTotal, StoredJob,
 };
 pub use crate::store::slurm_tasks::SlurmTask;
 pub use crate::store::targets::{PointRow, WorkRow};

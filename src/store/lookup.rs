@@ -59,6 +59,39 @@ pub fn job_hash(conn: &Connection, id: i64) -> anyhow::Result<Option<String>> {
         .optional()?)
 }
 
+/// Where a job with these parameters already stands in a store, as `sweep plan` shows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredJob {
+    pub id: i64,
+    pub status: String,
+    pub sim_time_s: f64,
+    pub target_time_s: f64,
+    pub particle_steps: i64,
+}
+
+/// The job whose parameters hash to `hash`, or `None` when the store has none: a campaign's
+/// job with the same parameters as another's is the same job (shared, run once).
+///
+/// # Errors
+/// Database errors.
+pub fn job_by_hash(conn: &Connection, hash: &str) -> anyhow::Result<Option<StoredJob>> {
+    Ok(conn
+        .query_row(
+            "SELECT id, status, sim_time_s, target_time_s, particle_steps FROM jobs WHERE hash = ?1",
+            [hash],
+            |r| {
+                Ok(StoredJob {
+                    id: r.get(0)?,
+                    status: r.get(1)?,
+                    sim_time_s: r.get(2)?,
+                    target_time_s: r.get(3)?,
+                    particle_steps: r.get(4)?,
+                })
+            },
+        )
+        .optional()?)
+}
+
 /// A job's label (from its first campaign link, else its parameter hash), or `None` when there
 /// is no such job.
 ///

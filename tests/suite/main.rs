@@ -33,6 +33,7 @@ mod gpu_validation;
 mod integrity;
 mod layers;
 mod observe_chute;
+mod plan_store;
 mod precision;
 mod report_chute;
 mod report_chute_profiles;
