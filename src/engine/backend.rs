@@ -100,8 +100,14 @@ pub enum EngineError {
         step: u64,
         time_s: f64,
     },
-    #[error("overlap of {ratio:.3} d between particles at step {step} exceeds the limit {limit:.3} d: the time step or the stiffness is wrong for this scene")]
-    Overlap { ratio: f64, limit: f64, step: u64 },
+    #[error("overlap of {ratio:.3} d between particles at step {step} exceeds the limit {limit:.3} d: the time step or the stiffness is wrong for this scene{detail}")]
+    Overlap {
+        ratio: f64,
+        limit: f64,
+        step: u64,
+        /// Which contact it was ("; deepest contact …"), where the engine can say; else empty.
+        detail: String,
+    },
     #[error("kinetic energy grew from {from_j:.3e} J to {to_j:.3e} J over steps {first_step}..={step}, {growth:.3e} times the {budget_j:.3e} J that gravity, moving walls and the stored elastic energy could supply (limit {limit}): the run is blowing up; lower dt well below t_c or check the stiffness")]
     EnergyBlowUp {
         from_j: f64,

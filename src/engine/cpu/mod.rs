@@ -34,6 +34,7 @@ mod kept_spring;
 mod kick;
 mod kinematics;
 mod oriented;
+mod overlap_report;
 mod pair_lanes;
 mod pair_pass;
 mod particle;

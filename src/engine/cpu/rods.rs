@@ -78,6 +78,7 @@ impl<R: Real> CpuEngine<R> {
                     ratio: ov,
                     limit: self.watchdog.max_overlap_ratio,
                     step: self.state.step,
+                    detail: format!("; {}", self.overlap_report()),
                 });
             }
             report.max_overlap_ratio = report.max_overlap_ratio.max(ov);

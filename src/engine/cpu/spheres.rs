@@ -88,10 +88,13 @@ impl<R: Real> CpuEngine<R> {
             died = swept.died;
             let ov = ov_pairs.max(swept.wall_overlap).to_f64();
             if ov > self.watchdog.max_overlap_ratio {
+                // The report reads the state, which holds the motion only once `kin` is back.
+                kinematics::scatter_to(&self.kin, &mut self.state);
                 return Err(EngineError::Overlap {
                     ratio: ov,
                     limit: self.watchdog.max_overlap_ratio,
                     step: self.state.step,
+                    detail: format!("; {}", self.overlap_report()),
                 });
             }
             report.max_overlap_ratio = report.max_overlap_ratio.max(ov);

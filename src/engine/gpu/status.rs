@@ -89,6 +89,7 @@ pub fn read_chunk(c: &ChunkContext<'_>, st: &[u32], events: &[[u32; 2]]) -> Chun
             ratio: report.max_overlap_ratio,
             limit: c.overlap_limit,
             step: c.step0 + ov_k as u64,
+            detail: String::new(),
         })
     } else if nonfinite != u32::MAX {
         Some(EngineError::NonFinite {

@@ -1,0 +1,96 @@
+//! What the overlap watchdog names when it stops a run: the deepest contact of the state, found
+//! by a plain scan of every pair and wall (O(N²), run once, after the run has already failed), so
+//! that a user can tell a wedged rod from a collision at speed or a particle under the base.
+
+use super::CpuEngine;
+use crate::engine::real::{Real, V3};
+use crate::engine::shape::{contact_spherocylinders, Spherocylinder};
+
+/// The deepest contact found, as a fraction of the smaller diameter.
+struct Deepest {
+    ratio: f64,
+    what: String,
+}
+
+impl<R: Real> CpuEngine<R> {
+    /// One line on the deepest contact of the current state: which particles (or wall), their
+    /// heights, speeds and spins, and their approach speed along the normal.
+    pub(super) fn overlap_report(&self) -> String {
+        let s = &self.state;
+        let mut deepest: Option<Deepest> = None;
+        let shape = |k: usize| Spherocylinder {
+            half_length: s.half_length.get(k).copied().unwrap_or_else(R::zero),
+            radius: s.radius[k],
+        };
+        let mut keep = |ratio: f64, what: &dyn Fn() -> String| {
+            if deepest.as_ref().is_none_or(|d| ratio > d.ratio) {
+                deepest = Some(Deepest {
+                    ratio,
+                    what: what(),
+                });
+            }
+        };
+        for i in 0..s.len() {
+            let (ui, si) = (s.axis(i), shape(i));
+            for j in i + 1..s.len() {
+                if s.inv_mass[i] == R::zero() && s.inv_mass[j] == R::zero() {
+                    continue;
+                }
+                let d = s.separation(&self.periodic, j, i);
+                let Some(c) = contact_spherocylinders(d, ui, &si, s.axis(j), &shape(j)) else {
+                    continue;
+                };
+                let smaller = 2.0 * Real::to_f64(s.radius[i]).min(Real::to_f64(s.radius[j]));
+                let approach = (s.vel[j] - s.vel[i]).dot(c.normal).to_f64();
+                keep(Real::to_f64(c.overlap) / smaller, &|| {
+                    format!(
+                        "between {} and {}, approaching at {approach:.3} m/s along the normal",
+                        self.describe(i),
+                        self.describe(j)
+                    )
+                });
+            }
+            if s.inv_mass[i] == R::zero() {
+                continue;
+            }
+            for (w, wall) in self.walls.iter().enumerate() {
+                let Some((c, _)) = wall.touch_oriented(s.pos[i], s.lo(i), ui, &si) else {
+                    continue;
+                };
+                let approach = -s.vel[i].dot(c.normal).to_f64();
+                keep(
+                    Real::to_f64(c.overlap) / (2.0 * Real::to_f64(s.radius[i])),
+                    &|| {
+                        format!(
+                            "between {} and wall {w}, approaching at {approach:.3} m/s along the normal",
+                            self.describe(i)
+                        )
+                    },
+                );
+            }
+        }
+        match deepest {
+            Some(d) => format!("deepest contact {:.3} d {}", d.ratio, d.what),
+            None => "no overlapping contact left in the state".into(),
+        }
+    }
+
+    /// `particle 812 (mobile, z = 0.310 m, |v| = 2.10 m/s, |ω| = 40.0 rad/s)`.
+    fn describe(&self, k: usize) -> String {
+        let s = &self.state;
+        let speed = |v: V3<R>| v.norm().to_f64();
+        let spin = if s.rotation { speed(s.omega[k]) } else { 0.0 };
+        format!(
+            "particle {} ({}, z = {:.4} m, |v| = {:.3} m/s, |ω| = {:.2} rad/s)",
+            s.id[k],
+            if s.inv_mass[k] == R::zero() {
+                "fixed"
+            } else {
+                "mobile"
+            },
+            s.position_f64(k)[2],
+            speed(s.vel[k]),
+            spin
+        )
+    }
+}
