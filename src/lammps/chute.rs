@@ -145,7 +145,7 @@ fn data_file(scene: &ChuteScene, s: &State<f64>, base_mass: f64) -> String {
         zhi = zhi.max(s.position_f64(i)[2] + s.radius[i]);
     }
     // The box starts at the catch plane; its top shrink-wraps (`boundary p p fm`).
-    let zlo = -scene.base_radius();
+    let zlo = scene.catch_plane_z();
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -231,7 +231,7 @@ fn input_file(scene: &ChuteScene, k: &Constants, run: ChuteRun) -> String {
         out,
         "fix catch mobile wall/gran hooke/history {} zplane {:e} NULL",
         k.wall,
-        -scene.base_radius()
+        scene.catch_plane_z()
     );
     // Translational and rotational kinetic energy of the flowing spheres (sweep's series).
     let ne = steps(run.energy_every_s);

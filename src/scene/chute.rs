@@ -13,7 +13,8 @@
 //! - e_n is not given; 0.88 (as in Weinhart et al., Phys. Fluids 25, 070605, 2013 — the paper's
 //!   ref. 30 setup) is the default.
 //! - The base: a random monolayer of spheres (centres at z = 0) at area fraction 0.5, over a
-//!   plane at z = −L/2 that catches any particle slipping through a gap.
+//!   plane that catches any particle slipping through a gap: at z = −L/2 by default, at the
+//!   centres with `catch_plane_height_lengths` = 0 (thin rods wedge under a sphere otherwise).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -117,6 +118,13 @@ pub struct ChuteParams {
     pub base_radius_lengths: f64,
     /// Area fraction of the base monolayer (random sequential addition jams near 0.547).
     pub base_coverage: f64,
+    /// Height of the catch plane under the base, in L above the base spheres' centres; default
+    /// (null) −base_radius_lengths, the spheres' bottoms. There, a thin rod that slips through a
+    /// gap can be wedged between the plane and a fixed sphere until the overlap watchdog stops
+    /// the run; at 0 (the centres) the plane meets each sphere at its equator and leaves no
+    /// wedge. Left out of the job's parameters at its default, so older jobs keep their hashes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub catch_plane_height_lengths: Option<f64>,
     /// Steady state is not looked for before this time (s).
     pub steady_min_time_s: f64,
     /// Measurement starts at this time at the latest, steady or not (the job then records that
@@ -186,6 +194,7 @@ impl Default for ChuteParams {
             contact_steps: 50.0,
             base_radius_lengths: 0.5,
             base_coverage: 0.5,
+            catch_plane_height_lengths: None,
             steady_min_time_s: 20.0,
             steady_max_time_s: 200.0,
             steady_window_s: 20.0,
@@ -313,6 +322,17 @@ impl ChuteParams {
                     self.base_coverage
                 ),
             );
+        }
+        if let Some(h) = self.catch_plane_height_lengths {
+            if !(h >= -self.base_radius_lengths && h <= 0.0) {
+                err(
+                    "catch_plane_height_lengths",
+                    format!(
+                        "expected a height in L between the base spheres' bottoms (−base_radius_lengths = {}) and their centres (0), or null, got {h}",
+                        -self.base_radius_lengths
+                    ),
+                );
+            }
         }
         if self.particle_count == Some(0) {
             err("particle_count", "expected at least one particle".into());

@@ -37,6 +37,13 @@ impl ChuteScene {
         self.p.base_radius_lengths * self.p.particle_length_m
     }
 
+    /// Height of the catch plane under the base (m): the base spheres' bottoms by default.
+    pub fn catch_plane_z(&self) -> f64 {
+        self.p
+            .catch_plane_height_lengths
+            .map_or(-self.base_radius(), |h| h * self.p.particle_length_m)
+    }
+
     pub fn engine_config(&self) -> EngineConfig {
         let p = &self.p;
         let a = p.inclination_deg.to_radians();
@@ -53,7 +60,7 @@ impl ChuteScene {
             wall_law: law,
             walls: vec![Wall {
                 shape: WallShape::Plane {
-                    point: [0.0, 0.0, -self.base_radius()],
+                    point: [0.0, 0.0, self.catch_plane_z()],
                     normal: [0.0, 0.0, 1.0],
                 },
                 rotation: None,
@@ -188,6 +195,33 @@ mod tests {
             .validate()
             .iter()
             .any(|e| e.field == "tangential_restitution"));
+    }
+
+    /// The catch plane sits at the base spheres' bottoms unless raised, at most to their centres.
+    #[test]
+    fn the_catch_plane_sits_under_the_base() {
+        let plane_z = |h: Option<f64>| {
+            let s = ChuteScene::new(ChuteParams {
+                catch_plane_height_lengths: h,
+                ..ChuteParams::default()
+            })
+            .unwrap();
+            match s.engine_config().walls[0].shape {
+                WallShape::Plane { point, .. } => point[2],
+                _ => panic!("the chute's wall is a plane"),
+            }
+        };
+        assert_eq!(plane_z(None), -0.0625);
+        assert_eq!(plane_z(Some(0.0)), 0.0);
+        assert_eq!(plane_z(Some(-0.25)), -0.25 * 0.125);
+        let low = ChuteParams {
+            catch_plane_height_lengths: Some(-0.6),
+            ..ChuteParams::default()
+        };
+        assert!(low
+            .validate()
+            .iter()
+            .any(|e| e.field == "catch_plane_height_lengths"));
     }
 
     #[test]

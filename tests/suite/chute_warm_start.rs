@@ -106,8 +106,8 @@ fn a_warm_rod_bed_runs() {
     assert!(s.kinetic_energy().is_finite());
 }
 
-/// A campaign may name the warm start's parameters (and `tangential_restitution`, also left
-/// out at its default); at their defaults the job is the one without them (same hash), a
+/// A campaign may name the warm start's parameters (and `tangential_restitution` and
+/// `catch_plane_height_lengths`, also left out at their defaults); at their defaults the job is the one without them (same hash), a
 /// bad value is refused naming its JSON path.
 #[test]
 fn campaign_defaults_keep_job_hashes() {
@@ -120,10 +120,15 @@ fn campaign_defaults_keep_job_hashes() {
     let plain = hash(r#""inclination_deg": 27.0"#).unwrap();
     let defaults = hash(
         r#""inclination_deg": 27.0, "initial_state": "pour", "warm_inertial_number": 0.1,
-        "warm_surface_velocity_m_per_s": null, "tangential_restitution": null"#,
+        "warm_surface_velocity_m_per_s": null, "tangential_restitution": null,
+        "catch_plane_height_lengths": null"#,
     )
     .unwrap();
     assert_eq!(plain, defaults);
+    let raised = hash(r#""inclination_deg": 27.0, "catch_plane_height_lengths": 0.0"#).unwrap();
+    assert_ne!(plain, raised);
+    let e = hash(r#""catch_plane_height_lengths": 0.2"#).unwrap_err();
+    assert!(e.to_string().contains("catch_plane_height_lengths"), "{e}");
     let warm = hash(r#""inclination_deg": 27.0, "initial_state": "bagnold""#).unwrap();
     assert_ne!(plain, warm);
     let e = hash(r#""initial_state": "bagnold", "warm_inertial_number": 0.0"#).unwrap_err();
