@@ -870,7 +870,7 @@ fn failures_are_reported_like_the_cpu_does() {
     bad.vel[7] = V3::from_f64([f64::NAN, 0.0, 0.0]);
     let eg = gpu(&dev, &cfg, &bad).advance(2).unwrap_err();
     let ec = cpu(&cfg, &bad).advance(2).unwrap_err();
-    assert_eq!(eg.to_string(), ec.to_string());
+    assert_eq!(without_detail(&eg), without_detail(&ec));
     // Too many walls for the kernels' uniform array.
     let mut many = cfg.clone();
     many.walls = vec![plane([0.0; 3], [0.0, 0.0, 1.0]); 17];
@@ -885,4 +885,21 @@ fn list_rows_hold_more_than_any_packing_of_equal_spheres() {
     // d = 1, skin 0.2 d: at most ~29 centres fit within 1.2 d of a centre; a row holds more.
     let k = sweep::engine::gpu::list_capacity(0.5, 0.5, 0.2);
     assert!((40..=64).contains(&k), "{k}");
+}
+
+/// An engine error's message without what only the CPU can add (the overlap's deepest contact,
+/// read from the state it holds).
+fn without_detail(e: &sweep::engine::EngineError) -> String {
+    match e {
+        sweep::engine::EngineError::Overlap {
+            ratio, limit, step, ..
+        } => sweep::engine::EngineError::Overlap {
+            ratio: *ratio,
+            limit: *limit,
+            step: *step,
+            detail: String::new(),
+        }
+        .to_string(),
+        _ => e.to_string(),
+    }
 }

@@ -22,8 +22,9 @@ impl<R: Real> CpuEngine<R> {
             half_length: s.half_length.get(k).copied().unwrap_or_else(R::zero),
             radius: s.radius[k],
         };
+        // A non-finite motion is the finiteness check's to report; here it would hide the rest.
         let mut keep = |ratio: f64, what: &dyn Fn() -> String| {
-            if deepest.as_ref().is_none_or(|d| ratio > d.ratio) {
+            if ratio.is_finite() && deepest.as_ref().is_none_or(|d| ratio > d.ratio) {
                 deepest = Some(Deepest {
                     ratio,
                     what: what(),
