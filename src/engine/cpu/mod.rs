@@ -77,6 +77,10 @@ const MIN_LEN: usize = 512;
 /// measure displacements in between, that it gains nothing; this margin helps both. A dense
 /// flow keeps most of its entries at any margin: its first neighbour shell lies within 1.05 d.
 const NEAR: f64 = 0.25;
+/// The rods' near margin, as a fraction of the skin. Their pick (an exact segment–segment
+/// distance per entry) costs more than the pair pass it saves in a fast chute flow, where the
+/// whole bed's motion renews it every few steps: a wider margin picks less often.
+const ROD_NEAR: f64 = 0.5;
 /// The pick is renewed once a particle has moved this fraction of the near margin (a little
 /// under half, so that rounding in the exact measurement cannot let a pair through).
 const NEAR_LIMIT: f64 = 0.45;

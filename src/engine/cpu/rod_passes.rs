@@ -9,7 +9,7 @@ use super::passes::{block_bounds, scaled, split_blocks};
 use super::rod_kick::{self, RotLanes, LANES};
 use super::rod_pass::{RodContext, RodKin, RodMotion, RodScratch, RodSum};
 use super::verlet;
-use super::{CpuEngine, NEAR, NEAR_LIMIT};
+use super::{CpuEngine, NEAR_LIMIT, ROD_NEAR};
 use crate::engine::contact::Inertial;
 use crate::engine::grid::Periodic;
 use crate::engine::real::{Real, V3};
@@ -193,11 +193,11 @@ impl<R: Real> CpuEngine<R> {
         (parts, entries)
     }
 
-    /// Picks in each block the entries within the near margin (`NEAR` of the skin) of touching,
+    /// Picks in each block the entries within the near margin (`ROD_NEAR` of the skin) of touching,
     /// the only ones the pair pass evaluates until the next pick, and notes where the rods are.
     pub(super) fn pick_rods(&mut self) {
         let (_, entries) = self.rod_blocks();
-        let margin = self.skin * R::from_f64(NEAR);
+        let margin = self.skin * R::from_f64(ROD_NEAR);
         let blocks = split_blocks(&mut self.pair_slots, &entries)
             .into_iter()
             .zip(self.rod_scratch.iter_mut())
@@ -275,7 +275,7 @@ impl<R: Real> CpuEngine<R> {
             periodic: self.periodic,
             sink_z: self.sink_z,
             half_skin: self.skin * R::from_f64(0.5),
-            near_limit: self.skin * R::from_f64(NEAR * NEAR_LIMIT),
+            near_limit: self.skin * R::from_f64(ROD_NEAR * NEAR_LIMIT),
             inv_mass: &s.inv_mass,
             inv_inertia: &s.inv_inertia_body,
             half_length: &s.half_length,
