@@ -1,7 +1,10 @@
 //! What the overlap watchdog names when it stops a run: the deepest contact of the state, found
-//! by a plain scan of every pair and wall (O(N²), run once, after the run has already failed), so
-//! that a user can tell a wedged rod from a collision at speed or a particle under the base.
+//! by a scan of the half list's pairs and of every particle against every wall (run once, after
+//! the run has already failed), so that a user can tell a wedged rod from a collision at speed
+//! or a particle under the base. The list holds every touching pair: the watchdog found the
+//! overlap through it.
 
+use super::particle::Status;
 use super::CpuEngine;
 use crate::engine::real::{Real, V3};
 use crate::engine::shape::{contact_spherocylinders, Spherocylinder};
@@ -31,10 +34,12 @@ impl<R: Real> CpuEngine<R> {
                 });
             }
         };
-        for i in 0..s.len() {
+        let alive = |k: usize| self.alive[k] == Status::Alive;
+        for i in (0..s.len()).filter(|&i| alive(i)) {
             let (ui, si) = (s.axis(i), shape(i));
-            for j in i + 1..s.len() {
-                if s.inv_mass[i] == R::zero() && s.inv_mass[j] == R::zero() {
+            let entries = self.half.start[i] as usize..self.half.start[i + 1] as usize;
+            for j in self.half.nbr[entries].iter().map(|&j| j as usize) {
+                if !alive(j) || (s.inv_mass[i] == R::zero() && s.inv_mass[j] == R::zero()) {
                     continue;
                 }
                 let d = s.separation(&self.periodic, j, i);
