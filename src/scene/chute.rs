@@ -172,6 +172,18 @@ pub struct ChuteParams {
     pub origin_m: [f64; 3],
 }
 
+impl ChuteParams {
+    /// Parameters left out of a job's serialised parameters at their defaults (so that older
+    /// jobs keep their hashes): a campaign may still name them.
+    pub const OMITTED_AT_DEFAULT: [&'static str; 5] = [
+        "tangential_restitution",
+        "catch_plane_height_lengths",
+        "initial_state",
+        "warm_inertial_number",
+        "warm_surface_velocity_m_per_s",
+    ];
+}
+
 impl Default for ChuteParams {
     fn default() -> Self {
         Self {

@@ -29,16 +29,6 @@ const ALONG_X: [f64; 4] = [
 ];
 
 impl ChuteParams {
-    /// Parameters left out of a job's serialised parameters at their defaults: a campaign may
-    /// still name them.
-    pub const OMITTED_AT_DEFAULT: [&'static str; 5] = [
-        "tangential_restitution",
-        "catch_plane_height_lengths",
-        "initial_state",
-        "warm_inertial_number",
-        "warm_surface_velocity_m_per_s",
-    ];
-
     /// Problems with the warm-start parameters, each naming its field.
     pub(super) fn warm_start_problems(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
