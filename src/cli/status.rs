@@ -240,15 +240,24 @@ fn print_target(project: &Project, campaign_id: i64) -> anyhow::Result<()> {
 fn describe_flow(v: &FlowVerdict) -> String {
     let state =
         sweep::observe::chute::FlowState::parse(&v.state).map_or(v.state.as_str(), |s| s.words());
-    let pct = |x: Option<f64>| x.map_or("-".into(), |x| format!("{:.1} %", 100.0 * x));
     let numbers = v.criteria.as_ref().map_or(String::new(), |w| {
+        // A change with its t statistic against the quantile: a drift is beyond both.
+        let change = |x: Option<f64>, t: Option<f64>| match (x, w.t_critical) {
+            (None, _) => "-".to_string(),
+            (Some(x), None) => format!("{:.1} %", 100.0 * x),
+            (Some(x), Some(tc)) => format!(
+                "{:.1} % (t {} of {tc:.2})",
+                100.0 * x,
+                t.map_or("∞".into(), |t| format!("{t:.2}"))
+            ),
+        };
         format!(
             " over the {} window: mean V_x {:.3} m/s (flowing from {:.3}), KE change {}, V_x change {}, μ {}",
             w.phase,
             w.mean_vx_m_per_s,
             v.min_flow_velocity_m_per_s,
-            pct(w.ke_change),
-            pct(w.vx_change),
+            change(w.ke_change, w.ke_t),
+            change(w.vx_change, w.vx_t),
             w.stress_ratio.map_or("-".into(), |m| format!("{m:.3}"))
         )
     });

@@ -11,7 +11,9 @@
 //! - within its own statistical error: |slope| ≤ t₀.₉₇₅(B − 2) · se(slope), B the batches.
 //!
 //! The first alone passes a noisy series that drifts; the second alone fails a steady flow whose
-//! tiny, real fluctuations are well resolved in a long window.
+//! tiny, real fluctuations are well resolved in a long window. Passing is the strict reading,
+//! for deciding that a transient has ended; [`Trend::drifts`] is the lenient one, for deciding
+//! that a measured window must be discarded: a trend both beyond the tolerance and significant.
 
 use serde::{Deserialize, Serialize};
 
@@ -30,6 +32,20 @@ pub struct Trend {
     pub t_critical: f64,
     /// Whether both criteria hold.
     pub passed: bool,
+}
+
+impl Trend {
+    /// Whether the trend is a drift: beyond `tol` and beyond its batch-means error. A small,
+    /// well-resolved trend is no drift, and neither is a large one that the series' own slow
+    /// fluctuations could make.
+    pub fn drifts(&self, tol: f64) -> bool {
+        is_drift(self.relative_change, self.t_statistic, self.t_critical, tol)
+    }
+}
+
+/// [`Trend::drifts`] on a trend's numbers (as `chute_stationarity` stores them).
+pub fn is_drift(relative_change: f64, t_statistic: f64, t_critical: f64, tol: f64) -> bool {
+    relative_change > tol && t_statistic > t_critical
 }
 
 /// Fewest batches the test accepts: three leave a single degree of freedom.

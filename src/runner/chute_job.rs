@@ -18,7 +18,7 @@ use crate::campaign::JobSpec;
 use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::chute::{
     ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, FlowRecord, FlowState,
-    CHUNK_S,
+    TrendTolerances, CHUNK_S,
 };
 use crate::observe::steady::{
     check_window, FlowSample, SteadyDetector, SteadySettings, WindowCheck,
@@ -461,7 +461,11 @@ impl Study for ChuteStudy {
                 prog.detector.tan_alpha(),
             )
         });
-        let state = FlowState::judge(prog.transient.as_ref(), measurement.as_ref());
+        let state = FlowState::judge(
+            prog.transient.as_ref(),
+            measurement.as_ref(),
+            TrendTolerances::of_chute(p),
+        );
         let results = prog
             .observer
             .as_ref()

@@ -5,6 +5,7 @@
 use anyhow::Result;
 use rusqlite::{params, Connection, OptionalExtension};
 
+use super::chute_flow_reads::judged_flow_states;
 use crate::observe::chute::{density_layering, is_layered, FlowState};
 
 /// The measurement window and kernel of a chute job's profiles (from `chute_summary`).
@@ -107,7 +108,8 @@ pub struct ChuteJob {
 }
 
 /// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
-/// (`chute_flow_state`; a job from before schema 7 has only the transient's verdict,
+/// (`chute_flow_state` read under today's rule, `judged_flow_states`; a job from before schema
+/// 7 has only the transient's verdict,
 /// `chute_summary.steady`) and whose stored density profile shows no ordered layers
 /// (`observe::chute::layering`), ordered by ξ, α, job id. Jobs not done are left out even with a
 /// partial summary (render lists them as missing); done jobs that were not steady, or layered,
@@ -130,11 +132,10 @@ pub fn done_chute_jobs(
          JOIN chute_summary s ON s.job_id = j.id \
          LEFT JOIN chute_flow_state f ON f.job_id = j.id \
          WHERE cj.campaign_id = ?1 AND j.status = 'done' \
-           AND (?2 OR COALESCE(f.state = 'steady', s.steady = 1)) \
          ORDER BY s.aspect_ratio, s.inclination_deg, j.id",
     )?;
     let rows = stmt
-        .query_map(params![campaign_id, include_unsteady], |r| {
+        .query_map(params![campaign_id], |r| {
             let flow_state: Option<String> = r.get(10)?;
             Ok(ChuteJob {
                 job_id: r.get(0)?,
@@ -155,8 +156,13 @@ pub fn done_chute_jobs(
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
+    let judged = judged_flow_states(conn, campaign_id)?;
     let mut jobs = Vec::with_capacity(rows.len());
     for mut job in rows {
+        if let Some(state) = judged.get(&job.job_id) {
+            job.steady = *state == FlowState::Steady.as_str();
+            job.flow_state = Some(state.clone());
+        }
         let profile = chute_profile(conn, job.job_id)?;
         let z: Vec<f64> = profile.iter().map(|p| p.z_m).collect();
         let rho: Vec<f64> = profile.iter().map(|p| p.density_kg_per_m3).collect();
@@ -211,7 +217,7 @@ pub struct LeftOut {
 /// On a database error.
 pub fn left_out_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<LeftOut>> {
     let mut stmt = conn.prepare(
-        "SELECT cj.label, COALESCE(f.state, 'not_steady'), \
+        "SELECT j.id, cj.label, COALESCE(f.state, 'not_steady'), \
                 COALESCE(f.measured, s.job_id IS NOT NULL) \
          FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id \
          LEFT JOIN chute_flow_state f ON f.job_id = j.id \
@@ -220,17 +226,26 @@ pub fn left_out_chute_jobs(conn: &Connection, campaign_id: i64) -> Result<Vec<Le
            AND (f.state <> 'steady' OR (f.state IS NULL AND s.steady = 0)) \
          ORDER BY cj.label",
     )?;
+    let judged = judged_flow_states(conn, campaign_id)?;
+    let steady = FlowState::Steady.as_str();
     let rows = stmt
         .query_map(params![campaign_id], |r| {
-            Ok(LeftOut {
-                label: r.get(0)?,
-                state: r.get(1)?,
-                measured: r.get::<_, i64>(2)? != 0,
-            })
+            Ok((
+                r.get::<_, i64>(0)?,
+                LeftOut {
+                    label: r.get(1)?,
+                    state: r.get(2)?,
+                    measured: r.get::<_, i64>(3)? != 0,
+                },
+            ))
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;
-    let mut rows: Vec<LeftOut> = rows;
-    let steady = FlowState::Steady.as_str();
+    // A stored "drifted" that today's rule reads as steady is not left out.
+    let mut rows: Vec<LeftOut> = rows
+        .into_iter()
+        .filter(|(id, _)| judged.get(id).is_none_or(|s| s != steady))
+        .map(|(_, row)| row)
+        .collect();
     for job in done_chute_jobs(conn, campaign_id, true)? {
         let was_steady = job.flow_state.as_deref().is_none_or(|s| s == steady);
         if was_steady && is_layered(job.layering) {
@@ -483,6 +498,10 @@ pub struct DecidingWindow {
     pub ke_change: Option<f64>,
     pub vx_change: Option<f64>,
     pub stress_ratio: Option<f64>,
+    /// The trends' t statistics (None when infinite) and the t quantile they are held to.
+    pub ke_t: Option<f64>,
+    pub vx_t: Option<f64>,
+    pub t_critical: Option<f64>,
 }
 
 /// The flow verdicts of the campaign's chute jobs, by job id; a done steady job whose stored
@@ -496,7 +515,8 @@ pub fn flow_verdicts(
 ) -> Result<std::collections::BTreeMap<i64, FlowVerdict>> {
     let mut stmt = conn.prepare(
         "SELECT f.job_id, f.state, f.measured, f.min_flow_velocity_m_per_s, \
-                s.phase, s.vx_mean_m_per_s, s.ke_change, s.vx_change, s.stress_ratio \
+                s.phase, s.vx_mean_m_per_s, s.ke_change, s.vx_change, s.stress_ratio, \
+                s.ke_t, s.vx_t, s.t_critical \
          FROM campaign_jobs cj JOIN chute_flow_state f ON f.job_id = cj.job_id \
          LEFT JOIN chute_stationarity s ON s.job_id = f.job_id AND s.phase = \
              (SELECT MIN(phase) FROM chute_stationarity x WHERE x.job_id = f.job_id) \
@@ -518,6 +538,9 @@ pub fn flow_verdicts(
                             ke_change: r.get(6)?,
                             vx_change: r.get(7)?,
                             stress_ratio: r.get(8)?,
+                            ke_t: r.get(9)?,
+                            vx_t: r.get(10)?,
+                            t_critical: r.get(11)?,
                         }),
                         None => None,
                     },
@@ -525,6 +548,11 @@ pub fn flow_verdicts(
             ))
         })?
         .collect::<rusqlite::Result<_>>()?;
+    for (id, state) in judged_flow_states(conn, campaign_id)? {
+        if let Some(v) = rows.get_mut(&id) {
+            v.state = state;
+        }
+    }
     // A steady flow in ordered layers is left out as the others are; say so.
     let steady = FlowState::Steady.as_str();
     for job in done_chute_jobs(conn, campaign_id, true)? {

@@ -13,6 +13,7 @@
 pub mod accuracy_reads;
 pub mod bench_runs;
 pub mod campaign_reads;
+mod chute_flow_reads;
 pub mod chute_reads;
 mod chute_results;
 pub mod claims;

@@ -12,7 +12,7 @@ mod results;
 mod settings;
 
 pub use finish::PDF_HALF_RANGE_STD;
-pub use flow_state::{FlowRecord, FlowState};
+pub use flow_state::{FlowRecord, FlowState, MeasuredWindow, TrendTolerances};
 pub use layering::{density_layering, is_layered, LAYERED_ABOVE, LAYERING_BED};
 pub use observer::{ChuteObserver, ChuteSnapshot};
 pub use results::{

@@ -20,7 +20,14 @@ fn d0(z: f64) -> f64 {
 
 /// A done job at (ξ, α) = (1.3, `alpha`), replica `replica`, whose D is `scale` × d0(z)
 /// with a relative standard error of `SE_REL` (none when `with_se` is false).
-fn add(conn: &Connection, c: i64, alpha: f64, replica: u32, scale: f64, state: &'static str) {
+fn add(
+    conn: &Connection,
+    c: i64,
+    alpha: f64,
+    replica: u32,
+    scale: f64,
+    state: &'static str,
+) -> i64 {
     let label = format!("aspect_ratio=1.3,inclination_deg={alpha},replica={replica}");
     let params = format!(
         r#"{{"scene":"chute","chute":{{"aspect_ratio":1.3,"inclination_deg":{alpha},"replica":{replica}}}}}"#
@@ -55,6 +62,66 @@ fn add(conn: &Connection, c: i64, alpha: f64, replica: u32, scale: f64, state: &
         let z = f64::from(i) * L / 4.0;
         test_rows::chute_field(conn, job, z, 0.1 * (1.0 - 0.9 * z / H) * scale);
     }
+    job
+}
+
+/// Gives every job tolerances of 10 % (kinetic energy) and 5 % (V_x).
+fn tolerances(conn: &Connection) {
+    conn.execute(
+        "UPDATE jobs SET params_json = json_set(params_json, \
+         '$.chute.steady_kinetic_tolerance', 0.1, '$.chute.steady_velocity_tolerance', 0.05)",
+        [],
+    )
+    .expect("tolerances");
+}
+
+/// A stored measurement window of `job` whose V_x trend changes by `vx_change` with t statistic
+/// `vx_t` (t quantile 2.776).
+fn measured_window(conn: &Connection, job: i64, vx_change: f64, vx_t: f64) {
+    conn.execute(
+        "INSERT INTO chute_stationarity (job_id, phase, start_s, end_s, ke_mean_j, ke_change, \
+         ke_t, vx_mean_m_per_s, vx_change, vx_t, t_critical, stress_ratio, ratio_ok, flowing, \
+         steady) VALUES (?1, 'measurement', 160.0, 400.0, 1000.0, 0.02, 0.5, 1.0, ?2, ?3, \
+         2.776, 0.51, 1, 1, 0)",
+        rusqlite::params![job, vx_change, vx_t],
+    )
+    .expect("window");
+}
+
+#[test]
+fn a_drift_the_swings_could_make_reads_as_steady() {
+    let (conn, c) = db();
+    // The drifted replica of db() (D × 2) drifted beyond 5 % and its error; a fifth one
+    // recorded as drifted changed by 6.6 % with t = 2.06, which its swings could make.
+    let moving: i64 = conn
+        .query_row(
+            "SELECT job_id FROM campaign_jobs WHERE label LIKE '%=27,replica=3'",
+            [],
+            |r| r.get(0),
+        )
+        .expect("the drifted replica");
+    measured_window(&conn, moving, 0.096, 4.9);
+    let quiet = add(&conn, c, 27.0, 4, 1.0, "drifted");
+    measured_window(&conn, quiet, 0.066, 2.06);
+    tolerances(&conn);
+    let steady: Vec<i64> = done_chute_jobs(&conn, c, false)
+        .expect("jobs")
+        .iter()
+        .map(|j| j.job_id)
+        .collect();
+    assert!(
+        steady.contains(&quiet) && !steady.contains(&moving),
+        "{steady:?}"
+    );
+    let left = crate::store::chute_reads::left_out_chute_jobs(&conn, c).expect("left out");
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert_eq!(left[0].state, "drifted");
+    assert!(left[0].label.ends_with("replica=3"), "{left:?}");
+    let verdicts = crate::store::chute_reads::flow_verdicts(&conn, c).expect("verdicts");
+    assert_eq!(verdicts[&quiet].state, "steady");
+    assert_eq!(verdicts[&moving].state, "drifted");
+    let points = pooled_points(&conn, c).expect("points");
+    assert_eq!((points[0].jobs.len(), points[0].steady_jobs.len()), (5, 4));
 }
 
 /// Point α = 27°: three steady replicas at D × (1.001, 1, 0.999) and a fourth that drifted
