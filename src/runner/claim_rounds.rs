@@ -24,6 +24,7 @@ use crate::store::looks;
 use crate::store::targets::WorkRow;
 
 use super::claim_points::claim_points;
+use super::claim_reach::{out_of_reach, steps_left};
 use super::claim_replicas::{
     after_replicas, cut_short, replicas_for_goal, replicas_to_add, steady_share,
 };
@@ -245,9 +246,9 @@ fn as_claims_see_it(state: &PointState, chute: bool) -> PointState {
     s
 }
 
-/// The adaptive round: for each undecided claim, cheapest forecast first, the points whose
-/// share of the claim's variance per particle-step is largest get work sized so the claim's
-/// interval is expected to clear its bound.
+/// The adaptive round: for each undecided claim within reach of the budget (`claim_reach`),
+/// cheapest forecast first, the points whose share of the claim's variance per particle-step is
+/// largest get work sized so the claim's interval is expected to clear its bound.
 fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>, Vec<String>) {
     let chute = ev.file.scene == crate::campaign::SceneKind::Chute;
     let mut order: Vec<usize> = (0..l.claims.len())
@@ -263,8 +264,17 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
     let mut taken = BTreeSet::new();
     let mut planned = Vec::new();
     let mut capped = Vec::new();
+    let left = steps_left(
+        l.spent.particle_steps,
+        l.spent.core_hours,
+        ev.target.max_core_hours,
+    );
     for k in order {
-        let (claim, v, _) = &l.claims[k];
+        let (claim, v, row) = &l.claims[k];
+        if let Some(why) = out_of_reach(&claim.id, row.forecast_particle_steps, left) {
+            capped.push(why);
+            continue;
+        }
         let mut chosen: Vec<(usize, f64)> = Vec::new();
         if v.lo.is_finite() && v.hi.is_finite() {
             let total: f64 = v.variance_by_point.iter().map(|p| p.1).sum();

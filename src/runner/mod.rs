@@ -10,6 +10,7 @@ mod auto_choice;
 pub mod backend;
 pub mod chute_job;
 pub mod claim_points;
+mod claim_reach;
 mod claim_replicas;
 pub mod claim_rounds;
 pub mod evaluation;
