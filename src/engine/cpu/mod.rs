@@ -44,6 +44,7 @@ mod rod_lanes;
 mod rod_lists;
 mod rod_pass;
 mod rod_passes;
+mod rod_pick_lanes;
 mod rods;
 #[cfg(target_arch = "x86_64")]
 mod simd;

@@ -12,13 +12,14 @@
 use super::pair_pass::{PairSlot, Reaction, BLOCK};
 use super::particle::Status;
 use super::rod_lanes::{self, RodLaneInput, RodLaneOutput, LANES};
+use super::rod_pick_lanes::{self, PickLanes};
 use crate::engine::contact::{
     contact_force, pair_effective_mass, wall_effective_mass, ContactInput, Inertial, LawKernel,
 };
 use crate::engine::grid::Image;
 use crate::engine::position::separation;
 use crate::engine::real::{Real, V3};
-use crate::engine::shape::{axis_distance2, contact_spherocylinders, Spherocylinder};
+use crate::engine::shape::{contact_spherocylinders, Spherocylinder};
 use crate::engine::state::State;
 use crate::engine::walls::WallKernel;
 
@@ -166,17 +167,41 @@ impl<R: Real> RodContext<'_, R> {
         scratch: &mut RodScratch<R>,
     ) {
         scratch.pick.clear();
-        for (e, (&o, sl)) in owner.iter().zip(slots.iter_mut()).enumerate() {
+        let mut group = PickLanes::default();
+        let mut lanes = [[0u32; 3]; LANES];
+        let mut near = [false; LANES];
+        let mut keep = |lanes: &[[u32; 3]], near: &[bool]| {
+            for (&entry, &near) in lanes.iter().zip(near) {
+                if near {
+                    scratch.pick.push(entry);
+                } else {
+                    slots[entry[0] as usize] = PairSlot::default();
+                }
+            }
+        };
+        // `axis_distance2(centre_gap, u_o, s_o, u_j, s_j) < cut²`, LANES entries at a time.
+        for (e, &o) in owner.iter().enumerate() {
             let j = nbr[e0 + e];
             let (ko, kj) = (&self.kin[o as usize], &self.kin[j as usize]);
-            let (so, sj) = (ko.shape(), kj.shape());
-            let d2 = axis_distance2(self.centre_gap(ko, kj), ko.axis, &so, kj.axis, &sj);
-            let cut = so.radius + sj.radius + margin;
-            if d2 < cut * cut {
-                scratch.pick.push([e as u32, o, j]);
-            } else {
-                *sl = PairSlot::default();
+            let cut = ko.r + kj.r + margin;
+            let l = e % LANES;
+            group.set(
+                l,
+                self.centre_gap(ko, kj),
+                ko.axis * ko.h,
+                kj.axis * kj.h,
+                cut * cut,
+            );
+            lanes[l] = [e as u32, o, j];
+            if l == LANES - 1 {
+                rod_pick_lanes::near(&group, &mut near);
+                keep(&lanes, &near);
             }
+        }
+        let rest = owner.len() % LANES;
+        if rest > 0 {
+            rod_pick_lanes::near(&group, &mut near);
+            keep(&lanes[..rest], &near[..rest]);
         }
     }
 
