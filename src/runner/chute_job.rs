@@ -20,6 +20,7 @@ use crate::observe::chute::{
     ChuteGeometry, ChuteObserver, ChuteObserverSettings, ChuteSnapshot, FlowRecord, FlowState,
     TrendTolerances, CHUNK_S,
 };
+use crate::observe::stationarity::Trend;
 use crate::observe::steady::{
     check_window, FlowSample, SteadyDetector, SteadySettings, WindowCheck,
 };
@@ -239,27 +240,36 @@ impl ChuteStudy {
         } else {
             "NOT steady (steady_max_time_s reached)"
         };
-        let criteria = check.map_or_else(String::new, |c| {
-            let pct = |t: Option<crate::observe::stationarity::Trend>| {
-                t.map_or("-".into(), |t| {
-                    format!("{:.1} %", 100.0 * t.relative_change)
-                })
-            };
-            format!(
-                " (KE change {}, V_x change {}, mean V_x {:.3} m/s, μ {}, tan α = {:.3})",
-                pct(c.ke),
-                pct(c.vx),
-                c.mean_vx_m_per_s,
-                c.stress_ratio.map_or("-".into(), |m| format!("{m:.3}")),
-                self.scene.tan_alpha()
-            )
-        });
+        let criteria = check.map_or_else(String::new, |c| format!(" ({})", self.criteria(c)));
         let next = if self.measures(steady, stopped) {
             format!("; measuring for {} s", p.measure_time_s)
         } else {
             "; measuring nothing".into()
         };
         format!("{verdict} at t = {t:.2} s{criteria}{next}")
+    }
+
+    /// A window's criteria in words: each trend's change with its t statistic against the
+    /// quantile, the mean V_x, and μ against tan α.
+    fn criteria(&self, c: &WindowCheck) -> String {
+        let trend = |t: Option<Trend>| {
+            t.map_or("-".into(), |t| {
+                format!(
+                    "{:.1} % (t {:.2} of {:.2})",
+                    100.0 * t.relative_change,
+                    t.t_statistic,
+                    t.t_critical
+                )
+            })
+        };
+        format!(
+            "KE change {}, V_x change {}, mean V_x {:.3} m/s, μ {}, tan α = {:.3}",
+            trend(c.ke),
+            trend(c.vx),
+            c.mean_vx_m_per_s,
+            c.stress_ratio.map_or("-".into(), |m| format!("{m:.3}")),
+            self.scene.tan_alpha()
+        )
     }
 
     fn measures(&self, steady: bool, stopped: bool) -> bool {
@@ -403,6 +413,17 @@ impl Study for ChuteStudy {
                     }
                     jobs::set_stage(run.conn, run.job.id, run.lease, stage(prog.phase))?;
                     run.log(self.transient_words(prog.transient.as_ref(), t_now, steady, stopped));
+                } else if let Some(c) = check.filter(|_| judged) {
+                    // A long wait says, four times a window, which criterion holds it up.
+                    let every = |t: f64| (t / (p.steady_window_s / 4.0)).floor();
+                    let before = prog.series.iter().rev().nth(1).map(|s| s.t);
+                    if before.is_some_and(|b| every(t_now) > every(b)) {
+                        run.log(format!(
+                            "not steady yet at t = {t_now:.1} s (by {} s at the latest): {}",
+                            p.steady_max_time_s,
+                            self.criteria(&c)
+                        ));
+                    }
                 }
             }
             Phase::Measuring => {

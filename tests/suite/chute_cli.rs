@@ -415,3 +415,43 @@ fn a_bed_at_rest_is_recorded_as_not_flowing() {
     ));
     assert!(out.contains("(not flowing, nothing measured)"), "{out}");
 }
+
+/// A job still waiting for the steady state past `steady_min_time_s` says, four times a window,
+/// which criterion holds it up: each trend's change with its t statistic, and μ against tan α.
+#[test]
+fn a_long_wait_for_the_steady_state_names_its_criteria() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(campaign(d)).unwrap()).unwrap();
+    let base = c["base"].as_object_mut().unwrap();
+    // 10 samples a window in 4 batches: a window is tested from 0.5 s on; the young flow
+    // still accelerates, so it waits until 1.5 s and measures nothing.
+    for (k, v) in [
+        ("steady_max_time_s", json!(1.5)),
+        ("steady_batches", json!(4)),
+        ("measure_unsteady", json!(false)),
+    ] {
+        base.insert(k.into(), v);
+    }
+    let file = d.join("wait.json");
+    std::fs::write(&file, c.to_string()).unwrap();
+    let db = d.join("sweep.db");
+    let args = launch_args(&file, &db);
+    let launched = run(d, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    ok(&launched);
+    // The job's log goes to stderr, beside the campaign's progress.
+    let out = String::from_utf8_lossy(&launched.stderr);
+    let waits: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("not steady yet at t = "))
+        .collect();
+    // One line per quarter window (0.125 s) from the first tested window until 1.5 s.
+    assert!((5..=9).contains(&waits.len()), "{out}");
+    assert!(
+        waits.iter().all(|l| l.contains("V_x change")
+            && l.contains(" of 4.30)")
+            && l.contains("tan α = 0.532")),
+        "{out}"
+    );
+}
