@@ -20,6 +20,19 @@ fn campaign(dir: &Path) -> PathBuf {
     write_campaign(dir, "tiny.json", &tiny_chute("chute_tiny", "f64", 0.25))
 }
 
+/// The tiny chute with `base` settings changed, written as `name` in `dir`.
+fn campaign_with(dir: &Path, name: &str, base: &[(&str, serde_json::Value)]) -> PathBuf {
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(campaign(dir)).unwrap()).unwrap();
+    let fields = c["base"].as_object_mut().unwrap();
+    for (k, v) in base {
+        fields.insert((*k).into(), v.clone());
+    }
+    let file = dir.join(name);
+    std::fs::write(&file, c.to_string()).unwrap();
+    file
+}
+
 fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(crate::common::cli::bin())
         .args(args)
@@ -352,21 +365,18 @@ fn a_chute_of_spheres_runs_on_the_sphere_engine() {
 fn a_bed_at_rest_is_recorded_as_not_flowing() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
-    let mut c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(campaign(d)).unwrap()).unwrap();
-    let base = c["base"].as_object_mut().unwrap();
-    for (k, v) in [
-        ("aspect_ratio", json!(1.0)),
-        ("inclination_deg", json!(10.0)),
-        ("steady_min_time_s", json!(8.0)),
-        ("steady_max_time_s", json!(12.0)),
-        ("steady_window_s", json!(2.0)),
-        ("measure_unsteady", json!(false)),
-    ] {
-        base.insert(k.into(), v);
-    }
-    let file = d.join("rest.json");
-    std::fs::write(&file, c.to_string()).unwrap();
+    let file = campaign_with(
+        d,
+        "rest.json",
+        &[
+            ("aspect_ratio", json!(1.0)),
+            ("inclination_deg", json!(10.0)),
+            ("steady_min_time_s", json!(8.0)),
+            ("steady_max_time_s", json!(12.0)),
+            ("steady_window_s", json!(2.0)),
+            ("measure_unsteady", json!(false)),
+        ],
+    );
     let db = d.join("sweep.db");
     let args = launch_args(&file, &db);
     ok(&run(
@@ -422,20 +432,17 @@ fn a_bed_at_rest_is_recorded_as_not_flowing() {
 fn a_long_wait_for_the_steady_state_names_its_criteria() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
-    let mut c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(campaign(d)).unwrap()).unwrap();
-    let base = c["base"].as_object_mut().unwrap();
     // 10 samples a window in 4 batches: a window is tested from 0.5 s on; the young flow
     // still accelerates, so it waits until 1.5 s and measures nothing.
-    for (k, v) in [
-        ("steady_max_time_s", json!(1.5)),
-        ("steady_batches", json!(4)),
-        ("measure_unsteady", json!(false)),
-    ] {
-        base.insert(k.into(), v);
-    }
-    let file = d.join("wait.json");
-    std::fs::write(&file, c.to_string()).unwrap();
+    let file = campaign_with(
+        d,
+        "wait.json",
+        &[
+            ("steady_max_time_s", json!(1.5)),
+            ("steady_batches", json!(4)),
+            ("measure_unsteady", json!(false)),
+        ],
+    );
     let db = d.join("sweep.db");
     let args = launch_args(&file, &db);
     let launched = run(d, &args.iter().map(String::as_str).collect::<Vec<_>>());
