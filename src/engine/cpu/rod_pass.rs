@@ -179,7 +179,8 @@ impl<R: Real> RodContext<'_, R> {
                 }
             }
         };
-        // `axis_distance2(centre_gap, u_o, s_o, u_j, s_j) < cut²`, LANES entries at a time.
+        // The axes' squared distance against cut², as `contact_spherocylinders` measures it,
+        // LANES entries at a time.
         for (e, &o) in owner.iter().enumerate() {
             let j = nbr[e0 + e];
             let (ko, kj) = (&self.kin[o as usize], &self.kin[j as usize]);

@@ -1,6 +1,6 @@
 //! The rods' near-pair pick, `LANES` list entries at once: the squared distance between two
-//! rods' axes (`shape::axis_distance2`, through `closest_points_in` with selects) against the
-//! pick's cut, one array per component, so that the compiler turns the loop into SIMD
+//! rods' axes (as `shape::contact_spherocylinders` measures it, through `closest_points_in` with
+//! selects) against the pick's cut, one array per component, so that the compiler turns the loop into SIMD
 //! instructions (as `rod_lanes.rs` does for the pair kernel). Each lane performs the scalar
 //! code's operations in its order, so the pick keeps the same entries.
 

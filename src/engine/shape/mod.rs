@@ -16,6 +16,6 @@ pub use segment::{
     POINT_LEN2,
 };
 pub use spherocylinder::{
-    axis_distance2, contact_plane, contact_sphere, contact_spherocylinders, PairContact,
-    PlaneContact, Spherocylinder,
+    contact_plane, contact_sphere, contact_spherocylinders, PairContact, PlaneContact,
+    Spherocylinder,
 };

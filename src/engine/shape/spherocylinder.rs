@@ -230,21 +230,6 @@ pub fn contact_spherocylinders<R: Real>(
     })
 }
 
-/// The squared distance between the axes of spherocylinders i and j (the distance that
-/// `contact_spherocylinders` compares with ri + rj); `d` = ci − cj (m, minimum image).
-#[inline]
-pub fn axis_distance2<R: Real>(
-    d: V3<R>,
-    ui: V3<R>,
-    shape_i: &Spherocylinder<R>,
-    uj: V3<R>,
-    shape_j: &Spherocylinder<R>,
-) -> R {
-    let hi = ui * shape_i.half_length;
-    let hj = uj * shape_j.half_length;
-    closest_points(d - hi, hi + hi, -hj, hj + hj).dist2
-}
-
 /// The contact of spherocylinder i with a sphere j of radius `sphere_radius` (a fixed grain of the
 /// rough base), if they overlap; `d` = ci − cj (m, minimum image).
 #[inline]
