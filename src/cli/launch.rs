@@ -15,13 +15,13 @@ use sweep::runner::PoolOptions;
 use super::run_args::{Arguments, ResumeArguments, RunArgs};
 use super::shared::{print_report, register, EXIT_PAUSED};
 
-/// Runs the pending jobs of `scope` and prints how they ended; returns the exit code.
+/// Runs the pending jobs of `turn`'s campaign (`total` of them, `done` already done) and prints
+/// how they ended; returns the exit code.
 fn run_jobs(
     r: &RunArgs,
     work: PathBuf,
-    scope: JobScope,
+    turn: &Turn,
     max_attempts: Option<i64>,
-    checkpoint_interval_s: f64,
     total: usize,
     done: usize,
 ) -> anyhow::Result<i32> {
@@ -32,13 +32,14 @@ fn run_jobs(
         pool: PoolOptions {
             db: r.db.db.clone(),
             work_dir: work,
-            scope,
+            scope: JobScope::Campaign(turn.cid),
+            backfill: turn.backfill,
             parallel: r.parallel,
             threads: r.threads,
             backend: r.backend,
             gpu: r.gpu.select(),
             batch: r.batch,
-            checkpoint_interval_s,
+            checkpoint_interval_s: turn.checkpoint_interval_s,
             max_attempts,
             interrupt: super::interrupt::interrupt_flag(),
             bars: std::io::stderr().is_terminal(),
@@ -140,22 +141,26 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     // The work directory is recorded now, while the store has room for it.
     let work = project.work_dir()?;
     drop(project);
-    let code = run_jobs(
-        &a.run,
-        work.clone(),
-        JobScope::Campaign(cid),
-        None,
-        file.run.checkpoint_interval_s,
-        jobs.len(),
-        done as usize,
-    )?;
+    let turn = Turn {
+        cid,
+        backfill: None,
+        checkpoint_interval_s: file.run.checkpoint_interval_s,
+    };
+    let code = run_jobs(&a.run, work.clone(), &turn, None, jobs.len(), done as usize)?;
     if file.target.is_none() {
         if !file.claims.is_empty() && code == 0 {
             look_once(&a.run.db.db, cid)?;
         }
         return Ok(code);
     }
-    pursue_target(&a.run, &work, cid, file.run.checkpoint_interval_s, code)
+    pursue_target(&a.run, &work, &turn, code)
+}
+
+/// One campaign's turn: its id, what idle workers may run meanwhile, its checkpoint interval.
+struct Turn {
+    cid: i64,
+    backfill: Option<JobScope>,
+    checkpoint_interval_s: f64,
 }
 
 /// The claims of a campaign without a target, looked at once its jobs have ended.
@@ -169,13 +174,8 @@ fn look_once(db: &Path, cid: i64) -> anyhow::Result<()> {
 
 /// Rounds of a campaign's target: evaluate, add the work, run it, until nothing is added or a
 /// run does not end cleanly (an interrupt, a failure: `sweep resume` continues from there).
-fn pursue_target(
-    r: &RunArgs,
-    work: &Path,
-    cid: i64,
-    checkpoint_interval_s: f64,
-    mut code: i32,
-) -> anyhow::Result<i32> {
+fn pursue_target(r: &RunArgs, work: &Path, turn: &Turn, mut code: i32) -> anyhow::Result<i32> {
+    let cid = turn.cid;
     use sweep::runner::adaptive::{next_round, RoundOutcome};
     loop {
         if code != 0 {
@@ -201,7 +201,7 @@ fn pursue_target(
                     return Ok(code);
                 }
                 print_work(&round.work);
-                code = run_round(r, work, &project, cid, checkpoint_interval_s)?;
+                code = run_round(r, work, &project, turn)?;
             }
             RoundOutcome::Work {
                 round: _,
@@ -210,31 +210,17 @@ fn pursue_target(
             } => {
                 print_points(&points);
                 print_work(&added);
-                code = run_round(r, work, &project, cid, checkpoint_interval_s)?;
+                code = run_round(r, work, &project, turn)?;
             }
         }
     }
 }
 
 /// Runs the work a round added to campaign `cid`; returns the exit code.
-fn run_round(
-    r: &RunArgs,
-    work: &Path,
-    project: &Project,
-    cid: i64,
-    checkpoint_interval_s: f64,
-) -> anyhow::Result<i32> {
-    let done = project.done_count(cid)?;
-    let total = project.campaign_job_count(cid)?;
-    run_jobs(
-        r,
-        work.to_path_buf(),
-        JobScope::Campaign(cid),
-        None,
-        checkpoint_interval_s,
-        total,
-        done as usize,
-    )
+fn run_round(r: &RunArgs, work: &Path, project: &Project, turn: &Turn) -> anyhow::Result<i32> {
+    let done = project.done_count(turn.cid)?;
+    let total = project.campaign_job_count(turn.cid)?;
+    run_jobs(r, work.to_path_buf(), turn, None, total, done as usize)
 }
 
 /// One line per piece of work a round added.
@@ -370,9 +356,16 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         );
     }
     drop(project);
+    // Idle workers at a campaign's tail run the later campaigns' jobs (`pool_tail.rs`).
+    let backfill = (order.len() > 1 && !a.one_at_a_time).then_some(JobScope::LatestVersions);
+    if backfill.is_some() && a.run.parallel > 1 {
+        println!(
+            "while a campaign's last jobs run, idle workers run the next campaigns' jobs and hand them back at a checkpoint (--one-at-a-time: none)"
+        );
+    }
     let mut code = 0;
     for (open, cid) in order {
-        let c = continue_campaign(&a, &work, cid, open)?;
+        let c = continue_campaign(&a, &work, cid, open, backfill)?;
         if c == EXIT_PAUSED {
             // Interrupted: the other campaigns wait for the next resume.
             return Ok(c);
@@ -413,6 +406,7 @@ fn continue_campaign(
     work: &Path,
     cid: i64,
     open: usize,
+    backfill: Option<JobScope>,
 ) -> anyhow::Result<i32> {
     let db = &a.run.db.db;
     let project = Project::open(db)?;
@@ -424,13 +418,17 @@ fn continue_campaign(
         sweep::campaign::RunSettings::default().checkpoint_interval_s,
         |f| f.run.checkpoint_interval_s,
     );
+    let turn = Turn {
+        cid,
+        backfill,
+        checkpoint_interval_s: interval,
+    };
     let code = if open > 0 {
         run_jobs(
             &a.run,
             work.to_path_buf(),
-            JobScope::Campaign(cid),
+            &turn,
             a.max_attempts,
-            interval,
             total as usize,
             done as usize,
         )?
@@ -438,7 +436,7 @@ fn continue_campaign(
         0
     };
     match file {
-        Some(f) if f.target.is_some() => pursue_target(&a.run, work, cid, interval, code),
+        Some(f) if f.target.is_some() => pursue_target(&a.run, work, &turn, code),
         Some(f) if !f.claims.is_empty() => {
             if code == 0 {
                 look_once(db, cid)?;

@@ -104,6 +104,11 @@ pub struct ResumeArguments {
     /// stay as they are, e.g. an older version's paused jobs that a new version replaces.
     #[arg(long, value_name = "NAME[@vK]")]
     pub campaign: Option<String>,
+    /// Campaigns strictly one after another. By default, while a campaign's last jobs run,
+    /// idle workers run the next campaigns' jobs and hand them back at a checkpoint when the
+    /// campaign's own jobs have ended.
+    #[arg(long)]
+    pub one_at_a_time: bool,
 }
 
 /// Where jobs run, and how Slurm is asked for them.

@@ -20,6 +20,7 @@ pub mod job;
 pub mod job_lock;
 pub mod owner_process;
 pub mod pool;
+mod pool_tail;
 pub mod silo_job;
 pub mod slurm;
 

@@ -10,6 +10,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use super::backend::{BackendChoice, GpuSelect};
 use super::job::{job_dir, JobContext, Outcome};
 use super::job_lock::{DirLock, Heartbeat};
+use super::pool_tail::Tail;
 use super::silo_job::run_silo_job;
 use crate::store::jobs::{self, JobScope, Lease};
 use crate::store::silo_done::{silo_done, SiloDone};
@@ -21,6 +22,9 @@ pub struct PoolOptions {
     pub work_dir: PathBuf,
     /// Which pending jobs the pool takes.
     pub scope: JobScope,
+    /// While the scope's last jobs run, idle workers take pending jobs of this scope and hand
+    /// them back at a checkpoint when the scope's jobs have ended (`pool_tail.rs`).
+    pub backfill: Option<JobScope>,
     pub parallel: usize,
     /// Engine threads per job; 0 = cores / parallel.
     pub threads: usize,
@@ -43,6 +47,8 @@ pub struct PoolSummary {
     pub done: usize,
     pub failed: usize,
     pub paused: usize,
+    /// Jobs of the backfill scope run on idle workers: ended, or handed back at a checkpoint.
+    pub lent: usize,
 }
 
 /// Runs pending jobs until none is left or an interrupt arrives.
@@ -76,6 +82,7 @@ pub fn run_pending(
     let summary = Arc::new(Mutex::new(PoolSummary::default()));
     let done_count = Arc::new(AtomicUsize::new(already_done));
     let mut handles = Vec::new();
+    let tail = Arc::new(Tail::default());
     // GPU jobs share one device (a silo job's fill and run included), and those running at the
     // same time share engines (CPU jobs never join one).
     let capacity = if parallel > 1 {
@@ -92,6 +99,7 @@ pub fn run_pending(
             overall: overall.clone(),
             summary: summary.clone(),
             done_count: done_count.clone(),
+            tail: tail.clone(),
             threads,
         };
         handles.push(std::thread::spawn(move || worker(w)));
@@ -126,110 +134,160 @@ struct Worker {
     overall: ProgressBar,
     summary: Arc<Mutex<PoolSummary>>,
     done_count: Arc<AtomicUsize>,
+    tail: Arc<Tail>,
     /// Engine threads per job.
     threads: usize,
 }
 
 /// One worker: claims pending jobs one at a time and runs each to its end, a pause or a
-/// failure, until none is left or an interrupt arrives.
+/// failure, until none is left or an interrupt arrives. With none left while other workers'
+/// jobs still run, it runs a job of the backfill scope until they end.
 fn worker(w: Worker) -> anyhow::Result<()> {
-    let Worker {
-        opts,
-        batches,
-        multi,
-        overall,
-        summary,
-        done_count,
-        threads,
-    } = w;
-    let mut conn = crate::store::open(&opts.db)?;
+    let mut conn = crate::store::open(&w.opts.db)?;
     let lease = Lease::new();
+    let opts = &w.opts;
     loop {
         if opts.interrupt.load(Ordering::SeqCst) {
             return Ok(());
         }
         // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
         // requeue waits for that transaction) never sees it running and unlocked.
-        let claimed = jobs::claim(&mut conn, opts.scope, &lease, opts.max_attempts, |j| {
-            Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?)
-        })?;
-        let Some((job, _lock)) = claimed else {
+        let hold = |j: &jobs::JobRow| Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?);
+        w.tail.claiming();
+        let own = jobs::claim(&mut conn, opts.scope, &lease, opts.max_attempts, hold);
+        match own {
+            Ok(Some((job, _lock))) => {
+                let r = run_one(&w, &mut conn, &job, &lease, opts.interrupt.clone(), false);
+                w.tail.ended();
+                r?;
+                continue;
+            }
+            Ok(None) => w.tail.ended(),
+            Err(e) => {
+                w.tail.ended();
+                return Err(e);
+            }
+        }
+        let Some(backfill) = opts.backfill.filter(|_| w.tail.own_running()) else {
             return Ok(());
         };
-        let _beat = Heartbeat::start(&opts.db, job.id, &lease.owner);
-        let bar = multi.add(ProgressBar::new(1000));
-        bar.set_style(
-            ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
-                .expect("template")
-                .progress_chars("=> "),
-        );
-        bar.set_prefix(job.id.to_string());
-        let label = job.label.clone();
-        let b2 = bar.clone();
-        let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> =
-            Arc::new(move |t, target, rate| {
-                b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
-                let eta = if rate > 0.0 {
-                    format!("{:.1e} particle-steps/s", rate)
-                } else {
-                    String::new()
-                };
-                b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
-            });
-        let bars = opts.bars;
-        let m2 = multi.clone();
-        let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
-            if bars {
-                let _ = m2.println(s);
-            } else {
-                eprintln!("{s}");
-            }
-        });
-        let ctx = JobContext {
-            work_dir: opts.work_dir.clone(),
-            backend: opts.backend,
-            gpu: opts.gpu,
-            batches: batches.clone(),
-            threads,
-            checkpoint_interval_s: checkpoint_interval(&conn, job.id)
-                .unwrap_or(opts.checkpoint_interval_s),
-            interrupt: opts.interrupt.clone(),
-            progress: Some(progress),
-            log: log.clone(),
+        let Some((job, _lock)) = jobs::claim(&mut conn, backfill, &lease, opts.max_attempts, hold)?
+        else {
+            return Ok(());
         };
-        if !bars {
-            println!("job {} started: {}", job.id, job.label);
+        let (interrupt, _watch) = w.tail.lent_interrupt(opts.interrupt.clone());
+        run_one(&w, &mut conn, &job, &lease, interrupt, true)?;
+    }
+}
+
+/// Runs one claimed job and records how it ended. A `lent` job (of the backfill scope) that
+/// pauses while the run goes on is handed back as pending, its attempt given back.
+fn run_one(
+    w: &Worker,
+    conn: &mut rusqlite::Connection,
+    job: &jobs::JobRow,
+    lease: &Lease,
+    interrupt: Arc<AtomicBool>,
+    lent: bool,
+) -> anyhow::Result<()> {
+    let opts = &w.opts;
+    let _beat = Heartbeat::start(&opts.db, job.id, &lease.owner);
+    let bar = w.multi.add(ProgressBar::new(1000));
+    bar.set_style(
+        ProgressStyle::with_template("job {prefix:>4} [{bar:25}] eta {eta:>4} {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(job.id.to_string());
+    let label = job.label.clone();
+    let b2 = bar.clone();
+    let progress: Arc<dyn Fn(f64, f64, f64) + Send + Sync> = Arc::new(move |t, target, rate| {
+        b2.set_position(((t / target).min(1.0) * 1000.0) as u64);
+        let eta = if rate > 0.0 {
+            format!("{:.1e} particle-steps/s", rate)
+        } else {
+            String::new()
+        };
+        b2.set_message(format!("t = {t:.2}/{target:.2} s  {eta}  {label}"));
+    });
+    let bars = opts.bars;
+    let m2 = w.multi.clone();
+    let log: Arc<dyn Fn(String) + Send + Sync> = Arc::new(move |s| {
+        if bars {
+            let _ = m2.println(s);
+        } else {
+            eprintln!("{s}");
         }
-        let outcome = run_caught(&mut conn, &job, &lease, &ctx);
-        bar.finish_and_clear();
-        let mut s = summary.lock().expect("summary");
-        match outcome {
-            Outcome::Done => {
-                s.done += 1;
-                let n = done_count.fetch_add(1, Ordering::SeqCst) + 1;
-                overall.set_position(n as u64);
-                let line = describe_done(&conn, job.id).unwrap_or_default();
-                if bars {
-                    log(format!("job {} done: {} {}", job.id, job.label, line));
-                } else {
-                    println!("job {} done: {} {}", job.id, job.label, line);
-                }
+    });
+    let ctx = JobContext {
+        work_dir: opts.work_dir.clone(),
+        backend: opts.backend,
+        gpu: opts.gpu,
+        batches: w.batches.clone(),
+        threads: w.threads,
+        checkpoint_interval_s: checkpoint_interval(conn, job.id)
+            .unwrap_or(opts.checkpoint_interval_s),
+        interrupt,
+        progress: Some(progress),
+        log: log.clone(),
+    };
+    let started = format!("job {} started: {}", job.id, job.label);
+    if lent {
+        log(format!(
+            "{started} (on an idle core while the campaign's last jobs run)"
+        ));
+    } else if !bars {
+        println!("{started}");
+    }
+    let outcome = run_caught(conn, job, lease, &ctx);
+    bar.finish_and_clear();
+    let mut s = w.summary.lock().expect("summary");
+    match outcome {
+        Outcome::Done if lent => {
+            s.lent += 1;
+            log(format!(
+                "job {} done: {} (on an idle core)",
+                job.id, job.label
+            ));
+        }
+        Outcome::Done => {
+            s.done += 1;
+            let n = w.done_count.fetch_add(1, Ordering::SeqCst) + 1;
+            w.overall.set_position(n as u64);
+            let line = describe_done(conn, job.id).unwrap_or_default();
+            if bars {
+                log(format!("job {} done: {} {}", job.id, job.label, line));
+            } else {
+                println!("job {} done: {} {}", job.id, job.label, line);
             }
-            Outcome::Paused => {
-                s.paused += 1;
-                jobs::release(&conn, job.id, &lease, "paused", None)?;
-                log(format!(
-                    "job {} paused at its checkpoint; `sweep resume` continues it",
-                    job.id
-                ));
-            }
-            Outcome::Failed(e) => {
+        }
+        Outcome::Paused if lent && !opts.interrupt.load(Ordering::SeqCst) => {
+            s.lent += 1;
+            jobs::release(conn, job.id, lease, "pending", None)?;
+            log(format!(
+                "job {} handed back at its checkpoint: the campaign's own jobs have ended; its own campaign's turn continues it",
+                job.id
+            ));
+        }
+        Outcome::Paused => {
+            s.paused += 1;
+            jobs::release(conn, job.id, lease, "paused", None)?;
+            log(format!(
+                "job {} paused at its checkpoint; `sweep resume` continues it",
+                job.id
+            ));
+        }
+        Outcome::Failed(e) => {
+            if lent {
+                s.lent += 1;
+            } else {
                 s.failed += 1;
-                jobs::release(&conn, job.id, &lease, "failed", Some(&e))?;
-                log(format!("job {} failed: {e}", job.id));
             }
+            jobs::release(conn, job.id, lease, "failed", Some(&e))?;
+            log(format!("job {} failed: {e}", job.id));
         }
     }
+    Ok(())
 }
 
 /// Runs `job` with the study of its scene; a panic fails the job (with its message) instead of

@@ -66,3 +66,58 @@ fn a_small_campaign_is_looked_at_before_a_large_one_runs() {
         "one look, once the small campaign's jobs had ended"
     );
 }
+
+/// With two workers, the one that finds no job of the first campaign left runs a job of the
+/// next while the first campaign's last job ends, then hands it back at a checkpoint; the next
+/// campaign's turn finishes it with the same results as a run that was never lent.
+#[test]
+fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
+    let dir = TempDir::new().unwrap();
+    let db = dir.path().join("sweep.db");
+    // One short job (0.1 s of discharge), registered first, then the reference's single job.
+    let mut short = campaign("short", &[0.024], &[0.0], 0.05);
+    short["base"]["discharge_time_s"] = json!(0.1);
+    let short = write_campaign(dir.path(), "short.json", &short);
+    let long = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
+    launch_killed_once_running(dir.path(), &short, &db, "short");
+    launch_killed_once_running(dir.path(), &long, &db, "tiny");
+
+    let o = sweep_cmd(dir.path())
+        .args(["resume", "--db", db.to_str().unwrap(), "--stale-after", "0"])
+        .args(["--backend", "cpu", "--threads", "1", "--parallel", "2"])
+        .output()
+        .unwrap();
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert!(o.status.success(), "{out}\n{err}");
+    assert!(
+        out.contains("campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: short (1 open), tiny (1 open)"),
+        "{out}"
+    );
+    assert!(
+        err.contains("job 2 started: ")
+            && err.contains("(on an idle core while the campaign's last jobs run)"),
+        "the tiny job runs beside the short one:\n{err}"
+    );
+    assert!(
+        err.contains("job 2 handed back at its checkpoint"),
+        "and is handed back when the short job ends:\n{err}"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        2,
+        "{out}\n{err}"
+    );
+    // Only the tiny job's rows: the same bits as the reference run.
+    let reference = reference();
+    let hash = &reference.jobs[0][0];
+    let mut got = results(&db);
+    for rows in [
+        &mut got.jobs,
+        &mut got.series,
+        &mut got.summary,
+        &mut got.clogs,
+    ] {
+        rows.retain(|r| &r[0] == hash);
+    }
+    assert_same_results(reference, &got);
+}
