@@ -56,6 +56,13 @@ pub fn print_verdicts(rows: &[VerdictRow]) {
     }
 }
 
+/// A recorded look's claims whose data read today give another reading.
+pub fn print_reread(lines: &[String]) {
+    for line in lines {
+        println!("claims: {line}");
+    }
+}
+
 /// A claims target's look: its verdicts, what was spent, and why it stops if it does.
 pub fn print_round(r: &ClaimsRound) {
     print_verdicts(&r.verdicts);
@@ -70,6 +77,7 @@ pub fn print_round(r: &ClaimsRound) {
     for why in &r.limited {
         println!("claims: limited: {why}");
     }
+    print_reread(&r.reread);
     if let Some(why) = &r.stop {
         println!("claims: stopped: {why}");
         let open: Vec<&VerdictRow> = r

@@ -166,8 +166,9 @@ struct Turn {
 /// The claims of a campaign without a target, looked at once its jobs have ended.
 fn look_once(db: &Path, cid: i64) -> anyhow::Result<()> {
     let mut project = Project::open(db)?;
-    if let Some(rows) = sweep::runner::claim_rounds::look_once(project.conn_mut(), cid)? {
+    if let Some((rows, reread)) = sweep::runner::claim_rounds::look_once(project.conn_mut(), cid)? {
         super::claims::print_verdicts(&rows);
+        super::claims::print_reread(&reread);
     }
     Ok(())
 }

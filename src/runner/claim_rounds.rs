@@ -54,6 +54,8 @@ pub struct ClaimsRound {
     pub stop: Option<String>,
     /// What the caps left out of the work added (a point capped, replicas cut short).
     pub limited: Vec<String>,
+    /// A recorded look's claims whose data read today differ from the record (`Look::reread`).
+    pub reread: Vec<String>,
     pub spent: Spent,
     pub max_core_hours: Option<f64>,
 }
@@ -69,6 +71,9 @@ pub struct Look {
     /// Earlier looks (of this version or earlier ones) spent all of every claim's α: nothing
     /// can be decided.
     pub no_alpha_left: bool,
+    /// Claims of a look already recorded whose data read today give another reading: the
+    /// record stands (`claims::recorded`), these lines say what changed.
+    pub reread: Vec<String>,
 }
 
 /// Decides every claim of `ev`'s campaign on its finished results, without storing anything.
@@ -81,8 +86,11 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
     let rate = (wall > 0.0).then_some(steps / wall);
     let results = scene_results(ev.file.scene);
-    // A claim decided at an earlier look of this campaign stays decided (`kept_decision`).
+    // A claim decided at an earlier look of this campaign stays decided (`kept_decision`), and
+    // a look already recorded stands (`recorded`).
     let decided = crate::store::claims::first_decisions(conn, campaign_id, look)?;
+    let stored = claims::look_rows(conn, campaign_id, look)?;
+    let mut reread = Vec::new();
     let mut out = Vec::new();
     let mut any_alpha_left = false;
     for (k, claim) in ev.file.claims.iter().enumerate() {
@@ -161,6 +169,15 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
             }
             None => (v, row),
         };
+        let (v, row) = match stored.get(&claim.id) {
+            Some(before) => {
+                let (kept, line) = claims::recorded(before, &row);
+                reread.extend(line);
+                let decision = Verdictum::parse(&kept.verdict).unwrap_or(v.decision);
+                (Verdict { decision, ..v }, kept)
+            }
+            None => (v, row),
+        };
         out.push((claim.clone(), v, row));
     }
     Ok(Look {
@@ -174,6 +191,7 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
         },
         rate,
         no_alpha_left: !any_alpha_left,
+        reread,
     })
 }
 
@@ -505,17 +523,22 @@ pub fn next_claims_round(
         work,
         stop,
         limited,
+        reread: l.reread,
         spent: l.spent,
         max_core_hours: t.max_core_hours,
     })
 }
 
 /// A campaign with claims and no target: once its jobs have ended, its claims are looked at
-/// once (at 95 %) and the verdicts stored as look 0. None while jobs are open.
+/// once (at 95 %) and the verdicts stored as look 0 (with `Look::reread`). None while jobs are
+/// open.
 ///
 /// # Errors
 /// Database errors.
-pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<VerdictRow>>> {
+pub fn look_once(
+    conn: &mut Connection,
+    campaign_id: i64,
+) -> Result<Option<(Vec<VerdictRow>, Vec<String>)>> {
     let ev = super::evaluation::evaluate(conn, campaign_id)?;
     if ev.open > 0 || ev.file.claims.is_empty() {
         return Ok(None);
@@ -525,5 +548,5 @@ pub fn look_once(conn: &mut Connection, campaign_id: i64) -> Result<Option<Vec<V
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     claims::save_verdicts(&tx, campaign_id, &rows)?;
     tx.commit()?;
-    Ok(Some(rows))
+    Ok(Some((rows, l.reread)))
 }

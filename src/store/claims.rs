@@ -32,8 +32,8 @@ fn finite(v: Option<f64>) -> Option<f64> {
     v.filter(|x| x.is_finite())
 }
 
-/// Stores the verdicts of look `round` (replacing that look's earlier rows: a look evaluated
-/// again after an interruption gives the same rows).
+/// Stores the verdicts of look `round` (replacing that look's earlier rows, which a look
+/// evaluated again after an interruption keeps: `recorded`).
 ///
 /// # Errors
 /// Database errors.
@@ -119,6 +119,52 @@ pub fn first_decisions(
         .collect::<rusqlite::Result<Vec<_>>>()?;
     // Descending rounds: the earliest decision of a claim is inserted last and stays.
     Ok(rows.into_iter().map(|r| (r.claim_id.clone(), r)).collect())
+}
+
+/// The rows stored for look `round`, by claim id: a look recorded once stands (`recorded`).
+///
+/// # Errors
+/// Database errors.
+pub fn look_rows(
+    conn: &Connection,
+    campaign_id: i64,
+    round: u32,
+) -> Result<std::collections::BTreeMap<String, VerdictRow>> {
+    let mut q = conn.prepare(&format!(
+        "SELECT {ROW_COLUMNS} FROM claim_verdicts WHERE campaign_id = ?1 AND round = ?2"
+    ))?;
+    let rows = q
+        .query_map(params![campaign_id, round], verdict_row)?
+        .collect::<rusqlite::Result<Vec<_>>>()?;
+    Ok(rows.into_iter().map(|r| (r.claim_id.clone(), r)).collect())
+}
+
+/// A look already recorded stands as recorded: its data were fixed when it was taken, and a
+/// verdict read again under a later build's rules (which replicas count, say) would be a second
+/// test of the same data at the same α. Returns the recorded row, and a line saying what the
+/// data read today give when that differs from the record.
+pub fn recorded(stored: &VerdictRow, today: &VerdictRow) -> (VerdictRow, Option<String>) {
+    let num = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| format!("{x:.4}"));
+    let reading = |r: &VerdictRow| {
+        format!(
+            "{} {} [{}, {}]",
+            r.verdict,
+            num(r.value),
+            num(r.lo),
+            num(r.hi)
+        )
+    };
+    let differs = reading(stored) != reading(today);
+    let line = differs.then(|| {
+        format!(
+            "{}: look {} stands as recorded ({}); its data read today give {}",
+            stored.claim_id,
+            stored.round,
+            reading(stored),
+            reading(today)
+        )
+    });
+    (stored.clone(), line)
 }
 
 /// A claim decided at an earlier look stays decided, as a sequential test stops at its first

@@ -304,3 +304,33 @@ fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
     let o = launch_with(dir.path(), &file, &db, &[]);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
 }
+
+/// A look recorded once stands: evaluated again (a resume after the campaign ended, a later
+/// build that reads the same results otherwise), its stored row is kept and the difference is
+/// said, not written over the record.
+#[test]
+fn a_recorded_look_stands_when_its_data_read_otherwise() {
+    let dir = TempDir::new().unwrap();
+    let (db, _) = launch_claims(dir.path(), "adaptive");
+    let last = count(&db, "SELECT MAX(round) FROM claim_verdicts");
+    // Stand-in for a record taken under another reading of the same results.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute(
+        "UPDATE claim_verdicts SET value = 2.2, lo = 2.0, hi = 2.4 WHERE round = ?1",
+        [last],
+    )
+    .unwrap();
+    drop(conn);
+    let before = verdicts(&db);
+
+    let o = resume(dir.path(), &db);
+    let out = stdout(&o);
+    assert!(o.status.success(), "{out}\n{}", stderr(&o));
+    assert!(
+        out.contains(&format!(
+            "claims: q_faster_than_d: look {last} stands as recorded (contradicted 2.2000 [2.0000, 2.4000]); its data read today give contradicted "
+        )),
+        "{out}"
+    );
+    assert_eq!(verdicts(&db), before, "the record is kept as it was");
+}
