@@ -116,7 +116,7 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
                     return Ok(2);
                 }
             };
-            let look = sweep::runner::claim_rounds::look(conn, c.id, &ev)?;
+            let look = sweep::runner::claim_rounds::look(conn, c.id, &ev, true)?;
             (
                 sweep::report::claims::campaign_scale(conn, c.id, &c.scene)?,
                 look.claims.into_iter().map(|x| x.2).collect(),

@@ -77,6 +77,12 @@ fn finish(s: PoolSummary, interrupted: bool, db: &Path) -> i32 {
         "{} job(s) done, {} failed, {} paused",
         s.done, s.failed, s.paused
     );
+    if s.lent > 0 {
+        println!(
+            "{} job(s) of other campaigns ran on idle cores (done, or handed back for their own turn)",
+            s.lent
+        );
+    }
     if s.failed > 0 {
         println!("see the errors with: sweep status --db {}", db.display());
     }
@@ -361,7 +367,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let backfill = (order.len() > 1 && !a.one_at_a_time).then_some(JobScope::LatestVersions);
     if backfill.is_some() && a.run.parallel > 1 {
         println!(
-            "while a campaign's last jobs run, idle workers run the next campaigns' jobs and hand them back at a checkpoint (--one-at-a-time: none)"
+            "while a campaign's last jobs run, idle workers run other campaigns' jobs and hand them back at a checkpoint (--one-at-a-time: none)"
         );
     }
     let mut code = 0;

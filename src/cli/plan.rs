@@ -502,7 +502,7 @@ fn claims_forecast(
             ev.open
         );
     }
-    let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev)?;
+    let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev, false)?;
     let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
     super::claims::print_verdicts(&rows);
     let (steps, wall) =

@@ -77,10 +77,17 @@ pub struct Look {
 }
 
 /// Decides every claim of `ev`'s campaign on its finished results, without storing anything.
+/// With `keep_recorded` a look already recorded on the same data stands (`claims::recorded`);
+/// a dry run (`sweep plan` with another target) reads the data afresh.
 ///
 /// # Errors
 /// Database errors.
-pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look> {
+pub fn look(
+    conn: &Connection,
+    campaign_id: i64,
+    ev: &Evaluation,
+    keep_recorded: bool,
+) -> Result<Look> {
     let (points, constants) = claim_points(conn, campaign_id, ev)?;
     let look = ev.look();
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
@@ -89,7 +96,11 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
     // A claim decided at an earlier look of this campaign stays decided (`kept_decision`), and
     // a look already recorded stands (`recorded`).
     let decided = crate::store::claims::first_decisions(conn, campaign_id, look)?;
-    let stored = claims::look_rows(conn, campaign_id, look)?;
+    let stored = if keep_recorded {
+        claims::look_rows(conn, campaign_id, look)?
+    } else {
+        Default::default()
+    };
     let mut reread = Vec::new();
     let mut out = Vec::new();
     let mut any_alpha_left = false;
@@ -169,6 +180,9 @@ pub fn look(conn: &Connection, campaign_id: i64, ev: &Evaluation) -> Result<Look
             }
             None => (v, row),
         };
+        // A recorded look is met again only after its campaign stopped there; if a raised cap
+        // lets the rounds go on, their work is sized on today's reading of the claims the
+        // record leaves undecided, and the next look reads everything afresh.
         let (v, row) = match stored.get(&claim.id) {
             Some(before) => {
                 let (kept, line) = claims::recorded(before, &row);
@@ -466,7 +480,7 @@ pub fn next_claims_round(
     campaign_id: i64,
     ev: Evaluation,
 ) -> Result<ClaimsRound> {
-    let l = look(conn, campaign_id, &ev)?;
+    let l = look(conn, campaign_id, &ev, true)?;
     let undecided = l
         .claims
         .iter()
@@ -543,7 +557,7 @@ pub fn look_once(
     if ev.open > 0 || ev.file.claims.is_empty() {
         return Ok(None);
     }
-    let l = look(conn, campaign_id, &ev)?;
+    let l = look(conn, campaign_id, &ev, true)?;
     let rows: Vec<VerdictRow> = l.claims.into_iter().map(|c| c.2).collect();
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     claims::save_verdicts(&tx, campaign_id, &rows)?;

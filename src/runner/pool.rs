@@ -153,21 +153,15 @@ fn worker(w: Worker) -> anyhow::Result<()> {
         // The job's OS lock is taken inside the claim's transaction, so `resume` (whose
         // requeue waits for that transaction) never sees it running and unlocked.
         let hold = |j: &jobs::JobRow| Ok(DirLock::try_take(&job_dir(&opts.work_dir, &j.hash))?);
-        w.tail.claiming();
-        let own = jobs::claim(&mut conn, opts.scope, &lease, opts.max_attempts, hold);
-        match own {
-            Ok(Some((job, _lock))) => {
-                let r = run_one(&w, &mut conn, &job, &lease, opts.interrupt.clone(), false);
-                w.tail.ended();
-                r?;
-                continue;
-            }
-            Ok(None) => w.tail.ended(),
-            Err(e) => {
-                w.tail.ended();
-                return Err(e);
-            }
+        let claim = w.tail.claiming();
+        if let Some((job, _lock)) =
+            jobs::claim(&mut conn, opts.scope, &lease, opts.max_attempts, hold)?
+        {
+            run_one(&w, &mut conn, &job, &lease, opts.interrupt.clone(), false)?;
+            continue;
         }
+        w.tail.exhausted();
+        drop(claim);
         let Some(backfill) = opts.backfill.filter(|_| w.tail.own_running()) else {
             return Ok(());
         };
@@ -175,13 +169,19 @@ fn worker(w: Worker) -> anyhow::Result<()> {
         else {
             return Ok(());
         };
+        if w.tail.over() {
+            // The last own job ended during the claim: hand it back unstarted.
+            jobs::release(&conn, job.id, &lease, "pending", None)?;
+            return Ok(());
+        }
         let (interrupt, _watch) = w.tail.lent_interrupt(opts.interrupt.clone());
         run_one(&w, &mut conn, &job, &lease, interrupt, true)?;
     }
 }
 
 /// Runs one claimed job and records how it ended. A `lent` job (of the backfill scope) that
-/// pauses while the run goes on is handed back as pending, its attempt given back.
+/// pauses while the run goes on is handed back as pending, its attempt given back; one that
+/// fails is handed back as pending with its error, its attempt spent.
 fn run_one(
     w: &Worker,
     conn: &mut rusqlite::Connection,
@@ -241,17 +241,26 @@ fn run_one(
     }
     let outcome = run_caught(conn, job, lease, &ctx);
     bar.finish_and_clear();
-    let mut s = w.summary.lock().expect("summary");
+    let run_interrupted = opts.interrupt.load(Ordering::SeqCst);
+    // Counted under the lock; written and logged after it.
+    {
+        let mut s = w.summary.lock().expect("summary");
+        match (&outcome, lent) {
+            (Outcome::Done, false) => s.done += 1,
+            (Outcome::Paused, true) if run_interrupted => s.paused += 1,
+            (_, true) => s.lent += 1,
+            (Outcome::Paused, false) => s.paused += 1,
+            (Outcome::Failed(_), false) => s.failed += 1,
+        }
+    }
     match outcome {
         Outcome::Done if lent => {
-            s.lent += 1;
             log(format!(
                 "job {} done: {} (on an idle core)",
                 job.id, job.label
             ));
         }
         Outcome::Done => {
-            s.done += 1;
             let n = w.done_count.fetch_add(1, Ordering::SeqCst) + 1;
             w.overall.set_position(n as u64);
             let line = describe_done(conn, job.id).unwrap_or_default();
@@ -261,8 +270,7 @@ fn run_one(
                 println!("job {} done: {} {}", job.id, job.label, line);
             }
         }
-        Outcome::Paused if lent && !opts.interrupt.load(Ordering::SeqCst) => {
-            s.lent += 1;
+        Outcome::Paused if lent && !run_interrupted => {
             jobs::release(conn, job.id, lease, "pending", None)?;
             log(format!(
                 "job {} handed back at its checkpoint: the campaign's own jobs have ended; its own campaign's turn continues it",
@@ -270,19 +278,22 @@ fn run_one(
             ));
         }
         Outcome::Paused => {
-            s.paused += 1;
             jobs::release(conn, job.id, lease, "paused", None)?;
             log(format!(
                 "job {} paused at its checkpoint; `sweep resume` continues it",
                 job.id
             ));
         }
+        Outcome::Failed(e) if lent => {
+            // Its own campaign's turn tries it again (the attempt stays spent), as its own
+            // failure would have stopped that campaign's look.
+            jobs::release(conn, job.id, lease, "pending", Some(&e))?;
+            log(format!(
+                "job {} failed on an idle core: {e}; its own campaign's turn tries it again if attempts are left",
+                job.id
+            ));
+        }
         Outcome::Failed(e) => {
-            if lent {
-                s.lent += 1;
-            } else {
-                s.failed += 1;
-            }
             jobs::release(conn, job.id, lease, "failed", Some(&e))?;
             log(format!("job {} failed: {e}", job.id));
         }

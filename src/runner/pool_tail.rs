@@ -13,29 +13,43 @@ use std::time::Duration;
 #[derive(Default)]
 pub(super) struct Tail {
     /// Own jobs being claimed or run.
-    own: AtomicUsize,
-    /// Set when the own jobs have all ended: lent jobs hand their cores back.
-    over: Arc<AtomicBool>,
+    own: Arc<AtomicUsize>,
+    /// A claim found no pending own job: none appears while the pool runs, so once the own
+    /// jobs in flight have ended, lent jobs hand their cores back.
+    exhausted: Arc<AtomicBool>,
+}
+
+/// One own claim, and the job it gave, in flight; ends when dropped (a panic included).
+pub(super) struct OwnClaim<'a>(&'a Tail);
+
+impl Drop for OwnClaim<'_> {
+    fn drop(&mut self) {
+        self.0.own.fetch_sub(1, Ordering::SeqCst);
+    }
 }
 
 impl Tail {
-    /// A worker is about to claim an own job (counted before the claim, so that a worker that
-    /// finds none sees the other's claim in flight).
-    pub(super) fn claiming(&self) {
+    /// A worker is about to claim an own job: counted before the claim, so that a worker that
+    /// finds none sees the other's claim in flight.
+    pub(super) fn claiming(&self) -> OwnClaim<'_> {
         self.own.fetch_add(1, Ordering::SeqCst);
+        OwnClaim(self)
     }
 
-    /// The claim, or the job it gave, has ended. When no own job is left running, lent jobs
-    /// are asked to hand back (the own scope holds no pending job once a claim has found none).
-    pub(super) fn ended(&self) {
-        if self.own.fetch_sub(1, Ordering::SeqCst) == 1 {
-            self.over.store(true, Ordering::SeqCst);
-        }
+    /// The claim found no pending own job.
+    pub(super) fn exhausted(&self) {
+        self.exhausted.store(true, Ordering::SeqCst);
     }
 
-    /// Whether an own job is still running, so that an idle worker may take a lent one.
+    /// Whether another worker's own job is still running, so that an idle worker may take a
+    /// lent one.
     pub(super) fn own_running(&self) -> bool {
-        self.own.load(Ordering::SeqCst) > 0 && !self.over.load(Ordering::SeqCst)
+        self.own.load(Ordering::SeqCst) > 0
+    }
+
+    /// Whether the own jobs have all ended: a lent job hands its core back.
+    pub(super) fn over(&self) -> bool {
+        over(&self.exhausted, &self.own)
     }
 
     /// The interrupt flag of a lent job: set on the run's interrupt or when the own jobs have
@@ -43,11 +57,12 @@ impl Tail {
     pub(super) fn lent_interrupt(&self, run: Arc<AtomicBool>) -> (Arc<AtomicBool>, LentWatch) {
         let flag = Arc::new(AtomicBool::new(false));
         let finished = Arc::new(AtomicBool::new(false));
-        let (f, fin, over) = (flag.clone(), finished.clone(), self.over.clone());
+        let (f, fin) = (flag.clone(), finished.clone());
+        let (exhausted, own) = (self.exhausted.clone(), self.own.clone());
         // Polled: the job itself looks at its flag only between chunks.
         let watcher = std::thread::spawn(move || {
             while !fin.load(Ordering::SeqCst) {
-                if run.load(Ordering::SeqCst) || over.load(Ordering::SeqCst) {
+                if run.load(Ordering::SeqCst) || over(&exhausted, &own) {
                     f.store(true, Ordering::SeqCst);
                     return;
                 }
@@ -62,6 +77,10 @@ impl Tail {
             },
         )
     }
+}
+
+fn over(exhausted: &AtomicBool, own: &AtomicUsize) -> bool {
+    exhausted.load(Ordering::SeqCst) && own.load(Ordering::SeqCst) == 0
 }
 
 /// Stops a lent job's watcher when dropped.
@@ -100,23 +119,51 @@ mod tests {
     #[test]
     fn a_lent_job_is_handed_back_when_the_last_own_job_ends() {
         let tail = Tail::default();
-        tail.claiming();
-        tail.claiming();
-        // One worker's claim found nothing: the other's job still runs.
-        tail.ended();
-        assert!(tail.own_running());
+        let running = tail.claiming();
+        // Another worker's claim finds nothing while the first job runs.
+        drop({
+            let c = tail.claiming();
+            tail.exhausted();
+            c
+        });
+        assert!(tail.own_running() && !tail.over());
         let run = Arc::new(AtomicBool::new(false));
         let (flag, _watch) = tail.lent_interrupt(run);
         assert!(!raised_within(&flag, Duration::from_millis(150)));
-        tail.ended();
-        assert!(!tail.own_running());
+        drop(running);
+        assert!(!tail.own_running() && tail.over());
         assert!(raised_within(&flag, Duration::from_secs(2)));
+    }
+
+    #[test]
+    fn own_jobs_ending_together_with_work_left_do_not_end_the_tail() {
+        let tail = Tail::default();
+        let (a, b) = (tail.claiming(), tail.claiming());
+        drop(a);
+        drop(b);
+        // Both ended before either claimed again: a pending own job may be left.
+        assert!(!tail.over());
+        let c = tail.claiming();
+        tail.exhausted();
+        drop(c);
+        assert!(tail.over());
+    }
+
+    #[test]
+    fn a_panicking_own_job_still_ends_its_claim() {
+        let tail = Tail::default();
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let _claim = tail.claiming();
+            panic!("a job's bookkeeping panicked");
+        }));
+        assert!(r.is_err());
+        assert!(!tail.own_running());
     }
 
     #[test]
     fn a_lent_job_stops_on_the_runs_interrupt() {
         let tail = Tail::default();
-        tail.claiming();
+        let _running = tail.claiming();
         let run = Arc::new(AtomicBool::new(false));
         let (flag, watch) = tail.lent_interrupt(run.clone());
         run.store(true, Ordering::SeqCst);
@@ -125,7 +172,6 @@ mod tests {
         // A watcher whose job ended stops without raising anything.
         let (flag, watch) = tail.lent_interrupt(Arc::new(AtomicBool::new(false)));
         drop(watch);
-        tail.ended();
         assert!(!raised_within(&flag, Duration::from_millis(150)));
     }
 }

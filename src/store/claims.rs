@@ -121,7 +121,9 @@ pub fn first_decisions(
     Ok(rows.into_iter().map(|r| (r.claim_id.clone(), r)).collect())
 }
 
-/// The rows stored for look `round`, by claim id: a look recorded once stands (`recorded`).
+/// The rows stored for look `round`, by claim id, while the look's data are those it read: no
+/// job of the campaign has finished since it was recorded (a retried or extended job brings
+/// new data, and the look is taken again). Such a look stands (`recorded`).
 ///
 /// # Errors
 /// Database errors.
@@ -130,8 +132,11 @@ pub fn look_rows(
     campaign_id: i64,
     round: u32,
 ) -> Result<std::collections::BTreeMap<String, VerdictRow>> {
+    // Both times are strftime('%Y-%m-%dT%H:%M:%fZ'): they compare as text.
     let mut q = conn.prepare(&format!(
-        "SELECT {ROW_COLUMNS} FROM claim_verdicts WHERE campaign_id = ?1 AND round = ?2"
+        "SELECT {ROW_COLUMNS} FROM claim_verdicts v WHERE campaign_id = ?1 AND round = ?2
+           AND NOT EXISTS (SELECT 1 FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+                           WHERE cj.campaign_id = ?1 AND j.finished_at > v.created_at)"
     ))?;
     let rows = q
         .query_map(params![campaign_id, round], verdict_row)?

@@ -181,8 +181,8 @@ pub fn set_backend(
 }
 
 /// Ends a held job as paused (interrupted at a checkpoint: the attempt is given back, it did
-/// not fail), pending (a lent job handed back at a checkpoint, likewise), or failed (with its
-/// error kept), releasing the lease.
+/// not fail), pending (a lent job handed back: likewise, unless it failed, `error`), or failed
+/// (with its error kept), releasing the lease.
 ///
 /// # Errors
 /// Database errors.
@@ -193,8 +193,9 @@ pub fn release(
     status: &str,
     error: Option<&str>,
 ) -> anyhow::Result<()> {
-    // A pause (or a lent job handed back as pending) ends an attempt cleanly.
-    let give_back = i64::from(status == "paused" || status == "pending");
+    // A pause (or a lent job handed back as pending) ends an attempt cleanly; a failure (a
+    // lent job's too, handed back as pending with its error) spends it.
+    let give_back = i64::from(error.is_none() && (status == "paused" || status == "pending"));
     conn.execute(
         "UPDATE jobs SET status = ?3, last_error = COALESCE(?4, last_error), lease_owner = NULL,
                 attempts = MAX(attempts - ?5, 0)

@@ -305,9 +305,10 @@ fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
 }
 
-/// A look recorded once stands: evaluated again (a resume after the campaign ended, a later
-/// build that reads the same results otherwise), its stored row is kept and the difference is
-/// said, not written over the record.
+/// A look recorded once stands: evaluated again on the same data (a resume after the campaign
+/// ended, a later build that reads them otherwise), its stored row is kept and the difference
+/// is said, not written over the record; a job finished since brings new data, and the look is
+/// taken again.
 #[test]
 fn a_recorded_look_stands_when_its_data_read_otherwise() {
     let dir = TempDir::new().unwrap();
@@ -333,4 +334,19 @@ fn a_recorded_look_stands_when_its_data_read_otherwise() {
         "{out}"
     );
     assert_eq!(verdicts(&db), before, "the record is kept as it was");
+
+    // A job that finished after the look (retried, extended) brings new data: the look is
+    // taken again on them.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute(
+        "UPDATE jobs SET finished_at = '2999-01-01T00:00:00.000Z' WHERE id = 1",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let o = resume(dir.path(), &db);
+    let out = stdout(&o);
+    assert!(o.status.success(), "{out}\n{}", stderr(&o));
+    assert!(!out.contains("stands as recorded"), "{out}");
+    assert_ne!(verdicts(&db), before, "the look is read again");
 }
