@@ -108,7 +108,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     let executor = a.exec.executor.unwrap_or(file.run.executor);
-    if executor == ExecutorKind::Slurm {
+    if executor == ExecutorKind::Slurm && !a.register_only {
         if file.target.is_some() {
             println!(
                 "target: its rounds run on this machine: once the Slurm jobs have ended, `sweep resume --executor local` evaluates it and runs the work it adds"
@@ -147,6 +147,13 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     // The work directory is recorded now, while the store has room for it.
     let work = project.work_dir()?;
     drop(project);
+    if a.register_only {
+        println!(
+            "registered only: `sweep resume --db {}` runs it in turn with the store's other campaigns",
+            db.display()
+        );
+        return Ok(0);
+    }
     let turn = Turn {
         cid,
         backfill: None,

@@ -82,6 +82,10 @@ pub struct Arguments {
     /// results stay as they are, apart from it).
     #[arg(long)]
     pub new_version: bool,
+    /// Register the campaign's jobs and stop: a later `sweep resume --db` runs it in turn with
+    /// the store's other campaigns (a queue on a machine that is busy with them).
+    #[arg(long, conflicts_with = "executor")]
+    pub register_only: bool,
 }
 
 #[derive(clap::Args)]

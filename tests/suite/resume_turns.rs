@@ -121,3 +121,38 @@ fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
     }
     assert_same_results(reference, &got);
 }
+
+/// `launch --register-only` queues a campaign: its jobs are registered and none runs; a later
+/// resume runs them.
+#[test]
+fn a_campaign_registered_only_runs_at_the_next_resume() {
+    let dir = TempDir::new().unwrap();
+    let db = dir.path().join("sweep.db");
+    let file = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
+    let o = sweep_cmd(dir.path())
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .arg("--register-only")
+        .output()
+        .unwrap();
+    let out = stdout(&o);
+    assert!(o.status.success(), "{out}\n{}", stderr(&o));
+    assert!(out.contains("registered only: `sweep resume --db"), "{out}");
+    assert_eq!(
+        count(
+            &db,
+            "SELECT COUNT(*) FROM jobs WHERE status = 'pending' AND attempts = 0"
+        ),
+        1
+    );
+    let o = resume(dir.path(), &db);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        1
+    );
+}
