@@ -33,7 +33,7 @@ fn run_jobs(
             db: r.db.db.clone(),
             work_dir: work,
             scope: JobScope::Campaign(turn.cid),
-            backfill: turn.backfill,
+            backfill: turn.backfill.clone(),
             parallel: r.parallel,
             threads: r.threads,
             backend: r.backend,
@@ -156,7 +156,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     }
     let turn = Turn {
         cid,
-        backfill: None,
+        backfill: Vec::new(),
         checkpoint_interval_s: file.run.checkpoint_interval_s,
     };
     let code = run_jobs(&a.run, work.clone(), &turn, None, jobs.len(), done as usize)?;
@@ -172,7 +172,7 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
 /// One campaign's turn: its id, what idle workers may run meanwhile, its checkpoint interval.
 struct Turn {
     cid: i64,
-    backfill: Option<JobScope>,
+    backfill: Vec<JobScope>,
     checkpoint_interval_s: f64,
 }
 
@@ -371,14 +371,24 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     }
     drop(project);
     // Idle workers at a campaign's tail run the later campaigns' jobs (`pool_tail.rs`).
-    let backfill = (order.len() > 1 && !a.one_at_a_time).then_some(JobScope::LatestVersions);
-    if backfill.is_some() && a.run.parallel > 1 {
+    let lend = order.len() > 1 && !a.one_at_a_time;
+    if lend && a.run.parallel > 1 {
         println!(
-            "while a campaign's last jobs run, idle workers run other campaigns' jobs and hand them back at a checkpoint (--one-at-a-time: none)"
+            "while a campaign's last jobs run, idle workers run the next campaigns' jobs, in turn, and hand them back at a checkpoint (--one-at-a-time: none)"
         );
     }
     let mut code = 0;
-    for (open, cid) in order {
+    for (k, &(open, cid)) in order.iter().enumerate() {
+        // Idle workers take the next campaigns' jobs, in their turn's order.
+        let backfill = if lend {
+            order[k + 1..]
+                .iter()
+                .chain(&order[..k])
+                .map(|&(_, c)| JobScope::Campaign(c))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let c = continue_campaign(&a, &work, cid, open, backfill)?;
         if c == EXIT_PAUSED {
             // Interrupted: the other campaigns wait for the next resume.
@@ -420,7 +430,7 @@ fn continue_campaign(
     work: &Path,
     cid: i64,
     open: usize,
-    backfill: Option<JobScope>,
+    backfill: Vec<JobScope>,
 ) -> anyhow::Result<i32> {
     let db = &a.run.db.db;
     let project = Project::open(db)?;

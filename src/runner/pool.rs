@@ -22,9 +22,10 @@ pub struct PoolOptions {
     pub work_dir: PathBuf,
     /// Which pending jobs the pool takes.
     pub scope: JobScope,
-    /// While the scope's last jobs run, idle workers take pending jobs of this scope and hand
-    /// them back at a checkpoint when the scope's jobs have ended (`pool_tail.rs`).
-    pub backfill: Option<JobScope>,
+    /// While the scope's last jobs run, idle workers take pending jobs of these scopes, the
+    /// first that has one, and hand them back at a checkpoint when the scope's jobs have ended
+    /// (`pool_tail.rs`).
+    pub backfill: Vec<JobScope>,
     pub parallel: usize,
     /// Engine threads per job; 0 = cores / parallel.
     pub threads: usize,
@@ -162,11 +163,17 @@ fn worker(w: Worker) -> anyhow::Result<()> {
         }
         w.tail.exhausted();
         drop(claim);
-        let Some(backfill) = opts.backfill.filter(|_| w.tail.own_running()) else {
+        if opts.backfill.is_empty() || !w.tail.own_running() {
             return Ok(());
-        };
-        let Some((job, _lock)) = jobs::claim(&mut conn, backfill, &lease, opts.max_attempts, hold)?
-        else {
+        }
+        let mut lent = None;
+        for &scope in &opts.backfill {
+            lent = jobs::claim(&mut conn, scope, &lease, opts.max_attempts, hold)?;
+            if lent.is_some() {
+                break;
+            }
+        }
+        let Some((job, _lock)) = lent else {
             return Ok(());
         };
         if w.tail.over() {

@@ -78,8 +78,16 @@ fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
     let mut short = campaign("short", &[0.024], &[0.0], 0.05);
     short["base"]["discharge_time_s"] = json!(0.1);
     let short = write_campaign(dir.path(), "short.json", &short);
+    // Two jobs (2, 3) registered before the tiny one (4) but later in turn: the tiny
+    // campaign's job is lent first, as the next in turn.
+    let third = write_campaign(
+        dir.path(),
+        "third.json",
+        &campaign("third", &[0.026], &[0.0, 1.0], 0.05),
+    );
     let long = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
     launch_killed_once_running(dir.path(), &short, &db, "short");
+    launch_killed_once_running(dir.path(), &third, &db, "third");
     launch_killed_once_running(dir.path(), &long, &db, "tiny");
 
     let o = sweep_cmd(dir.path())
@@ -90,21 +98,23 @@ fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
     let (out, err) = (stdout(&o), stderr(&o));
     assert!(o.status.success(), "{out}\n{err}");
     assert!(
-        out.contains("campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: short (1 open), tiny (1 open)"),
+        out.contains("campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: short (1 open), tiny (1 open), third (2 open)"),
         "{out}"
     );
+    let first_lent = err
+        .lines()
+        .find(|l| l.ends_with("(on an idle core while the campaign's last jobs run)"));
     assert!(
-        err.contains("job 2 started: ")
-            && err.contains("(on an idle core while the campaign's last jobs run)"),
-        "the tiny job runs beside the short one:\n{err}"
+        first_lent.is_some_and(|l| l.starts_with("job 4 started: ")),
+        "the tiny job, next in turn, runs beside the short one:\n{err}"
     );
     assert!(
-        err.contains("job 2 handed back at its checkpoint"),
+        err.contains("job 4 handed back at its checkpoint"),
         "and is handed back when the short job ends:\n{err}"
     );
     assert_eq!(
         count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
-        2,
+        4,
         "{out}\n{err}"
     );
     // Only the tiny job's rows: the same bits as the reference run.
