@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 
 use sweep::campaign::SceneKind;
 use sweep::engine::Effects;
-use sweep::project::{Project, RateQuery, StoredJob};
+use sweep::project::{JobRateQuery, Project, RateQuery, StoredJob};
 use sweep::scene::silo::{SiloPhase, SiloScene};
 use sweep::scene::ChuteScene;
 
@@ -70,6 +70,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         default_backend: a.backend.clone(),
         threads,
         found: Default::default(),
+        measured: Default::default(),
     };
     let source = match settled {
         Some(_) => {
@@ -280,6 +281,9 @@ struct Rates<'a> {
     threads: usize,
     /// By (backend, precision): the rate found, or None.
     found: std::collections::BTreeMap<(String, String), Option<f64>>,
+    /// By (backend, precision): rates taken from the store's own done jobs (no bench fits),
+    /// with how many jobs.
+    measured: std::collections::BTreeMap<(String, String), usize>,
 }
 
 impl Rates<'_> {
@@ -291,25 +295,49 @@ impl Rates<'_> {
         let precision = j.precision.name().to_string();
         let (project, scene, settled, threads) =
             (self.project, self.scene, &self.settled, self.threads);
-        *self
-            .found
-            .entry((backend.clone(), precision.clone()))
-            .or_insert_with(|| {
-                project?.newest_rate(&RateQuery {
-                    scene,
-                    settled_scene: settled,
-                    backend: &backend,
-                    precision: &precision,
-                    threads: threads as i64,
-                })
+        let key = (backend.clone(), precision.clone());
+        if let Some(r) = self.found.get(&key) {
+            return *r;
+        }
+        let bench = project.and_then(|p| {
+            p.newest_rate(&RateQuery {
+                scene,
+                settled_scene: settled,
+                backend: &backend,
+                precision: &precision,
+                threads: threads as i64,
             })
+        });
+        // Without a bench, the store's own finished jobs of the scene say what it runs at.
+        let measured = bench.is_none().then(|| {
+            project?.measured_rate(&JobRateQuery {
+                scene: if scene == "silo-bed" { "silo" } else { "chute" },
+                spheres: (scene != "silo-bed").then_some(scene == "chute-bed"),
+                backend: &backend,
+                precision: &precision,
+                threads: threads as i64,
+            })
+        });
+        let rate = bench.or_else(|| {
+            let (r, n) = measured.flatten()?;
+            self.measured.insert(key.clone(), n);
+            Some(r)
+        });
+        self.found.insert(key, rate);
+        rate
     }
 
     /// The bench to run for each engine and precision that had no rate.
     fn print_missing(&self) {
         let (bench_scene, threads) = (self.scene, self.threads);
         for ((backend, precision), r) in &self.found {
-            if r.is_none() {
+            if let (Some(r), Some(n)) =
+                (r, self.measured.get(&(backend.clone(), precision.clone())))
+            {
+                println!(
+                    "wall times for {backend}/{precision}: the median rate of this store's {n} done job(s) of the scene, {r:.3e} particle-steps/s (no `sweep bench --scene {bench_scene}` result)"
+                );
+            } else if r.is_none() {
                 println!(
                     "no `sweep bench` result for {bench_scene}/{backend}/{precision}{}: run `sweep bench --scene {bench_scene} --backend {backend} --precision {precision}{}` for wall-time estimates (\"?\" above)",
                     if backend == "cpu" { format!("/{threads} threads") } else { String::new() },

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use rusqlite::Connection;
 
-pub use crate::store::bench_runs::{BenchRun, RateQuery};
+pub use crate::store::bench_runs::{BenchRun, JobRateQuery, RateQuery};
 pub use crate::store::campaign_reads::CampaignRef;
 pub use crate::store::chute_reads::FlowVerdict;
 pub use crate::store::claims::VerdictRow;

@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{BenchRun, FieldArray, FieldSet, Project, RateQuery, SlurmTask};
+use super::{BenchRun, FieldArray, FieldSet, JobRateQuery, Project, RateQuery, SlurmTask};
 use crate::store::{bench_runs, fields, slurm_tasks};
 
 impl Project {
@@ -57,5 +57,10 @@ impl Project {
     /// The newest benchmark rate that fits `q` (particle-steps per second).
     pub fn newest_rate(&self, q: &RateQuery) -> Option<f64> {
         bench_runs::newest_rate(&self.conn, q)
+    }
+
+    /// The median rate of this store's done jobs that fit `q`, and how many there were.
+    pub fn measured_rate(&self, q: &JobRateQuery) -> Option<(f64, usize)> {
+        bench_runs::measured_rate(&self.conn, q)
     }
 }

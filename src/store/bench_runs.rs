@@ -72,3 +72,94 @@ pub fn newest_rate(conn: &Connection, q: &RateQuery) -> Option<f64> {
     )
     .ok()
 }
+
+/// Which finished jobs a throughput estimate may come from when no benchmark fits.
+#[derive(Clone, Debug)]
+pub struct JobRateQuery<'a> {
+    /// `jobs.scene`: "silo" or "chute".
+    pub scene: &'a str,
+    /// Chute only: spheres (ξ = 1, the sphere engine) or spherocylinders.
+    pub spheres: Option<bool>,
+    pub backend: &'a str,
+    pub precision: &'a str,
+    /// CPU threads (a GPU's rate does not depend on them).
+    pub threads: i64,
+}
+
+/// The median particle-steps per second of this store's done jobs that fit `q` (each over at
+/// least a minute of wall time), with how many there were; None without any.
+pub fn measured_rate(conn: &Connection, q: &JobRateQuery) -> Option<(f64, usize)> {
+    let mut stmt = conn
+        .prepare(
+            "SELECT CAST(particle_steps AS REAL) / wall_time_s FROM jobs
+             WHERE status = 'done' AND scene = ?1 AND backend = ?2 AND precision = ?3
+               AND (backend = 'gpu' OR threads = ?4) AND wall_time_s >= 60 AND particle_steps > 0
+               AND (?5 IS NULL OR scene <> 'chute'
+                    OR (json_extract(params_json, '$.chute.aspect_ratio') = 1.0) = ?5)",
+        )
+        .ok()?;
+    let mut rates: Vec<f64> = stmt
+        .query_map(
+            params![q.scene, q.backend, q.precision, q.threads, q.spheres],
+            |r| r.get(0),
+        )
+        .ok()?
+        .filter_map(Result::ok)
+        .collect();
+    if rates.is_empty() {
+        return None;
+    }
+    rates.sort_by(f64::total_cmp);
+    Some((rates[rates.len() / 2], rates.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{measured_rate, JobRateQuery};
+    use crate::store::test_rows;
+
+    /// The median over the store's done jobs of the scene, engine, precision and threads; a
+    /// short job (setup-bound), a failed one, another precision or the spheres' engine does
+    /// not count.
+    #[test]
+    fn the_store_s_own_jobs_give_the_median_rate() {
+        let conn = test_rows::empty_db();
+        let c = test_rows::campaign(&conn, "c", "chute", "2026-01-01T00:00:00Z");
+        let rods = r#"{"scene":"chute","chute":{"aspect_ratio":2.5}}"#;
+        let spheres = r#"{"scene":"chute","chute":{"aspect_ratio":1.0}}"#;
+        // (params, status, precision, particle-steps, wall s)
+        let rows = [
+            (rods, "done", "f32", 1.0e9, 1000.0),
+            (rods, "done", "f32", 3.0e9, 1000.0),
+            (rods, "done", "f32", 2.0e9, 1000.0),
+            (rods, "done", "f32", 1.0e7, 10.0),
+            (rods, "failed", "f32", 9.0e9, 1000.0),
+            (rods, "done", "f64", 9.0e9, 1000.0),
+            (spheres, "done", "f32", 9.0e9, 1000.0),
+        ];
+        for (k, (p, status, precision, steps, wall)) in rows.iter().enumerate() {
+            let id = test_rows::silo_job(&conn, c, &format!("j{k}"), status, p);
+            conn.execute(
+                "UPDATE jobs SET scene = 'chute', backend = 'cpu', precision = ?2, threads = 1,
+                        particle_steps = ?3, wall_time_s = ?4 WHERE id = ?1",
+                rusqlite::params![id, precision, *steps as i64, wall],
+            )
+            .unwrap();
+        }
+        let q = JobRateQuery {
+            scene: "chute",
+            spheres: Some(false),
+            backend: "cpu",
+            precision: "f32",
+            threads: 1,
+        };
+        assert_eq!(measured_rate(&conn, &q), Some((2.0e6, 3)));
+        let spheres = JobRateQuery {
+            spheres: Some(true),
+            ..q.clone()
+        };
+        assert_eq!(measured_rate(&conn, &spheres), Some((9.0e6, 1)));
+        let two = JobRateQuery { threads: 2, ..q };
+        assert_eq!(measured_rate(&conn, &two), None);
+    }
+}
