@@ -1,9 +1,10 @@
 //! A campaign's tail: its last jobs run while the rest of the pool's workers would idle (the
 //! campaign's look or next round waits for all of them). A worker that finds no pending job of
 //! its own campaign while some still run takes a job of the later campaigns (the pool's
-//! `backfill` scope) and hands it back, paused at a checkpoint, as soon as the campaign's own
-//! last job has ended: no core idles through the tail, and the look or the round is not
-//! delayed. A job resumes bit for bit from its checkpoint, so lending changes no result.
+//! `backfill` scopes, the next in turn first) and hands it back, paused at a checkpoint, as
+//! soon as the campaign's own last job has ended: no core idles through the tail, and the look
+//! or the round waits only for the lent job's current chunk. A job resumes bit for bit from its
+//! checkpoint, so lending changes no result.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
