@@ -32,6 +32,11 @@ fn finite(v: Option<f64>) -> Option<f64> {
     v.filter(|x| x.is_finite())
 }
 
+/// A row's number as the notes write it (4 decimals, "-" when unknown).
+fn num(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.4}"))
+}
+
 /// Stores the verdicts of look `round` (replacing that look's earlier rows, which a look
 /// evaluated again after an interruption keeps: `recorded`).
 ///
@@ -149,7 +154,6 @@ pub fn look_rows(
 /// test of the same data at the same α. Returns the recorded row, and a line saying what the
 /// data read today give when that differs from the record.
 pub fn recorded(stored: &VerdictRow, today: &VerdictRow) -> (VerdictRow, Option<String>) {
-    let num = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| format!("{x:.4}"));
     let reading = |r: &VerdictRow| {
         format!(
             "{} {} [{}, {}]",
@@ -177,7 +181,6 @@ pub fn recorded(stored: &VerdictRow, today: &VerdictRow) -> (VerdictRow, Option<
 /// of look `now.round` keeps the deciding look's verdict, value and interval, and says what the
 /// later look saw.
 pub fn kept_decision(first: &VerdictRow, now: &VerdictRow) -> VerdictRow {
-    let num = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| format!("{x:.4}"));
     let mut note = format!(
         "decided at look {}; look {} reads {} [{}, {}], {}",
         first.round,
