@@ -264,7 +264,9 @@ pub fn stored_claims(
     )))
 }
 
-/// The scale line of a campaign (from its first job).
+/// The scale line of a campaign: its jobs' scale, or where points ran at different scales
+/// (the chute's spheres in a larger box than its rods), each scale with how many jobs ran at it,
+/// so that a table never states one point's scale for all.
 ///
 /// # Errors
 /// Database errors.
@@ -274,11 +276,34 @@ pub fn campaign_scale(
     scene: &str,
 ) -> anyhow::Result<String> {
     let jobs = crate::store::targets::campaign_jobs(conn, campaign_id)?;
-    Ok(jobs.first().map_or_else(String::new, |j| {
+    let scales = jobs.iter().map(|j| {
         let v: Value = serde_json::from_str(&j.params_json).unwrap_or(Value::Null);
         let precision = v["precision"].as_str().unwrap_or("f64").to_string();
         scale_of(scene, &j.params_json, &precision)
-    }))
+    });
+    Ok(distinct_scales(scales))
+}
+
+/// One line for a list of jobs' scales: the scale itself when all agree, else each distinct
+/// scale (in the order first met) with its share of the jobs.
+pub fn distinct_scales(scales: impl IntoIterator<Item = String>) -> String {
+    let mut groups: Vec<(String, usize)> = Vec::new();
+    let mut total = 0;
+    for s in scales {
+        total += 1;
+        match groups.iter_mut().find(|(g, _)| *g == s) {
+            Some((_, k)) => *k += 1,
+            None => groups.push((s, 1)),
+        }
+    }
+    if groups.len() <= 1 {
+        return groups.pop().map_or_else(String::new, |(s, _)| s);
+    }
+    groups
+        .iter()
+        .map(|(s, k)| format!("{s} ({k} of {total} jobs)"))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// What a campaign's jobs spent.
@@ -308,5 +333,32 @@ pub fn levels_text(rows: &[VerdictRow]) -> String {
         format!("{:.2} %", 100.0 * lo)
     } else {
         format!("{:.2}–{:.2} % by claim", 100.0 * lo, 100.0 * hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_scale_reads_plain_and_mixed_scales_are_each_counted() {
+        let chute = |box_l: f64, bed: f64| {
+            scale_of(
+                "chute",
+                &format!(
+                    r#"{{"chute":{{"box_x_lengths":{box_l},"box_y_lengths":{box_l},"bed_height_lengths":{bed}}}}}"#
+                ),
+                "f32",
+            )
+        };
+        let rods = chute(6.0, 16.0);
+        assert_eq!(distinct_scales(vec![rods.clone(), rods.clone()]), rods);
+        let mixed = distinct_scales(vec![chute(8.0, 20.0), rods.clone(), rods.clone()]);
+        assert_eq!(
+            mixed,
+            format!("{} (1 of 3 jobs); {rods} (2 of 3 jobs)", chute(8.0, 20.0))
+        );
+        assert!(mixed.contains("box 8L × 8L, bed 20L") && mixed.contains("box 6L × 6L, bed 16L"));
+        assert_eq!(distinct_scales(Vec::<String>::new()), "");
     }
 }
