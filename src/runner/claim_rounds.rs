@@ -249,7 +249,7 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
 fn point_steady_share(ev: &Evaluation, i: usize) -> f64 {
     let p = &ev.points[i];
     if ev.file.scene == crate::campaign::SceneKind::Chute {
-        steady_share(p.row.replicas as f64, p.state.runs.len())
+        steady_share(p.row.replicas as f64, p.ended)
     } else {
         1.0
     }

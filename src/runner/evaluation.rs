@@ -316,6 +316,9 @@ pub struct EvaluatedPoint {
     pub row: PointRow,
     pub next: JobSpec,
     pub rate: Option<f64>,
+    /// Its jobs that ended (done or failed): a steady share counts only these, so that a
+    /// forecast taken while replicas still run does not read them as unsteady.
+    pub ended: usize,
 }
 
 /// Reads campaign `campaign_id` and combines each point's replicas.
@@ -384,6 +387,11 @@ pub fn evaluate_for(
             row,
             next: spec.replica(next_replica(p)?),
             rate: (wall > 0.0).then_some(steps / wall),
+            ended: p
+                .jobs
+                .iter()
+                .filter(|j| matches!(j.status.as_str(), "done" | "failed"))
+                .count(),
         });
     }
     Ok(Evaluation {
