@@ -25,11 +25,13 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = (f64, f64)>) -> (f64, f6
             if !lo.is_finite() {
                 return (0.0, 1.0);
             }
-            let span = if hi > lo {
-                hi - lo
-            } else {
-                lo.abs().max(1e-12)
-            };
+            if hi <= lo {
+                // One value (a single frequency, say): centre it in a range of its own size,
+                // or of 1 around zero, rather than in a sliver of round-off.
+                let half = if lo == 0.0 { 0.5 } else { 0.5 * lo.abs() };
+                return (lo - half, hi + half);
+            }
+            let span = hi - lo;
             (lo - 0.05 * span, hi + 0.05 * span)
         }
         Scale::Log => {
@@ -360,5 +362,9 @@ mod tests {
             axis_range(&Axis::linear("y"), std::iter::empty()),
             (0.0, 1.0)
         );
+        let one_at_zero = axis_range(&Axis::linear("f"), [(0.0, 0.0)].into_iter());
+        assert_eq!(one_at_zero, (-0.5, 0.5));
+        let one_at_five = axis_range(&Axis::linear("f"), [(5.0, 5.0)].into_iter());
+        assert_eq!(one_at_five, (2.5, 7.5));
     }
 }
