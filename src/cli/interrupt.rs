@@ -1,4 +1,5 @@
-//! The process's interrupt: Ctrl-C or SIGTERM asks every running job to checkpoint and stop.
+//! The process's interrupt: Ctrl-C, SIGTERM or the end of `--time-limit` asks every running job
+//! to checkpoint and stop.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -23,4 +24,19 @@ pub fn interrupt_flag() -> Arc<AtomicBool> {
         flag
     })
     .clone()
+}
+
+/// Raises the interrupt once `limit` of wall time has passed since this call, as a first Ctrl-C
+/// would: the running jobs checkpoint and pause, and no new job or round starts.
+pub fn stop_after(limit: std::time::Duration) {
+    let flag = interrupt_flag();
+    std::thread::spawn(move || {
+        std::thread::sleep(limit);
+        if !flag.swap(true, Ordering::SeqCst) {
+            eprintln!(
+                "sweep: time limit of {} reached: writing checkpoints, then stopping",
+                humantime::format_duration(limit)
+            );
+        }
+    });
 }

@@ -99,6 +99,9 @@ fn finish(s: PoolSummary, interrupted: bool, db: &Path) -> i32 {
     }
 }
 
+/// Why `--time-limit` is refused with the Slurm executor.
+const TIME_LIMIT_ON_SLURM: &str = "--time-limit stops runs on this machine; a Slurm job's wall-time limit is its --time (the campaign's slurm settings or --time)";
+
 pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     let (file, jobs) = match sweep::campaign::load(&a.file) {
         Ok(x) => x,
@@ -108,6 +111,13 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     let executor = a.exec.executor.unwrap_or(file.run.executor);
+    if executor == ExecutorKind::Slurm && a.run.time_limit.is_some() {
+        eprintln!("sweep: error: {TIME_LIMIT_ON_SLURM}");
+        return Ok(2);
+    }
+    if let Some(limit) = a.run.time_limit {
+        super::interrupt::stop_after(limit);
+    }
     if executor == ExecutorKind::Slurm && !a.register_only {
         if file.target.is_some() {
             println!(
@@ -294,6 +304,13 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
+    if a.executor == Some(ExecutorKind::Slurm) && a.run.time_limit.is_some() {
+        eprintln!("sweep: error: {TIME_LIMIT_ON_SLURM}");
+        return Ok(2);
+    }
+    if let Some(limit) = a.run.time_limit {
+        super::interrupt::stop_after(limit);
+    }
     let db = &a.run.db.db;
     let mut project = Project::open_checked(db)?;
     let work = project.work_dir()?;
@@ -379,6 +396,14 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     }
     let mut code = 0;
     for (k, &(open, cid)) in order.iter().enumerate() {
+        if super::interrupt::interrupt_flag().load(Ordering::SeqCst) {
+            // Stopped (a time limit, Ctrl-C) between turns: the rest wait for the next resume.
+            println!(
+                "interrupted: continue with: sweep resume --db {}",
+                db.display()
+            );
+            return Ok(EXIT_PAUSED);
+        }
         // Idle workers take the next campaigns' jobs, in their turn's order.
         let backfill = if lend {
             order[k + 1..]

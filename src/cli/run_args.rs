@@ -33,6 +33,11 @@ pub struct RunArgs {
     /// those it has alone.
     #[arg(long, default_value = "auto", value_name = "auto|J", value_parser = parse_batch)]
     pub batch: usize,
+    /// Stop after this much wall time (e.g. 2h45m, 90m, 30s): the running jobs write their
+    /// checkpoints and pause, as on Ctrl-C, and `sweep resume` continues them. For a session or
+    /// a machine held until a fixed time. This machine's runs only: Slurm jobs take `--time`.
+    #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration)]
+    pub time_limit: Option<std::time::Duration>,
 }
 
 /// `--batch`: auto (every job running at once, at most 32) or J in 1..=32.

@@ -462,6 +462,86 @@ fn killed_at_every_checkpoint_equals_uninterrupted() {
     assert_same_results(reference, &results(&db));
 }
 
+/// `--time-limit` stops a run as a first Ctrl-C does: the job checkpoints and pauses (exit 75),
+/// and `sweep resume` continues it to the uninterrupted run's results, bit for bit. The job runs
+/// 10 s of discharge (several wall seconds), the limit is 1 s.
+#[test]
+fn a_time_limit_pauses_the_run_and_resume_equals_uninterrupted() {
+    let mut c = one_job(0.05);
+    c["base"]["discharge_time_s"] = json!(10.0);
+    let run = |d: &Path, extra: &[&str]| {
+        let file = write_campaign(d, "long.json", &c);
+        let db = d.join("sweep.db");
+        let mut args = vec![
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--threads",
+            "1",
+        ];
+        args.extend_from_slice(extra);
+        let o = sweep_cmd(d).args(&args).output().unwrap();
+        (o, db)
+    };
+    let reference_dir = TempDir::new().unwrap();
+    let (o, reference_db) = run(reference_dir.path(), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dir = TempDir::new().unwrap();
+    let (o, db) = run(dir.path(), &["--time-limit", "1s"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(75), "{}\n{err}", stdout(&o));
+    assert!(err.contains("time limit of 1s reached"), "{err}");
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'paused'"),
+        1,
+        "the job must be paused, not finished: {}",
+        stdout(&o)
+    );
+    let o = resume(dir.path(), &db);
+    assert!(o.status.success(), "resume failed:\n{}", stderr(&o));
+    assert_same_results(&results(&reference_db), &results(&db));
+}
+
+#[test]
+fn a_time_limit_is_refused_with_the_slurm_executor() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let file = write_campaign(d, "tiny.json", &one_job(0.05));
+    let db = d.join("sweep.db");
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--executor", "slurm", "--time-limit", "2h"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--time-limit stops runs on this machine"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!db.exists(), "nothing is registered");
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--time-limit", "two hours"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "a bad duration is a usage error");
+    assert!(stderr(&o).contains("--time-limit"), "{}", stderr(&o));
+}
+
 // 5. Two launchers on one database.
 
 #[test]
