@@ -5,6 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// First Ctrl-C (or SIGTERM): checkpoint and stop at the next chunk; second: exit at once.
+/// `--time-limit` raises the same flag (`stop_after`) without counting as a signal.
 /// One flag for the whole process: a signal handler can be set only once, and a target's
 /// rounds run their jobs in later pools that must see the same interrupt.
 pub fn interrupt_flag() -> Arc<AtomicBool> {
@@ -12,8 +13,12 @@ pub fn interrupt_flag() -> Arc<AtomicBool> {
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
         let f = flag.clone();
+        // Signals are counted apart from the flag: after `--time-limit` has raised it, the
+        // user's first Ctrl-C still only asks for the checkpoints.
+        let signalled = AtomicBool::new(false);
         let _ = ctrlc::set_handler(move || {
-            if f.swap(true, Ordering::SeqCst) {
+            f.store(true, Ordering::SeqCst);
+            if signalled.swap(true, Ordering::SeqCst) {
                 eprintln!("sweep: second interrupt, exiting without checkpoint");
                 std::process::exit(130);
             }

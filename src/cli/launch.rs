@@ -202,6 +202,10 @@ fn pursue_target(r: &RunArgs, work: &Path, turn: &Turn, mut code: i32) -> anyhow
     let cid = turn.cid;
     use sweep::runner::adaptive::{next_round, RoundOutcome};
     loop {
+        if code == 0 && super::interrupt::interrupt_flag().load(Ordering::SeqCst) {
+            // Stopped (a time limit, Ctrl-C) after a clean run: no look and no round now.
+            code = EXIT_PAUSED;
+        }
         if code != 0 {
             println!(
                 "target: not evaluated (the last run did not end cleanly); continue with: sweep resume --db {}",

@@ -36,8 +36,20 @@ pub struct RunArgs {
     /// Stop after this much wall time (e.g. 2h45m, 90m, 30s): the running jobs write their
     /// checkpoints and pause, as on Ctrl-C, and `sweep resume` continues them. For a session or
     /// a machine held until a fixed time. This machine's runs only: Slurm jobs take `--time`.
-    #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration)]
+    #[arg(long, value_name = "DURATION", value_parser = parse_time_limit)]
     pub time_limit: Option<std::time::Duration>,
+}
+
+/// `--time-limit`: a humantime duration above zero (a zero limit would stop the run before
+/// it registered or claimed anything).
+fn parse_time_limit(s: &str) -> Result<std::time::Duration, String> {
+    match humantime::parse_duration(s) {
+        Ok(d) if !d.is_zero() => Ok(d),
+        Ok(_) => Err("expected a duration above zero, e.g. 2h45m".into()),
+        Err(e) => Err(format!(
+            "expected a duration such as 2h45m, 90m or 30s: {e}"
+        )),
+    }
 }
 
 /// `--batch`: auto (every job running at once, at most 32) or J in 1..=32.

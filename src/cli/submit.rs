@@ -172,6 +172,13 @@ pub fn resume_on_slurm(
     if groups.is_empty() && !slurm_used && !all {
         return Ok(None);
     }
+    if a.run.time_limit.is_some() && !groups.is_empty() {
+        let n: usize = groups.iter().map(|g| g.jobs.len()).sum();
+        eprintln!(
+            "sweep: error: {n} job(s) would go to Slurm, where --time-limit does not reach (a Slurm job's limit is its --time): add `--executor local` to run them here under the limit; nothing was submitted"
+        );
+        return Ok(Some(2));
+    }
     for g in &groups {
         let code = submit_and_report(
             project,

@@ -48,7 +48,7 @@ pub fn scale_of(scene: &str, params_json: &str, precision: &str) -> String {
                 _ => {}
             }
             if let Some(t) = num("discharge_time_s") {
-                parts.push(format!("{} s per job", short(t)));
+                parts.push(format!("{} s per job as launched", short(t)));
             }
             match p.get("reinsert").and_then(Value::as_bool) {
                 Some(true) => parts.push("refilled (exits re-inserted)".into()),

@@ -244,12 +244,12 @@ fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<
     Some((factor - 1.0) * used)
 }
 
-/// The share of point `i`'s ended replicas that were steady ([`steady_share`]); 1 for a silo
+/// The share of point `i`'s done replicas that were steady ([`steady_share`]); 1 for a silo
 /// point, whose every run gives a result.
 fn point_steady_share(ev: &Evaluation, i: usize) -> f64 {
     let p = &ev.points[i];
     if ev.file.scene == crate::campaign::SceneKind::Chute {
-        steady_share(p.row.replicas as f64, p.ended)
+        steady_share(p.row.replicas as f64, p.done)
     } else {
         1.0
     }

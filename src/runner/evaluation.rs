@@ -316,9 +316,9 @@ pub struct EvaluatedPoint {
     pub row: PointRow,
     pub next: JobSpec,
     pub rate: Option<f64>,
-    /// Its jobs that ended (done or failed): a steady share counts only these, so that a
-    /// forecast taken while replicas still run does not read them as unsteady.
-    pub ended: usize,
+    /// Its jobs that are done: a steady share counts only these, so that a forecast taken
+    /// while replicas still run does not read them as unsteady, nor a crash as a drift.
+    pub done: usize,
 }
 
 /// Reads campaign `campaign_id` and combines each point's replicas.
@@ -387,11 +387,7 @@ pub fn evaluate_for(
             row,
             next: spec.replica(next_replica(p)?),
             rate: (wall > 0.0).then_some(steps / wall),
-            ended: p
-                .jobs
-                .iter()
-                .filter(|j| matches!(j.status.as_str(), "done" | "failed"))
-                .count(),
+            done: p.jobs.iter().filter(|j| j.status == "done").count(),
         });
     }
     Ok(Evaluation {

@@ -463,43 +463,68 @@ fn killed_at_every_checkpoint_equals_uninterrupted() {
 }
 
 /// `--time-limit` stops a run as a first Ctrl-C does: the job checkpoints and pauses (exit 75),
-/// and `sweep resume` continues it to the uninterrupted run's results, bit for bit. The job runs
-/// 10 s of discharge (several wall seconds), the limit is 1 s.
+/// under `launch` and under `resume`, and a plain `sweep resume` continues it to the
+/// uninterrupted run's results, bit for bit. Re-inserted particles keep the bed flowing for the
+/// whole 10 s of discharge (several wall seconds); the limit is 1.5 s.
 #[test]
 fn a_time_limit_pauses_the_run_and_resume_equals_uninterrupted() {
     let mut c = one_job(0.05);
     c["base"]["discharge_time_s"] = json!(10.0);
-    let run = |d: &Path, extra: &[&str]| {
+    c["base"]["reinsert"] = json!(true);
+    let cpu = ["--backend", "cpu", "--threads", "1"];
+    let launch = |d: &Path, extra: &[&str]| {
         let file = write_campaign(d, "long.json", &c);
         let db = d.join("sweep.db");
-        let mut args = vec![
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--threads",
-            "1",
-        ];
-        args.extend_from_slice(extra);
-        let o = sweep_cmd(d).args(&args).output().unwrap();
+        let o = sweep_cmd(d)
+            .args([
+                "launch",
+                file.to_str().unwrap(),
+                "--db",
+                db.to_str().unwrap(),
+            ])
+            .args(cpu)
+            .args(extra)
+            .output()
+            .unwrap();
         (o, db)
     };
+    let sim_time = |db: &Path| -> f64 { job_field(db, 1, "sim_time_s").parse().unwrap() };
+    let paused = |o: &std::process::Output, db: &Path| {
+        let err = stderr(o);
+        assert_eq!(o.status.code(), Some(75), "{}\n{err}", stdout(o));
+        assert!(err.contains("time limit of 1s 500ms reached"), "{err}");
+        assert_eq!(job_field(db, 1, "status"), "paused", "{}", stdout(o));
+    };
     let reference_dir = TempDir::new().unwrap();
-    let (o, reference_db) = run(reference_dir.path(), &[]);
+    let (o, reference_db) = launch(reference_dir.path(), &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let dir = TempDir::new().unwrap();
-    let (o, db) = run(dir.path(), &["--time-limit", "1s"]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(75), "{}\n{err}", stdout(&o));
-    assert!(err.contains("time limit of 1s reached"), "{err}");
-    assert_eq!(
-        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'paused'"),
-        1,
-        "the job must be paused, not finished: {}",
-        stdout(&o)
+    let wall: f64 = job_field(&reference_db, 1, "wall_time_s").parse().unwrap();
+    assert!(
+        wall > 3.0,
+        "the job ran {wall} s: too short to be stopped after 1.5 s on every machine"
     );
+    let dir = TempDir::new().unwrap();
+    let (o, db) = launch(dir.path(), &["--time-limit", "1500ms"]);
+    paused(&o, &db);
+    let first = sim_time(&db);
+    let o = sweep_cmd(dir.path())
+        .args([
+            "resume",
+            "--db",
+            db.to_str().unwrap(),
+            "--time-limit",
+            "1500ms",
+        ])
+        .args(cpu)
+        .output()
+        .unwrap();
+    paused(&o, &db);
+    assert!(
+        stderr(&o).contains("resuming from"),
+        "the second leg continues from the checkpoint:\n{}",
+        stderr(&o)
+    );
+    assert!(sim_time(&db) > first, "the second leg ran on");
     let o = resume(dir.path(), &db);
     assert!(o.status.success(), "resume failed:\n{}", stderr(&o));
     assert_same_results(&results(&reference_db), &results(&db));
@@ -540,6 +565,44 @@ fn a_time_limit_is_refused_with_the_slurm_executor() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2), "a bad duration is a usage error");
     assert!(stderr(&o).contains("--time-limit"), "{}", stderr(&o));
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args(["--time-limit", "0s"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "a zero limit is a usage error");
+    assert!(stderr(&o).contains("above zero"), "{}", stderr(&o));
+    // A resume that would hand jobs to Slurm (their campaign's executor) is refused too.
+    let mut on_slurm = one_job(0.05);
+    on_slurm["run"]["executor"] = json!("slurm");
+    let file = write_campaign(d, "slurm.json", &on_slurm);
+    let o = sweep_cmd(d)
+        .args([
+            "launch",
+            file.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .arg("--register-only")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = sweep_cmd(d)
+        .args(["resume", "--db", db.to_str().unwrap(), "--time-limit", "2h"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}\n{}", stdout(&o), stderr(&o));
+    assert!(stderr(&o).contains("would go to Slurm"), "{}", stderr(&o));
+    assert_eq!(
+        job_field(&db, 1, "status"),
+        "pending",
+        "nothing was submitted"
+    );
 }
 
 // 5. Two launchers on one database.

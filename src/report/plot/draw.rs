@@ -25,7 +25,7 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = (f64, f64)>) -> (f64, f6
             if !lo.is_finite() {
                 return (0.0, 1.0);
             }
-            if hi <= lo {
+            if hi - lo <= 1e-9 * lo.abs().max(hi.abs()) {
                 // One value (a single frequency, say): centre it in a range of its own size,
                 // or of 1 around zero, rather than in a sliver of round-off.
                 let half = if lo == 0.0 { 0.5 } else { 0.5 * lo.abs() };
@@ -366,5 +366,10 @@ mod tests {
         assert_eq!(one_at_zero, (-0.5, 0.5));
         let one_at_five = axis_range(&Axis::linear("f"), [(5.0, 5.0)].into_iter());
         assert_eq!(one_at_five, (2.5, 7.5));
+        let round_off = axis_range(
+            &Axis::linear("f"),
+            [(0.3, 0.3), (0.1 + 0.2, 0.1 + 0.2)].into_iter(),
+        );
+        assert!(round_off.1 - round_off.0 > 0.2, "{round_off:?}");
     }
 }
