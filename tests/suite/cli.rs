@@ -1031,8 +1031,12 @@ fn bench_min_seconds_times_whole_chunks_for_at_least_that_long() {
     assert!(steps > 20 && steps % 20 == 0, "whole chunks of 20: {steps}");
     let runs = v["runs_particle_steps_per_s"].as_array().unwrap();
     assert_eq!(runs.len(), 2);
-    // The median run times the steps the first needed for 0.3 s (this VM drifts by tens of %).
-    assert!(v["seconds"].as_f64().unwrap() > 0.15, "{v}");
+    // The first run timed whole chunks until its window lasted 0.3 s, so its rate is at most
+    // the steps it timed over 0.3 s. (The reported median's own seconds depend on how fast the
+    // later run went: under CI's load the two have differed 3.4-fold.)
+    let particle_steps = v["particles"].as_f64().unwrap() * steps as f64;
+    let first = runs[0].as_f64().unwrap();
+    assert!(first <= particle_steps / 0.3 * (1.0 + 1e-9), "{v}");
 }
 
 /// `bench --settle` times a settled bed: the lattice comes to rest (kinetic energy below
