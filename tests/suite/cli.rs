@@ -535,70 +535,38 @@ fn a_time_limit_pauses_the_run_and_resume_equals_uninterrupted() {
 fn a_time_limit_is_refused_with_the_slurm_executor() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
-    let file = write_campaign(d, "tiny.json", &one_job(0.05));
     let db = d.join("sweep.db");
-    let o = sweep_cmd(d)
-        .args([
+    let sweep = |args: &[&str]| sweep_cmd(d).args(args).output().unwrap();
+    let launch = |file: &Path, extra: &[&str]| {
+        let mut args = vec![
             "launch",
             file.to_str().unwrap(),
             "--db",
             db.to_str().unwrap(),
-        ])
-        .args(["--executor", "slurm", "--time-limit", "2h"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("--time-limit stops runs on this machine"),
-        "{}",
-        stderr(&o)
-    );
+        ];
+        args.extend_from_slice(extra);
+        sweep(&args)
+    };
+    let file = write_campaign(d, "tiny.json", &one_job(0.05));
+    let refused = |o: &std::process::Output, why: &str, needle: &str| {
+        assert_eq!(o.status.code(), Some(2), "{why}: {}", stderr(o));
+        assert!(stderr(o).contains(needle), "{why}: {}", stderr(o));
+    };
+    let o = launch(&file, &["--executor", "slurm", "--time-limit", "2h"]);
+    refused(&o, "with Slurm", "--time-limit stops runs on this machine");
     assert!(!db.exists(), "nothing is registered");
-    let o = sweep_cmd(d)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .args(["--time-limit", "two hours"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2), "a bad duration is a usage error");
-    assert!(stderr(&o).contains("--time-limit"), "{}", stderr(&o));
-    let o = sweep_cmd(d)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .args(["--time-limit", "0s"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2), "a zero limit is a usage error");
-    assert!(stderr(&o).contains("above zero"), "{}", stderr(&o));
+    let o = launch(&file, &["--time-limit", "two hours"]);
+    refused(&o, "a bad duration", "--time-limit");
+    let o = launch(&file, &["--time-limit", "0s"]);
+    refused(&o, "a zero limit", "above zero");
     // A resume that would hand jobs to Slurm (their campaign's executor) is refused too.
     let mut on_slurm = one_job(0.05);
     on_slurm["run"]["executor"] = json!("slurm");
     let file = write_campaign(d, "slurm.json", &on_slurm);
-    let o = sweep_cmd(d)
-        .args([
-            "launch",
-            file.to_str().unwrap(),
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .arg("--register-only")
-        .output()
-        .unwrap();
+    let o = launch(&file, &["--register-only"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = sweep_cmd(d)
-        .args(["resume", "--db", db.to_str().unwrap(), "--time-limit", "2h"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}\n{}", stdout(&o), stderr(&o));
-    assert!(stderr(&o).contains("would go to Slurm"), "{}", stderr(&o));
+    let o = sweep(&["resume", "--db", db.to_str().unwrap(), "--time-limit", "2h"]);
+    refused(&o, "a resume towards Slurm", "would go to Slurm");
     assert_eq!(
         job_field(&db, 1, "status"),
         "pending",
