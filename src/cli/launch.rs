@@ -99,8 +99,21 @@ fn finish(s: PoolSummary, interrupted: bool, db: &Path) -> i32 {
     }
 }
 
-/// Why `--time-limit` is refused with the Slurm executor.
-const TIME_LIMIT_ON_SLURM: &str = "--time-limit stops runs on this machine; a Slurm job's wall-time limit is its --time (the campaign's slurm settings or --time)";
+/// Starts `--time-limit`'s timer, or refuses it (Err: the exit code) on the Slurm executor,
+/// whose jobs take their wall-time limit from `--time`.
+fn start_time_limit(r: &RunArgs, on_slurm: bool) -> Result<(), i32> {
+    match r.time_limit {
+        Some(_) if on_slurm => {
+            eprintln!("sweep: error: --time-limit stops runs on this machine; a Slurm job's wall-time limit is its --time (the campaign's slurm settings or --time)");
+            Err(2)
+        }
+        Some(limit) => {
+            super::interrupt::stop_after(limit);
+            Ok(())
+        }
+        None => Ok(()),
+    }
+}
 
 pub fn launch(a: Arguments) -> anyhow::Result<i32> {
     let (file, jobs) = match sweep::campaign::load(&a.file) {
@@ -111,12 +124,8 @@ pub fn launch(a: Arguments) -> anyhow::Result<i32> {
         }
     };
     let executor = a.exec.executor.unwrap_or(file.run.executor);
-    if executor == ExecutorKind::Slurm && a.run.time_limit.is_some() {
-        eprintln!("sweep: error: {TIME_LIMIT_ON_SLURM}");
-        return Ok(2);
-    }
-    if let Some(limit) = a.run.time_limit {
-        super::interrupt::stop_after(limit);
+    if let Err(code) = start_time_limit(&a.run, executor == ExecutorKind::Slurm) {
+        return Ok(code);
     }
     if executor == ExecutorKind::Slurm && !a.register_only {
         if file.target.is_some() {
@@ -308,12 +317,8 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
         );
         return Ok(2);
     }
-    if a.executor == Some(ExecutorKind::Slurm) && a.run.time_limit.is_some() {
-        eprintln!("sweep: error: {TIME_LIMIT_ON_SLURM}");
-        return Ok(2);
-    }
-    if let Some(limit) = a.run.time_limit {
-        super::interrupt::stop_after(limit);
+    if let Err(code) = start_time_limit(&a.run, a.executor == Some(ExecutorKind::Slurm)) {
+        return Ok(code);
     }
     let db = &a.run.db.db;
     let mut project = Project::open_checked(db)?;
