@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use sweep::project::{
-    owner_place, Executor, FlowVerdict, Liveness, OwnerPlace, Project, Slurm, SlurmTask, StateTotal,
+    owner_place, Executor, FlowVerdict, JobStatus, Liveness, OwnerPlace, Project, Slurm, SlurmTask,
+    StateTotal,
 };
 use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
@@ -96,6 +97,11 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             "{:>5}  {:<8} {:>6} {:>14} {:>16} {:>10} {:>5}  parameters",
             "job", "status", "done%", "sim_time_s", "particle-steps/s", "eta_s", "try"
         );
+        // A note every listed job shares (the usual case: one machine, one choice) is said once.
+        let shared_note = shared_backend_note(&rows);
+        if let Some(n) = shared_note {
+            println!("         backend of every job listed that has run: {n}");
+        }
         for r in &rows {
             let rate = if r.wall_time_s > 0.0 {
                 r.particle_steps as f64 / r.wall_time_s
@@ -146,7 +152,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "paused" => println!("         paused at its checkpoint: `sweep resume` continues it"),
                 _ => {}
             }
-            if let Some(n) = &r.backend_note {
+            if let Some(n) = r.backend_note.as_deref().filter(|_| shared_note.is_none()) {
                 println!("         backend: {n}");
             }
             if let Some(v) = verdicts.get(&r.id).filter(|v| v.state != "steady") {
@@ -164,6 +170,21 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         print_target(&project, c.id)?;
     }
     Ok(0)
+}
+
+/// The backend note of the listed jobs that have run, when there are several and all carry
+/// the same one.
+fn shared_backend_note(rows: &[JobStatus]) -> Option<&str> {
+    let mut notes = rows.iter().filter_map(|r| r.backend_note.as_deref());
+    let first = notes.next()?;
+    let mut count = 1;
+    for n in notes {
+        if n != first {
+            return None;
+        }
+        count += 1;
+    }
+    (count > 1).then_some(first)
 }
 
 /// A large campaign's totals: simulated time done of its target, work and throughput.
@@ -306,4 +327,26 @@ fn describe(t: &SlurmTask, view: Option<&SlurmView>) -> String {
         other => format!("; {other}"),
     };
     format!("task {} {slurm}{sweep}", t.slurm_id())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(note: Option<&str>) -> JobStatus {
+        JobStatus {
+            backend_note: note.map(str::to_owned),
+            ..JobStatus::default()
+        }
+    }
+
+    #[test]
+    fn a_note_all_run_jobs_share_is_said_once() {
+        let same = [row(Some("cpu: f64")), row(None), row(Some("cpu: f64"))];
+        assert_eq!(shared_backend_note(&same), Some("cpu: f64"));
+        let differ = [row(Some("cpu: f64")), row(Some("cpu: no adapter"))];
+        assert_eq!(shared_backend_note(&differ), None);
+        assert_eq!(shared_backend_note(&[row(Some("cpu: f64"))]), None);
+        assert_eq!(shared_backend_note(&[row(None), row(None)]), None);
+    }
 }

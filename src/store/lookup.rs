@@ -141,7 +141,7 @@ pub fn job_state(conn: &Connection, id: i64) -> anyhow::Result<JobState> {
 }
 
 /// One job of a campaign, as `sweep status` shows it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct JobStatus {
     pub id: i64,
     pub hash: String,
