@@ -99,7 +99,8 @@ pub fn print_round(r: &ClaimsRound) {
 }
 
 /// `sweep report --claims`: the campaign's claims table (its latest stored look, or a look
-/// taken now when none was stored) as claims.md and claims.csv in `out`, printed too.
+/// taken now when none was stored) as NAME.md and NAME.csv in `out`, named after the campaign so
+/// that several campaigns' tables share one directory; printed too.
 pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::Result<i32> {
     let conn = project.conn();
     let c = sweep::report::find_campaign(conn, campaign, None)?;
@@ -127,8 +128,8 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
     std::fs::create_dir_all(out)?;
     let md = sweep::report::claims::claims_markdown(&c.name, &scale, &rows, spent);
     let csv = sweep::report::claims::claims_csv(&scale, &rows);
-    let md_path = out.join("claims.md");
-    let csv_path = out.join("claims.csv");
+    let md_path = out.join(format!("{}.md", c.name));
+    let csv_path = out.join(format!("{}.csv", c.name));
     std::fs::write(&md_path, &md)?;
     std::fs::write(&csv_path, &csv)?;
     println!("{md}");

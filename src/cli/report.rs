@@ -13,8 +13,9 @@ pub struct Arguments {
     /// scene:figN); `all` draws every figure of the scene and writes index.html beside them.
     #[arg(long, required_unless_present = "claims")]
     pub figure: Option<String>,
-    /// The campaign's claims table (claims.md, claims.csv in --out): each claim with the
-    /// paper's words, sweep's value and interval, the verdict, the scale and the cost.
+    /// The campaign's claims table (NAME.md and NAME.csv in --out, after the campaign): each
+    /// claim with the paper's words, sweep's value and interval, the verdict, the scale and the
+    /// cost.
     #[arg(long)]
     pub claims: bool,
     /// Campaign name (default: the most recent campaign; its scene picks the figure set).

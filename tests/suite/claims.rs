@@ -114,12 +114,12 @@ fn a_claim_is_decided_over_rounds_and_the_same_after_a_kill() {
         .output()
         .unwrap();
     assert!(rep.status.success(), "{}", stderr(&rep));
-    let md = std::fs::read_to_string(a.path().join("figs/claims.md")).unwrap();
+    let md = std::fs::read_to_string(a.path().join("figs/tiny_claims.md")).unwrap();
     assert!(
         md.contains("**contradicted**") && md.contains("N = 600"),
         "{md}"
     );
-    let csv = std::fs::read_to_string(a.path().join("figs/claims.csv")).unwrap();
+    let csv = std::fs::read_to_string(a.path().join("figs/tiny_claims.csv")).unwrap();
     assert_eq!(csv.lines().count(), 2, "{csv}");
 
     // Killed once a round's work is running, then resumed: the same rounds and verdicts.

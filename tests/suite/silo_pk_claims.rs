@@ -58,7 +58,7 @@ fn a_claim_reads_the_kinetic_pressure_fig11_draws() {
             .collect()
     };
     let col = |rows: &[Vec<String>], name: &str| rows[0].iter().position(|h| h == name).unwrap();
-    let claims = read("claims.csv");
+    let claims = read("tiny_pk.csv");
     let fig = read("fig11.csv");
     let value: f64 = claims[1][col(&claims, "value")]
         .parse()
