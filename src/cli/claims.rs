@@ -17,8 +17,8 @@ fn value(r: &VerdictRow) -> String {
     }
 }
 
-/// One line per claim: verdict, value and interval against its bound, and what deciding an
-/// undecided one would still cost.
+/// A look's verdicts, one line per claim: verdict, value and interval against its bound, and
+/// what deciding an undecided one would still cost.
 pub fn print_verdicts(rows: &[VerdictRow]) {
     let Some(first) = rows.first() else { return };
     let decided = rows.iter().filter(|r| r.verdict != "undecided").count();
@@ -28,6 +28,26 @@ pub fn print_verdicts(rows: &[VerdictRow]) {
         first.round,
         sweep::report::claims::levels_text(rows)
     );
+    print_claim_lines(rows);
+}
+
+/// What a look taken now would read, said as such: `sweep plan` computes it to forecast the
+/// cost, but no look is stored and no α spent, so its verdicts are not the campaign's.
+pub fn print_preview(rows: &[VerdictRow]) {
+    if rows.is_empty() {
+        return;
+    }
+    let decided = rows.iter().filter(|r| r.verdict != "undecided").count();
+    println!(
+        "claims as a look taken now would read them (a preview, not a look: nothing is stored and \
+         no α spent; {decided} of {} would be decided, intervals at {})",
+        rows.len(),
+        sweep::report::claims::levels_text(rows)
+    );
+    print_claim_lines(rows);
+}
+
+fn print_claim_lines(rows: &[VerdictRow]) {
     for r in rows {
         let mut line = format!(
             "  {:<24} {:<12} {} = {} {}",

@@ -532,7 +532,7 @@ fn claims_forecast(
     }
     let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev, false)?;
     let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
-    super::claims::print_verdicts(&rows);
+    super::claims::print_preview(&rows);
     let (steps, wall) =
         rows.iter()
             .filter(|r| r.verdict == "undecided")

@@ -1,9 +1,10 @@
 //! `sweep plan FILE --db DB` against a store that already holds some of the file's jobs: each
 //! such job is named with its state, and the work still to run leaves out what ended.
 
+use serde_json::json;
 use tempfile::TempDir;
 
-use crate::common::cli::{campaign, launch_ok, stderr, stdout, sweep_cmd, write_campaign};
+use crate::common::cli::{campaign, launch_ok, rows, stderr, stdout, sweep_cmd, write_campaign};
 
 #[test]
 fn a_plan_names_the_jobs_a_store_already_holds() {
@@ -46,4 +47,55 @@ fn a_plan_names_the_jobs_a_store_already_holds() {
         )),
         "only the new job is left to run:\n{text}"
     );
+}
+
+/// `sweep plan --db` on a campaign with claims shows what a look taken now would read, said as
+/// a preview: it stores no verdict, so the campaign's looks and α stay as they were.
+#[test]
+fn a_plans_claims_are_a_preview_and_store_nothing() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("plan.db");
+    let mut c = campaign("plan_claims", &[0.02, 0.024], &[1.0], 0.2);
+    let base = c["base"].as_object_mut().unwrap();
+    base.insert("particle_count".into(), json!(600));
+    base.insert("discharge_time_s".into(), json!(1.0));
+    base.insert("reinsert".into(), json!(true));
+    c["claims"] = json!([{
+        "id": "q_faster_than_d", "paper": "PRE 102, 042902, Fig. 3",
+        "statement": "Q(4.1 d) / Q(3.4 d) exceeds 2.5",
+        "compare": {
+            "result": "q",
+            "at": { "orifice_diameter_m": 0.024, "rotation_frequency_hz": 1.0 },
+            "against": { "orifice_diameter_m": 0.02, "rotation_frequency_hz": 1.0 },
+            "above": 2.5
+        }
+    }]);
+    let file = write_campaign(d, "claims.json", &c);
+    launch_ok(d, &file, &db);
+    let stored = || {
+        rows(
+            &db,
+            "SELECT round, claim_id, verdict, value FROM claim_verdicts",
+        )
+    };
+    let before = stored();
+    assert_eq!(before.len(), 1, "the launch's one look: {before:?}");
+    let o = sweep_cmd(d)
+        .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "{text}\n{}", stderr(&o));
+    assert!(
+        text.contains(
+            "(a preview, not a look: nothing is stored and no α spent; 0 of 1 would be decided"
+        ),
+        "{text}"
+    );
+    assert!(
+        !text.lines().any(|l| l.contains("decided at look")),
+        "no line reads as a look's verdicts:\n{text}"
+    );
+    assert_eq!(stored(), before, "plan stored nothing");
 }
