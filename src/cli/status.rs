@@ -56,6 +56,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         );
         return Ok(0);
     }
+    // The newest version of each name: an older one's open jobs wait unless named.
+    let mut newest = std::collections::HashMap::new();
+    for c in &camps {
+        let v = newest.entry(c.name.clone()).or_insert(c.version);
+        *v = (*v).max(c.version);
+    }
     for c in camps {
         let totals = project.state_totals(c.id)?;
         let count = |s: &str| totals.iter().find(|t| t.status == s).map_or(0, |t| t.jobs);
@@ -77,6 +83,13 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("paused"),
             count("failed")
         );
+        let latest = newest[&c.name];
+        if c.version < latest && count("done") < all {
+            println!(
+                "         replaced by version {latest}: a plain `sweep resume` continues only the latest version; `--campaign {}@v{}` continues this one's open jobs",
+                c.name, c.version
+            );
+        }
         let rows = if all <= LINE_PER_JOB_UP_TO || a.all_jobs {
             project.jobs_of(c.id, None, i64::MAX)?
         } else {

@@ -490,6 +490,17 @@ fn resume_leaves_an_older_campaign_version_paused_unless_named() {
         "{}",
         stdout(&o)
     );
+    let o = sweep_cmd(d)
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let replaced = "replaced by version 2: a plain `sweep resume` continues only the latest version; `--campaign slow@v1` continues this one's open jobs";
+    assert_eq!(
+        stdout(&o).matches(replaced).count(),
+        1,
+        "status says why version 1's job waits, and only of version 1:\n{}",
+        stdout(&o)
+    );
 
     let resume = |campaign: &str| {
         let mut args = resume_args(&db);
