@@ -533,38 +533,75 @@ fn claims_forecast(
     let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev, false)?;
     let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
     super::claims::print_preview(&rows);
-    let (steps, wall) =
-        rows.iter()
-            .filter(|r| r.verdict == "undecided")
-            .fold((0.0, Some(0.0)), |(s, w), r| {
-                (
-                    s + r.forecast_particle_steps.unwrap_or(f64::NAN),
-                    w.zip(r.forecast_wall_s).map(|(a, b)| a + b),
-                )
-            });
-    println!(
-        "  still to run for the undecided claims: {}{}",
-        if steps.is_nan() {
-            "unknown for some (no forecast)".to_string()
-        } else {
-            format!("{steps:.3e} particle-steps")
-        },
-        wall.filter(|w| *w > 0.0)
-            .map_or_else(String::new, |w| format!(
-                ", about {:.1} min of job wall time",
-                w / 60.0
-            ))
-    );
+    let undecided: Vec<_> = rows
+        .iter()
+        .filter(|r| r.verdict == "undecided")
+        .map(|r| (r.forecast_particle_steps, r.forecast_wall_s))
+        .collect();
+    if !undecided.is_empty() {
+        println!(
+            "  still to run for the undecided claims: {}",
+            still_to_run(&undecided)
+        );
+    }
     Ok(())
+}
+
+/// The work the undecided claims still need, from each one's forecast (particle-steps, wall s).
+/// Claims at the same points share their replicas, so the costliest alone is the least and the
+/// sum the most the store will run for them.
+fn still_to_run(forecasts: &[(Option<f64>, Option<f64>)]) -> String {
+    let steps: Option<Vec<f64>> = forecasts.iter().map(|f| f.0).collect();
+    let Some(steps) = steps else {
+        return "unknown for some (no forecast)".into();
+    };
+    let walls: Option<Vec<f64>> = forecasts.iter().map(|f| f.1).collect();
+    let range = |v: &[f64], f: &dyn Fn(f64) -> String| {
+        let (max, sum) = (v.iter().copied().fold(0.0, f64::max), v.iter().sum::<f64>());
+        if v.len() > 1 && sum > max * (1.0 + 1e-9) {
+            format!("{} to {}", f(max), f(sum))
+        } else {
+            f(sum)
+        }
+    };
+    let mut text = format!("{} particle-steps", range(&steps, &|x| format!("{x:.3e}")));
+    if let Some(w) = walls.filter(|w| w.iter().sum::<f64>() > 0.0) {
+        text.push_str(&format!(
+            ", about {} min of job wall time",
+            range(&w, &|x| format!("{:.1}", x / 60.0))
+        ));
+    }
+    if steps.len() > 1 {
+        text.push_str(" (the costliest claim alone to the sum of all: claims at the same points share replicas)");
+    }
+    text
 }
 
 #[cfg(test)]
 mod tests {
-    use super::id_ranges;
+    use super::{id_ranges, still_to_run};
 
     #[test]
     fn ids_read_as_ranges() {
         assert_eq!(id_ranges(&[16, 14, 15, 20, 22, 21, 3]), "3, 14-16, 20-22");
         assert_eq!(id_ranges(&[7]), "7");
+    }
+
+    #[test]
+    fn claims_sharing_work_are_given_as_a_range() {
+        let one = still_to_run(&[(Some(2e9), Some(600.0))]);
+        assert_eq!(
+            one,
+            "2.000e9 particle-steps, about 10.0 min of job wall time"
+        );
+        let two = still_to_run(&[(Some(2e9), Some(600.0)), (Some(1e9), Some(300.0))]);
+        assert!(
+            two.starts_with("2.000e9 to 3.000e9 particle-steps, about 10.0 to 15.0 min"),
+            "{two}"
+        );
+        assert_eq!(
+            still_to_run(&[(Some(2e9), None), (None, None)]),
+            "unknown for some (no forecast)"
+        );
     }
 }
