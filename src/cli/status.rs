@@ -27,6 +27,10 @@ pub struct Arguments {
     /// summarised: its totals, and a line only for the jobs running, paused or failed).
     #[arg(long)]
     pub all_jobs: bool,
+    /// A few lines per campaign version: its jobs by state, its claims' latest look and its
+    /// target's spending, without the jobs (a store's overview).
+    #[arg(long, conflicts_with = "all_jobs")]
+    pub brief: bool,
 }
 
 /// Up to this many jobs, a campaign's status has a line per job.
@@ -89,6 +93,10 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 "         replaced by version {latest}: a plain `sweep resume` continues only the latest version; `--campaign {}@v{}` continues this one's open jobs",
                 c.name, c.version
             );
+        }
+        if a.brief {
+            print_brief_target(&project, c.id)?;
+            continue;
         }
         let rows = if all <= LINE_PER_JOB_UP_TO || a.all_jobs {
             project.jobs_of(c.id, None, i64::MAX)?
@@ -211,6 +219,45 @@ fn print_totals(totals: &[StateTotal]) {
         wall / 3600.0,
         if wall > 0.0 { steps / wall } else { 0.0 }
     );
+}
+
+/// `--brief`: the claims' latest look in one line, and the target's rounds and spending.
+fn print_brief_target(project: &Project, campaign_id: i64) -> anyhow::Result<()> {
+    let file = project.campaign_file(campaign_id).ok().flatten();
+    if file.as_ref().is_some_and(|f| !f.claims.is_empty()) {
+        let verdicts = project.latest_verdicts(campaign_id)?;
+        match verdicts.first() {
+            None => println!(
+                "         claims: {} not looked at yet",
+                file.as_ref().map_or(0, |f| f.claims.len())
+            ),
+            Some(first) => {
+                let count = |v: &str| verdicts.iter().filter(|r| r.verdict == v).count();
+                println!(
+                    "         claims at look {}: {} supported, {} contradicted, {} undecided",
+                    first.round,
+                    count("supported"),
+                    count("contradicted"),
+                    count("undecided")
+                );
+            }
+        }
+    }
+    if let Some(t) = file.and_then(|f| f.target) {
+        let rounds = project
+            .target_work(campaign_id)?
+            .iter()
+            .map(|w| w.round)
+            .max()
+            .unwrap_or(0);
+        let (_, _, core_hours) = project.spent(campaign_id)?;
+        println!(
+            "         target: {rounds} round(s) of added work; {core_hours:.2} core-hours spent{}",
+            t.max_core_hours
+                .map_or(String::new(), |h| format!(" of {h}"))
+        );
+    }
+    Ok(())
 }
 
 /// A campaign target's points after its latest round, and the work it added.

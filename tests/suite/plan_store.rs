@@ -1,6 +1,8 @@
 //! `sweep plan FILE --db DB` against a store that already holds some of the file's jobs: each
 //! such job is named with its state, and the work still to run leaves out what ended.
 
+use std::path::{Path, PathBuf};
+
 use serde_json::json;
 use tempfile::TempDir;
 
@@ -49,12 +51,9 @@ fn a_plan_names_the_jobs_a_store_already_holds() {
     );
 }
 
-/// `sweep plan --db` on a campaign with claims shows what a look taken now would read, said as
-/// a preview: it stores no verdict, so the campaign's looks and α stay as they were.
-#[test]
-fn a_plans_claims_are_a_preview_and_store_nothing() {
-    let dir = TempDir::new().unwrap();
-    let d = dir.path();
+/// A two-job silo campaign with one claim, launched into `d`/plan.db: its jobs done and its
+/// one look stored.
+fn launched_claims_campaign(d: &Path) -> (PathBuf, PathBuf) {
     let db = d.join("plan.db");
     let mut c = campaign("plan_claims", &[0.02, 0.024], &[1.0], 0.2);
     let base = c["base"].as_object_mut().unwrap();
@@ -73,6 +72,16 @@ fn a_plans_claims_are_a_preview_and_store_nothing() {
     }]);
     let file = write_campaign(d, "claims.json", &c);
     launch_ok(d, &file, &db);
+    (file, db)
+}
+
+/// `sweep plan --db` on a campaign with claims shows what a look taken now would read, said as
+/// a preview: it stores no verdict, so the campaign's looks and α stay as they were.
+#[test]
+fn a_plans_claims_are_a_preview_and_store_nothing() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let (file, db) = launched_claims_campaign(d);
     let stored = || {
         rows(
             &db,
@@ -97,4 +106,32 @@ fn a_plans_claims_are_a_preview_and_store_nothing() {
         "no line reads as a look's verdicts:\n{text}"
     );
     assert_eq!(stored(), before, "plan stored nothing");
+}
+
+/// `sweep status --brief`: a campaign's jobs by state and its latest look's verdicts counted,
+/// without a line per job.
+#[test]
+fn a_brief_status_counts_the_latest_looks_verdicts() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let (_, db) = launched_claims_campaign(d);
+    let o = sweep_cmd(d)
+        .args(["status", "--brief", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "{text}\n{}", stderr(&o));
+    // `rows` gives each value with its SQLite type: "text undecided".
+    let verdict = rows(&db, "SELECT verdict FROM claim_verdicts")[0][0].replace("text ", "");
+    let counts = ["supported", "contradicted", "undecided"]
+        .map(|v| format!("{} {v}", usize::from(verdict == v)))
+        .join(", ");
+    assert!(
+        text.contains("2 jobs — 2 done") && text.contains(&format!("claims at look 0: {counts}")),
+        "{text}"
+    );
+    assert!(
+        !text.contains("orifice_diameter_m="),
+        "no job lines:\n{text}"
+    );
 }
