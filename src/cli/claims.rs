@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use anyhow::Context;
+
 use sweep::project::{Project, VerdictRow};
 use sweep::runner::claim_rounds::ClaimsRound;
 
@@ -119,8 +121,9 @@ pub fn print_round(r: &ClaimsRound) {
 }
 
 /// `sweep report --claims`: the campaign's claims table (its latest stored look, or a look
-/// taken now when none was stored) as NAME.md and NAME.csv in `out`, named after the campaign so
-/// that several campaigns' tables share one directory; printed too.
+/// taken now when none was stored) as NAME.md and NAME.csv in `out` (NAME@vK for an older
+/// version named so), named after the campaign so that several campaigns' tables share one
+/// directory; printed too.
 pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::Result<i32> {
     let conn = project.conn();
     let c = sweep::report::find_campaign(conn, campaign, None)?;
@@ -148,10 +151,17 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
     std::fs::create_dir_all(out)?;
     let md = sweep::report::claims::claims_markdown(&c.name, &scale, &rows, spent);
     let csv = sweep::report::claims::claims_csv(&scale, &rows);
-    let md_path = out.join(format!("{}.md", c.name));
-    let csv_path = out.join(format!("{}.csv", c.name));
-    std::fs::write(&md_path, &md)?;
-    std::fs::write(&csv_path, &csv)?;
+    // An older version named as NAME@vK keeps that suffix, so it does not overwrite the
+    // latest version's table.
+    let latest = project.campaign_named(&c.name, None)?.map(|l| l.id);
+    let stem = match campaign {
+        Some(asked) if latest != Some(c.id) => asked.to_string(),
+        _ => c.name.clone(),
+    };
+    let md_path = out.join(format!("{stem}.md"));
+    let csv_path = out.join(format!("{stem}.csv"));
+    std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+    std::fs::write(&csv_path, &csv).with_context(|| format!("writing {}", csv_path.display()))?;
     println!("{md}");
     println!("wrote {}", md_path.display());
     println!("wrote {}", csv_path.display());

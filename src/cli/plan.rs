@@ -536,7 +536,13 @@ fn claims_forecast(
     let undecided: Vec<_> = rows
         .iter()
         .filter(|r| r.verdict == "undecided")
-        .map(|r| (r.forecast_particle_steps, r.forecast_wall_s))
+        .map(|r| {
+            (
+                r.points.as_str(),
+                r.forecast_particle_steps,
+                r.forecast_wall_s,
+            )
+        })
         .collect();
     if !undecided.is_empty() {
         println!(
@@ -547,34 +553,71 @@ fn claims_forecast(
     Ok(())
 }
 
-/// The work the undecided claims still need, from each one's forecast (particle-steps, wall s).
-/// Claims at the same points share their replicas, so the costliest alone is the least and the
-/// sum the most the store will run for them.
-fn still_to_run(forecasts: &[(Option<f64>, Option<f64>)]) -> String {
-    let steps: Option<Vec<f64>> = forecasts.iter().map(|f| f.0).collect();
+/// One undecided claim's forecast: the points it reads ("; "-separated labels), the
+/// particle-steps and the wall seconds it still needs.
+type Forecast<'a> = (&'a str, Option<f64>, Option<f64>);
+
+/// The work the undecided claims still need. Claims that read a common point share its
+/// replicas, so within each group of claims linked by shared points the costliest alone is the
+/// least the store will run for them and their sum the most; groups add up.
+fn still_to_run(forecasts: &[Forecast]) -> String {
+    let steps: Option<Vec<f64>> = forecasts.iter().map(|f| f.1).collect();
     let Some(steps) = steps else {
         return "unknown for some (no forecast)".into();
     };
-    let walls: Option<Vec<f64>> = forecasts.iter().map(|f| f.1).collect();
+    let walls: Option<Vec<f64>> = forecasts.iter().map(|f| f.2).collect();
+    let groups = point_groups(forecasts);
     let range = |v: &[f64], f: &dyn Fn(f64) -> String| {
-        let (max, sum) = (v.iter().copied().fold(0.0, f64::max), v.iter().sum::<f64>());
-        if v.len() > 1 && sum > max * (1.0 + 1e-9) {
-            format!("{} to {}", f(max), f(sum))
+        let least: f64 = groups
+            .iter()
+            .map(|g| g.iter().map(|&i| v[i]).fold(0.0, f64::max))
+            .sum();
+        let most: f64 = v.iter().sum();
+        if most > least * (1.0 + 1e-9) {
+            (format!("{} to {}", f(least), f(most)), true)
         } else {
-            f(sum)
+            (f(most), false)
         }
     };
-    let mut text = format!("{} particle-steps", range(&steps, &|x| format!("{x:.3e}")));
+    let (steps_text, ranged) = range(&steps, &|x| format!("{x:.3e}"));
+    let mut text = format!("{steps_text} particle-steps");
     if let Some(w) = walls.filter(|w| w.iter().sum::<f64>() > 0.0) {
-        text.push_str(&format!(
-            ", about {} min of job wall time",
-            range(&w, &|x| format!("{:.1}", x / 60.0))
-        ));
+        let (wall_text, _) = range(&w, &|x| format!("{:.1}", x / 60.0));
+        text.push_str(&format!(", about {wall_text} min of job wall time"));
     }
-    if steps.len() > 1 {
-        text.push_str(" (the costliest claim alone to the sum of all: claims at the same points share replicas)");
+    if ranged {
+        text.push_str(" (claims at common points share replicas: the least counts each group's costliest claim alone, the most every claim)");
     }
     text
+}
+
+/// The claims grouped by shared points (indices into `forecasts`), each claim in one group.
+fn point_groups(forecasts: &[Forecast]) -> Vec<Vec<usize>> {
+    let points = |i: usize| -> std::collections::HashSet<&str> {
+        forecasts[i]
+            .0
+            .split("; ")
+            .filter(|p| !p.is_empty())
+            .collect()
+    };
+    let mut groups: Vec<(Vec<usize>, std::collections::HashSet<&str>)> = Vec::new();
+    for i in 0..forecasts.len() {
+        let mut members = vec![i];
+        let mut set = points(i);
+        // Merge every group this claim touches into one.
+        let mut k = 0;
+        while k < groups.len() {
+            if groups[k].1.iter().any(|p| set.contains(p)) {
+                let (m, s) = groups.swap_remove(k);
+                members.extend(m);
+                set.extend(s);
+            } else {
+                k += 1;
+            }
+        }
+        groups.push((members, set));
+    }
+    groups.into_iter().map(|g| g.0).collect()
 }
 
 #[cfg(test)]
@@ -589,18 +632,39 @@ mod tests {
 
     #[test]
     fn claims_sharing_work_are_given_as_a_range() {
-        let one = still_to_run(&[(Some(2e9), Some(600.0))]);
+        let one = still_to_run(&[("a", Some(2e9), Some(600.0))]);
         assert_eq!(
             one,
             "2.000e9 particle-steps, about 10.0 min of job wall time"
         );
-        let two = still_to_run(&[(Some(2e9), Some(600.0)), (Some(1e9), Some(300.0))]);
+        // Two claims at the same point: the costliest alone to both.
+        let shared = still_to_run(&[
+            ("a; b", Some(2e9), Some(600.0)),
+            ("b", Some(1e9), Some(300.0)),
+        ]);
         assert!(
-            two.starts_with("2.000e9 to 3.000e9 particle-steps, about 10.0 to 15.0 min"),
-            "{two}"
+            shared.starts_with("2.000e9 to 3.000e9 particle-steps, about 10.0 to 15.0 min"),
+            "{shared}"
+        );
+        // At different points their work adds up: no range.
+        let apart = still_to_run(&[("a", Some(2e9), Some(600.0)), ("c", Some(1e9), Some(300.0))]);
+        assert_eq!(
+            apart,
+            "3.000e9 particle-steps, about 15.0 min of job wall time"
+        );
+        // A claim linking two others puts all three in one group.
+        let linked = [
+            ("a", Some(1e9), None),
+            ("c", Some(1e9), None),
+            ("a; c", Some(3e9), None),
+        ];
+        assert!(
+            still_to_run(&linked).starts_with("3.000e9 to 5.000e9"),
+            "{}",
+            still_to_run(&linked)
         );
         assert_eq!(
-            still_to_run(&[(Some(2e9), None), (None, None)]),
+            still_to_run(&[("a", Some(2e9), None), ("b", None, None)]),
             "unknown for some (no forecast)"
         );
     }

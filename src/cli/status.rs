@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use sweep::project::{
-    owner_place, Executor, FlowVerdict, JobStatus, Liveness, OwnerPlace, Project, Slurm, SlurmTask,
-    StateTotal,
+    owner_place, Executor, FlowVerdict, JobScope, JobStatus, Liveness, OwnerPlace, Project, Slurm,
+    SlurmTask, StateTotal,
 };
 use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
@@ -49,7 +49,31 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     let mut project = Project::open(&a.db.db)?;
     let slurm = slurm_view(&mut project)?;
     let work = project.work_dir()?;
-    let camps = project.campaigns(a.campaign.as_deref())?;
+    // "NAME@vK" lists version K alone; the other versions still tell whether it was replaced.
+    let (name, version) = match a.campaign.as_deref() {
+        Some(c) => {
+            let (n, v) = sweep::report::split_version(c);
+            (Some(n), v)
+        }
+        None => (None, None),
+    };
+    let all_versions = project.campaigns(name)?;
+    // The newest version of each name: an older one's open jobs wait unless named, apart from
+    // those a newer version shares (a plain resume takes every open job of a latest version).
+    let mut newest = std::collections::HashMap::new();
+    for c in &all_versions {
+        let v = newest.entry(c.name.clone()).or_insert(c.version);
+        *v = (*v).max(c.version);
+    }
+    let resumed: std::collections::HashSet<i64> = project
+        .open_jobs(JobScope::LatestVersions)?
+        .iter()
+        .map(|j| j.id)
+        .collect();
+    let camps: Vec<_> = all_versions
+        .into_iter()
+        .filter(|c| version.is_none_or(|v| c.version == v))
+        .collect();
     if camps.is_empty() {
         println!(
             "{}: no campaigns{}",
@@ -59,12 +83,6 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
                 .map_or(String::new(), |c| format!(" named {c}"))
         );
         return Ok(0);
-    }
-    // The newest version of each name: an older one's open jobs wait unless named.
-    let mut newest = std::collections::HashMap::new();
-    for c in &camps {
-        let v = newest.entry(c.name.clone()).or_insert(c.version);
-        *v = (*v).max(c.version);
     }
     for c in camps {
         let totals = project.state_totals(c.id)?;
@@ -88,11 +106,18 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             count("failed")
         );
         let latest = newest[&c.name];
-        if c.version < latest && count("done") < all {
-            println!(
-                "         replaced by version {latest}: a plain `sweep resume` continues only the latest version; `--campaign {}@v{}` continues this one's open jobs",
-                c.name, c.version
-            );
+        if c.version < latest {
+            let waiting = project
+                .open_jobs(JobScope::Campaign(c.id))?
+                .iter()
+                .filter(|j| !resumed.contains(&j.id) && j.status != "running")
+                .count();
+            if waiting > 0 {
+                println!(
+                    "         replaced by version {latest}: {waiting} open job(s) that a plain `sweep resume` leaves (it continues the latest versions' jobs); `--campaign {}@v{}` continues them",
+                    c.name, c.version
+                );
+            }
         }
         if a.brief {
             print_brief_target(&project, c.id)?;
@@ -193,14 +218,15 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     Ok(0)
 }
 
-/// The backend note of the listed jobs that have run, when there are several and all carry
-/// the same one.
+/// The backend note of the listed jobs that have run (those with a backend), when there are
+/// several and every one carries the same note; a job that ran without one (on the GPU, as
+/// asked) keeps the notes per job.
 fn shared_backend_note(rows: &[JobStatus]) -> Option<&str> {
-    let mut notes = rows.iter().filter_map(|r| r.backend_note.as_deref());
-    let first = notes.next()?;
+    let mut ran = rows.iter().filter(|r| r.backend.is_some());
+    let first = ran.next()?.backend_note.as_deref()?;
     let mut count = 1;
-    for n in notes {
-        if n != first {
+    for r in ran {
+        if r.backend_note.as_deref() != Some(first) {
             return None;
         }
         count += 1;
@@ -393,8 +419,10 @@ fn describe(t: &SlurmTask, view: Option<&SlurmView>) -> String {
 mod tests {
     use super::*;
 
-    fn row(note: Option<&str>) -> JobStatus {
+    /// A job that ran (on `backend`, with `note`), or one that has not (`backend` None).
+    fn row(backend: Option<&str>, note: Option<&str>) -> JobStatus {
         JobStatus {
+            backend: backend.map(str::to_owned),
             backend_note: note.map(str::to_owned),
             ..JobStatus::default()
         }
@@ -402,11 +430,16 @@ mod tests {
 
     #[test]
     fn a_note_all_run_jobs_share_is_said_once() {
-        let same = [row(Some("cpu: f64")), row(None), row(Some("cpu: f64"))];
+        let cpu = |n| row(Some("cpu"), Some(n));
+        let pending = row(None, None);
+        let same = [cpu("cpu: f64"), pending.clone(), cpu("cpu: f64")];
         assert_eq!(shared_backend_note(&same), Some("cpu: f64"));
-        let differ = [row(Some("cpu: f64")), row(Some("cpu: no adapter"))];
+        let differ = [cpu("cpu: f64"), cpu("cpu: no adapter")];
         assert_eq!(shared_backend_note(&differ), None);
-        assert_eq!(shared_backend_note(&[row(Some("cpu: f64"))]), None);
-        assert_eq!(shared_backend_note(&[row(None), row(None)]), None);
+        assert_eq!(shared_backend_note(&[cpu("cpu: f64")]), None);
+        assert_eq!(shared_backend_note(&[pending.clone(), pending]), None);
+        // A job that ran on the GPU without a note is not covered by the others' note.
+        let mixed = [cpu("cpu: f64"), row(Some("gpu"), None), cpu("cpu: f64")];
+        assert_eq!(shared_backend_note(&mixed), None);
     }
 }

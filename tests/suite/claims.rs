@@ -303,6 +303,26 @@ fn a_new_version_carries_the_looks_alpha_and_replicas_of_the_last() {
     // The carried replicas are the target's, not the file's: the same file again is no change.
     let o = launch_with(dir.path(), &file, &db, &[]);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    // Each version's claims table keeps its own file in one directory.
+    for name in ["tiny_claims@v1", "tiny_claims"] {
+        let o = sweep_cmd(dir.path())
+            .args(["report", "--claims", "--campaign", name, "--out", "claims"])
+            .args(["--db", db.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let table = |f: &str| std::fs::read_to_string(dir.path().join("claims").join(f)).unwrap();
+    assert!(
+        table("tiny_claims@v1.md").contains("Look 1:"),
+        "{}",
+        table("tiny_claims@v1.md")
+    );
+    assert!(
+        table("tiny_claims.md").contains("Look 2:"),
+        "{}",
+        table("tiny_claims.md")
+    );
 }
 
 /// A look recorded once stands: evaluated again on the same data (a resume after the campaign

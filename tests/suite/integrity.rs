@@ -464,6 +464,44 @@ fn launch_and_pause(d: &Path, file: &Path, db: &Path, extra: &[&str], job: i64) 
     assert_eq!(job_field(db, job, "status"), "paused");
 }
 
+/// An older version's open job that a newer version shares is resumed by a plain resume, so
+/// `sweep status` does not call it left; `--campaign NAME@vK` lists that version alone.
+#[test]
+fn status_marks_only_the_jobs_a_newer_version_leaves() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("sweep.db");
+    let register = |c: &Value, new_version: bool| {
+        let file = write_campaign(d, "kept.json", c);
+        let mut args = launch_args(&file, &db);
+        args.push("--register-only");
+        if new_version {
+            args.push("--new-version");
+        }
+        let o = sweep_cmd(d).args(args).output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    };
+    let v1 = campaign("kept", &[0.02], &[1.0], 0.05);
+    register(&v1, false);
+    // Version 2 adds an orifice and keeps version 1's one job.
+    register(&campaign("kept", &[0.02, 0.025], &[1.0], 0.05), true);
+    let status = |name: &str| {
+        let o = sweep_cmd(d)
+            .args(["status", "--db", db.to_str().unwrap(), "--campaign", name])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+        stdout(&o)
+    };
+    let out = status("kept");
+    assert!(!out.contains("replaced by version"), "{out}");
+    let v1_only = status("kept@v1");
+    assert!(
+        v1_only.contains("campaign kept (") && !v1_only.contains("kept version 2"),
+        "{v1_only}"
+    );
+}
+
 #[test]
 fn resume_leaves_an_older_campaign_version_paused_unless_named() {
     let dir = TempDir::new().unwrap();
@@ -494,7 +532,7 @@ fn resume_leaves_an_older_campaign_version_paused_unless_named() {
         .args(["status", "--db", db.to_str().unwrap()])
         .output()
         .unwrap();
-    let replaced = "replaced by version 2: a plain `sweep resume` continues only the latest version; `--campaign slow@v1` continues this one's open jobs";
+    let replaced = "replaced by version 2: 1 open job(s) that a plain `sweep resume` leaves (it continues the latest versions' jobs); `--campaign slow@v1` continues them";
     assert_eq!(
         stdout(&o).matches(replaced).count(),
         1,
