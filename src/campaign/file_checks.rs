@@ -210,5 +210,34 @@ fn name_problem(name: &str) -> Option<String> {
             "expected no '@' (it separates a version: NAME@v2) and no '/', got {name:?}"
         ));
     }
+    // It also names files: the work directory and `report --claims`' NAME.md.
+    if name.starts_with('.') {
+        return Some(format!(
+            "expected a name that does not start with '.' (it names a directory and files, which would be hidden), got {name:?}"
+        ));
+    }
+    if name.len() > MAX_NAME_BYTES {
+        return Some(format!(
+            "expected at most {MAX_NAME_BYTES} bytes (it names files, and file names are limited), got {}",
+            name.len()
+        ));
+    }
     None
+}
+
+/// Room for ".md" and a version suffix within a file system's 255-byte file names.
+const MAX_NAME_BYTES: usize = 200;
+
+#[cfg(test)]
+mod tests {
+    use super::name_problem;
+
+    #[test]
+    fn names_that_cannot_name_a_campaign_are_refused() {
+        assert_eq!(name_problem("chute_reproduction"), None);
+        assert_eq!(name_problem(&"x".repeat(200)), None);
+        for bad in ["", " ", "a\tb", "a@v2", "a/b", ".hidden", &"x".repeat(201)] {
+            assert!(name_problem(bad).is_some(), "{bad:?} accepted");
+        }
+    }
 }
