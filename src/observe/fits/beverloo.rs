@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::bootstrap::{fitted_draws, percentiles, JandaPoint};
 use super::line::linear_fit;
 use super::minimise::{golden_min, rms_residual};
 
@@ -88,6 +89,42 @@ pub fn beverloo_fit(
     Some(BeverlooFit {
         rms_residual_kg_per_s: rms,
         ..fit
+    })
+}
+
+/// 95 % intervals (2.5 and 97.5 percentiles over the bootstrap draws) of Beverloo's C and k.
+#[derive(Debug, Clone, Copy)]
+pub struct BeverlooIntervals {
+    pub c: (f64, f64),
+    pub k: (f64, f64),
+    /// Draws fitted (a draw the law cannot fit is left out).
+    pub draws: usize,
+}
+
+/// The 95 % intervals of [`beverloo_fit`] over `points` redrawn from their replicas or their
+/// CI (`bootstrap.rs`), seeded by `seed`. None with fewer than 3 points (two parameters and no
+/// degree of freedom left) or when fewer than half the draws can be fitted.
+pub fn beverloo_bootstrap(
+    points: &[JandaPoint],
+    particle_d_m: f64,
+    bulk_density: f64,
+    g: f64,
+    seed: u64,
+) -> Option<BeverlooIntervals> {
+    if points.len() < 3 {
+        return None;
+    }
+    let d: Vec<f64> = points.iter().map(|p| p.d_m).collect();
+    let fits = fitted_draws(points, seed, |q| {
+        beverloo_fit(&d, q, particle_d_m, bulk_density, g)
+    });
+    if fits.len() * 2 < super::bootstrap::BOOTSTRAP_DRAWS {
+        return None;
+    }
+    Some(BeverlooIntervals {
+        c: percentiles(fits.iter().map(|f| f.c).collect()),
+        k: percentiles(fits.iter().map(|f| f.k).collect()),
+        draws: fits.len(),
     })
 }
 

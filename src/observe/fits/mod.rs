@@ -6,6 +6,7 @@
 //! simulation state. Inputs are SI (metres, kg/s); the doc of each field gives its unit.
 
 mod beverloo;
+mod bootstrap;
 mod janda;
 mod janda_bootstrap;
 mod line;
@@ -15,11 +16,12 @@ mod stats;
 #[cfg(test)]
 mod tests;
 
-pub use beverloo::{beverloo_c_at_k, beverloo_fit, BeverlooFit};
-pub use janda::{janda_fit, JandaFit};
-pub use janda_bootstrap::{
-    janda_bootstrap, JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
+pub use beverloo::{
+    beverloo_bootstrap, beverloo_c_at_k, beverloo_fit, BeverlooFit, BeverlooIntervals,
 };
+pub use bootstrap::{JandaPoint, BOOTSTRAP_DRAWS};
+pub use janda::{janda_fit, JandaFit};
+pub use janda_bootstrap::{janda_bootstrap, JandaIntervals, JANDA_PARAMETERS};
 pub use line::{linear_fit, LinearFit};
 pub use pooled::{pool, t_975, Pooled, PooledFrom, ReplicaEstimate};
 pub use stats::{mean_ci95, student_t_975};

@@ -262,3 +262,44 @@ fn beverloo_fit_recovers_c_and_k() {
     let f = beverloo_fit(&d, &noisy, pd, rho, g).expect("fit");
     assert!((f.k - k).abs() < 0.1 && rel(f.c, c) < 0.02, "{f:?}");
 }
+
+#[test]
+fn beverloo_intervals_hold_the_law_and_widen_with_the_replicas_spread() {
+    let (c, k, pd, rho, g): (f64, f64, f64, f64, f64) = (0.58, 1.5, 0.0058, 1600.0, 9.81);
+    let law = |d: f64| c * rho * g.sqrt() * (d - k * pd).powf(2.5);
+    let points = |spread: f64| -> Vec<JandaPoint> {
+        orifices()
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                // Replicas on either side of the law, by turns, so no draw is the law itself.
+                let s = if i % 2 == 0 { spread } else { -spread };
+                JandaPoint {
+                    d_m: d,
+                    q: law(d),
+                    replica_q: vec![law(d) * (1.0 + s), law(d) * (1.0 - s)],
+                    ci95: None,
+                }
+            })
+            .collect()
+    };
+    let tight = beverloo_bootstrap(&points(0.005), pd, rho, g, 3).expect("intervals");
+    let loose = beverloo_bootstrap(&points(0.05), pd, rho, g, 3).expect("intervals");
+    for iv in [tight, loose] {
+        assert!(
+            iv.c.0 <= c && c <= iv.c.1 && iv.k.0 <= k && k <= iv.k.1,
+            "{iv:?}"
+        );
+    }
+    assert!(
+        loose.k.1 - loose.k.0 > 3.0 * (tight.k.1 - tight.k.0),
+        "{loose:?} {tight:?}"
+    );
+    let again = beverloo_bootstrap(&points(0.05), pd, rho, g, 3).expect("intervals");
+    assert_eq!(
+        (again.c, again.k),
+        (loose.c, loose.k),
+        "same seed, same draws"
+    );
+    assert!(beverloo_bootstrap(&points(0.05)[..2], pd, rho, g, 3).is_none());
+}

@@ -5,8 +5,8 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::observe::fits::{
-    beverloo_c_at_k, beverloo_fit, janda_bootstrap, janda_fit, BeverlooFit, JandaFit,
-    JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
+    beverloo_bootstrap, beverloo_c_at_k, beverloo_fit, janda_bootstrap, janda_fit, BeverlooFit,
+    JandaFit, JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
 use crate::pooled::silo::{
     clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2,
@@ -439,6 +439,26 @@ fn mark_clogged(
     }
 }
 
+/// ", 95 % bootstrap: C in [..], k in [..]" for the Beverloo fit over `still`, or why not.
+fn beverloo_intervals(still: &[&FlowPoint], pd: f64, rho: f64, g: f64) -> String {
+    let points: Vec<JandaPoint> = still
+        .iter()
+        .map(|p| JandaPoint {
+            d_m: p.d_m,
+            q: p.q,
+            replica_q: p.replica_q.clone(),
+            ci95: p.ci,
+        })
+        .collect();
+    match beverloo_bootstrap(&points, pd, rho, g, BOOTSTRAP_SEED) {
+        Some(iv) => format!(
+            "; 95 % bootstrap {}/{BOOTSTRAP_DRAWS}: C in [{:.4}, {:.4}], k in [{:.3}, {:.3}]",
+            iv.draws, iv.c.0, iv.c.1, iv.k.0, iv.k.1
+        ),
+        None => "; no bootstrap interval (too few points or fits)".into(),
+    }
+}
+
 fn ci_source_name(source: CiSource) -> &'static str {
     source.name()
 }
@@ -473,9 +493,16 @@ fn beverloo_line(rows: &[DischargeRow], points: &[FlowPoint]) -> String {
     } else {
         match beverloo_fit(&d, &q, pd, rho, g) {
             Some(b) => format!(
-                "Beverloo fit at f = 0 Hz, Q = C rho_b sqrt(g) (D - k d)^(5/2): C = {:.4}, k = {:.3} \
+                "Beverloo fit at f = 0 Hz, Q = C rho_b sqrt(g) (D - k d)^(5/2): C = {:.4}, k = {:.3}{} \
                  (n = {}, d = {} mm, rho_b = {:.0} kg/m^3, g = {:.3} m/s^2 {g_note}, rms = {:.2e} kg/s)\n",
-                b.c, b.k, b.n, mm(pd), rho, g, b.rms_residual_kg_per_s
+                b.c,
+                b.k,
+                beverloo_intervals(&still, pd, rho, g),
+                b.n,
+                mm(pd),
+                rho,
+                g,
+                b.rms_residual_kg_per_s
             ),
             None => "Beverloo fit at f = 0 Hz: no fit (Q does not grow with D)\n".into(),
         }

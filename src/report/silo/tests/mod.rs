@@ -274,6 +274,11 @@ fn fig3_table_gives_back_the_generating_law() {
     }
     assert!(report.table.contains("Beverloo fit at f = 0 Hz") && report.table.contains("k = "));
     assert!(
+        report.table.contains("; 95 % bootstrap ") && report.table.contains("], k in ["),
+        "the Beverloo fit carries its intervals:\n{}",
+        report.table
+    );
+    assert!(
         report.table.contains("9.810 m/s^2 from params_json"),
         "{}",
         report.table
