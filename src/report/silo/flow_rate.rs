@@ -79,15 +79,7 @@ pub(crate) fn janda_rows(points: &[FlowPoint]) -> Vec<JandaRow> {
                 .collect();
             let enough = pts.len() > JANDA_PARAMETERS;
             let fit = enough.then(|| janda_fit(&d, &q, w.as_deref())).flatten();
-            let boot: Vec<JandaPoint> = pts
-                .iter()
-                .map(|p| JandaPoint {
-                    d_m: p.d_m,
-                    q: p.q,
-                    replica_q: p.replica_q.clone(),
-                    ci95: p.ci,
-                })
-                .collect();
+            let boot: Vec<JandaPoint> = pts.iter().map(fit_point).collect();
             let intervals = fit
                 .as_ref()
                 .and_then(|_| janda_bootstrap(&boot, f_hz.to_bits() ^ BOOTSTRAP_SEED));
@@ -439,17 +431,19 @@ fn mark_clogged(
     }
 }
 
+/// A flow point as the fits' bootstrap redraws it: its Q, its replicas' Q and its CI.
+fn fit_point(p: &FlowPoint) -> JandaPoint {
+    JandaPoint {
+        d_m: p.d_m,
+        q: p.q,
+        replica_q: p.replica_q.clone(),
+        ci95: p.ci,
+    }
+}
+
 /// ", 95 % bootstrap: C in [..], k in [..]" for the Beverloo fit over `still`, or why not.
 fn beverloo_intervals(still: &[&FlowPoint], pd: f64, rho: f64, g: f64) -> String {
-    let points: Vec<JandaPoint> = still
-        .iter()
-        .map(|p| JandaPoint {
-            d_m: p.d_m,
-            q: p.q,
-            replica_q: p.replica_q.clone(),
-            ci95: p.ci,
-        })
-        .collect();
+    let points: Vec<JandaPoint> = still.iter().map(|p| fit_point(p)).collect();
     match beverloo_bootstrap(&points, pd, rho, g, BOOTSTRAP_SEED) {
         Some(iv) => format!(
             "; 95 % bootstrap {}/{BOOTSTRAP_DRAWS}: C in [{:.4}, {:.4}], k in [{:.3}, {:.3}]",
