@@ -14,6 +14,7 @@ mod info;
 mod interrupt;
 mod launch;
 mod plan;
+mod plan_claims;
 mod report;
 mod run_args;
 mod run_job;

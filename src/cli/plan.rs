@@ -176,7 +176,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         let bench_rate = rates.found.values().flatten().next().copied();
         target_forecast(project.as_ref(), &file.name, t, bench_rate)?;
     } else if !file.claims.is_empty() {
-        claims_forecast(
+        super::plan_claims::claims_forecast(
             project.as_ref(),
             &file.name,
             &sweep::campaign::Target::claims_looked_at_once(),
@@ -421,7 +421,7 @@ fn target_forecast(
 ) -> anyhow::Result<()> {
     use sweep::campaign::adaptive::forecast;
     if t.decides_claims() {
-        return claims_forecast(project, name, t);
+        return super::plan_claims::claims_forecast(project, name, t);
     }
     println!(
         "target: {} <= ±{:.1} % at every point (max_replicas {}, max_time_s {}, max_rounds {})",
@@ -492,180 +492,13 @@ fn target_forecast(
     Ok(())
 }
 
-/// A claims target's plan: the claims' verdicts on what has run (not stored), each undecided
-/// one with the particle-steps and wall time still forecast to decide it.
-fn claims_forecast(
-    project: Option<&Project>,
-    name: &str,
-    t: &sweep::campaign::Target,
-) -> anyhow::Result<()> {
-    if !t.decides_claims() {
-        println!(
-            "claims: looked at once, at 95 %, when the campaign's jobs have ended (no target adds work for them)"
-        );
-    } else {
-        println!(
-        "target: decide every claim (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {})",
-        t.max_rounds,
-        t.max_replicas,
-        t.max_time_s.map_or_else(|| "none".into(), |m| format!("{m} s")),
-        t.max_core_hours.map_or_else(|| "none".into(), |h| format!("{h}")),
-        t.allocation.name()
-    );
-    }
-    let campaign = match project {
-        Some(p) => p.campaign_named(name, None)?,
-        None => None,
-    };
-    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
-        println!(
-            "  the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs"
-        );
-        return Ok(());
-    };
-    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
-    if ev.open > 0 {
-        println!(
-            "  ({} job(s) of the campaign not ended: the verdicts use the ended ones)",
-            ev.open
-        );
-    }
-    let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev, false)?;
-    let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
-    super::claims::print_preview(&rows);
-    let undecided: Vec<_> = rows
-        .iter()
-        .filter(|r| r.verdict == "undecided")
-        .map(|r| {
-            (
-                r.points.as_str(),
-                r.forecast_particle_steps,
-                r.forecast_wall_s,
-            )
-        })
-        .collect();
-    if !undecided.is_empty() {
-        println!(
-            "  still to run for the undecided claims: {}",
-            still_to_run(&undecided)
-        );
-    }
-    Ok(())
-}
-
-/// One undecided claim's forecast: the points it reads ("; "-separated labels), the
-/// particle-steps and the wall seconds it still needs.
-type Forecast<'a> = (&'a str, Option<f64>, Option<f64>);
-
-/// The work the undecided claims still need. Claims that read a common point share its
-/// replicas, so within each group of claims linked by shared points the costliest alone is the
-/// least the store will run for them and their sum the most; groups add up.
-fn still_to_run(forecasts: &[Forecast]) -> String {
-    let steps: Option<Vec<f64>> = forecasts.iter().map(|f| f.1).collect();
-    let Some(steps) = steps else {
-        return "unknown for some (no forecast)".into();
-    };
-    let walls: Option<Vec<f64>> = forecasts.iter().map(|f| f.2).collect();
-    let groups = point_groups(forecasts);
-    let range = |v: &[f64], f: &dyn Fn(f64) -> String| {
-        let least: f64 = groups
-            .iter()
-            .map(|g| g.iter().map(|&i| v[i]).fold(0.0, f64::max))
-            .sum();
-        let most: f64 = v.iter().sum();
-        if most > least * (1.0 + 1e-9) {
-            (format!("{} to {}", f(least), f(most)), true)
-        } else {
-            (f(most), false)
-        }
-    };
-    let (steps_text, ranged) = range(&steps, &|x| format!("{x:.3e}"));
-    let mut text = format!("{steps_text} particle-steps");
-    if let Some(w) = walls.filter(|w| w.iter().sum::<f64>() > 0.0) {
-        let (wall_text, _) = range(&w, &|x| format!("{:.1}", x / 60.0));
-        text.push_str(&format!(", about {wall_text} min of job wall time"));
-    }
-    if ranged {
-        text.push_str(" (claims at common points share replicas: the least counts each group's costliest claim alone, the most every claim)");
-    }
-    text
-}
-
-/// The claims grouped by shared points (indices into `forecasts`), each claim in one group.
-fn point_groups(forecasts: &[Forecast]) -> Vec<Vec<usize>> {
-    let points = |i: usize| -> std::collections::HashSet<&str> {
-        forecasts[i]
-            .0
-            .split("; ")
-            .filter(|p| !p.is_empty())
-            .collect()
-    };
-    let mut groups: Vec<(Vec<usize>, std::collections::HashSet<&str>)> = Vec::new();
-    for i in 0..forecasts.len() {
-        let mut members = vec![i];
-        let mut set = points(i);
-        // Merge every group this claim touches into one.
-        let mut k = 0;
-        while k < groups.len() {
-            if groups[k].1.iter().any(|p| set.contains(p)) {
-                let (m, s) = groups.swap_remove(k);
-                members.extend(m);
-                set.extend(s);
-            } else {
-                k += 1;
-            }
-        }
-        groups.push((members, set));
-    }
-    groups.into_iter().map(|g| g.0).collect()
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{id_ranges, still_to_run};
+    use super::id_ranges;
 
     #[test]
     fn ids_read_as_ranges() {
         assert_eq!(id_ranges(&[16, 14, 15, 20, 22, 21, 3]), "3, 14-16, 20-22");
         assert_eq!(id_ranges(&[7]), "7");
-    }
-
-    #[test]
-    fn claims_sharing_work_are_given_as_a_range() {
-        let one = still_to_run(&[("a", Some(2e9), Some(600.0))]);
-        assert_eq!(
-            one,
-            "2.000e9 particle-steps, about 10.0 min of job wall time"
-        );
-        // Two claims at the same point: the costliest alone to both.
-        let shared = still_to_run(&[
-            ("a; b", Some(2e9), Some(600.0)),
-            ("b", Some(1e9), Some(300.0)),
-        ]);
-        assert!(
-            shared.starts_with("2.000e9 to 3.000e9 particle-steps, about 10.0 to 15.0 min"),
-            "{shared}"
-        );
-        // At different points their work adds up: no range.
-        let apart = still_to_run(&[("a", Some(2e9), Some(600.0)), ("c", Some(1e9), Some(300.0))]);
-        assert_eq!(
-            apart,
-            "3.000e9 particle-steps, about 15.0 min of job wall time"
-        );
-        // A claim linking two others puts all three in one group.
-        let linked = [
-            ("a", Some(1e9), None),
-            ("c", Some(1e9), None),
-            ("a; c", Some(3e9), None),
-        ];
-        assert!(
-            still_to_run(&linked).starts_with("3.000e9 to 5.000e9"),
-            "{}",
-            still_to_run(&linked)
-        );
-        assert_eq!(
-            still_to_run(&[("a", Some(2e9), None), ("b", None, None)]),
-            "unknown for some (no forecast)"
-        );
     }
 }
