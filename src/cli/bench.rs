@@ -79,7 +79,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         println!(
             "{}",
             serde_json::json!({
-                "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
+                "scene": scene_name, "settle_steps": settled, "particles": mobile, "steps": steps, "chunk_steps": a.steps, "dt_s": dt, "backend": info.kind, "adapter": info.adapter,
                 "precision": info.precision, "threads": info.threads, "particle_steps_per_s": rate,
                 "contacts_per_particle": r.contacts_per_particle, "list_builds": r.list_builds, "seconds": secs, "state_checksum": sum, "machine": machine,
                 "translational_ke_j": ke, "vcm_x_m_per_s": vcm_x,

@@ -56,7 +56,7 @@ pub fn run(a: &Arguments, sc: &BenchScene, scene_name: &str, jobs: usize) -> any
         println!(
             "{}",
             serde_json::json!({
-                "scene": scene_name, "particles": mobile, "jobs": jobs, "steps": steps,
+                "scene": scene_name, "particles": mobile, "jobs": jobs, "steps": steps, "chunk_steps": a.steps,
                 "dt_s": sc.config.dt_s, "backend": "gpu", "adapter": info.adapter, "precision": "f32",
                 "particle_steps_per_s": rate, "per_job_particle_steps_per_s": rate / jobs as f64,
                 "seconds": secs, "dispatches": dispatch_json(&d),

@@ -79,7 +79,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         None => format!("`sweep bench --scene {bench_scene}`"),
     };
     println!(
-        "campaign {}: {} job(s), {} thread(s) per CPU job; throughput from {source} results in {}",
+        "campaign {}: {} job(s), {} thread(s) per CPU job; throughput from {source} results in {} (the bench nearest each job's N)",
         file.name,
         jobs.len(),
         threads,
@@ -279,8 +279,8 @@ struct Rates<'a> {
     settled: String,
     default_backend: String,
     threads: usize,
-    /// By (backend, precision): the rate found, or None.
-    found: std::collections::BTreeMap<(String, String), Option<f64>>,
+    /// By (backend, precision, N): the rate found, or None.
+    found: std::collections::BTreeMap<(String, String, i64), Option<f64>>,
     /// By (backend, precision): rates taken from the store's own done jobs (no bench fits),
     /// with how many jobs.
     measured: std::collections::BTreeMap<(String, String), usize>,
@@ -295,7 +295,11 @@ impl Rates<'_> {
         let precision = j.precision.name().to_string();
         let (project, scene, settled, threads) =
             (self.project, self.scene, &self.settled, self.threads);
-        let key = (backend.clone(), precision.clone());
+        let particles = match j.scene {
+            SceneKind::Chute => j.chute().count() as i64,
+            SceneKind::Silo => j.silo().particle_count as i64,
+        };
+        let key = (backend.clone(), precision.clone(), particles);
         if let Some(r) = self.found.get(&key) {
             return *r;
         }
@@ -306,6 +310,7 @@ impl Rates<'_> {
                 backend: &backend,
                 precision: &precision,
                 threads: threads as i64,
+                particles,
             })
         });
         // Without a bench, the store's own finished jobs of the scene say what it runs at.
@@ -320,7 +325,7 @@ impl Rates<'_> {
         });
         let rate = bench.or_else(|| {
             let (r, n) = measured.flatten()?;
-            self.measured.insert(key.clone(), n);
+            self.measured.insert((key.0.clone(), key.1.clone()), n);
             Some(r)
         });
         self.found.insert(key, rate);
@@ -330,7 +335,12 @@ impl Rates<'_> {
     /// The bench to run for each engine and precision that had no rate.
     fn print_missing(&self) {
         let (bench_scene, threads) = (self.scene, self.threads);
-        for ((backend, precision), r) in &self.found {
+        // A bench of any N serves every N: one line per engine and precision.
+        let mut said = BTreeSet::new();
+        for ((backend, precision, _), r) in &self.found {
+            if !said.insert((backend, precision)) {
+                continue;
+            }
             if let (Some(r), Some(n)) =
                 (r, self.measured.get(&(backend.clone(), precision.clone())))
             {

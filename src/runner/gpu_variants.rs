@@ -1,9 +1,11 @@
-//! Variants of the GPU engine chosen at run time, none of which changes a result: how many
-//! steps go into one command buffer (`SWEEP_GPU_STEPS_PER_SUBMIT`) and whether list builds sort
-//! the particles by cell (`SWEEP_GPU_SORT_BY_CELL`, 1 or 0), and whether a step is one dispatch
-//! (`SWEEP_GPU_FUSED_STEP`, 1 or 0: the forces fused with the next kick and drift, over two
-//! copies of the state). The GPU machine's check times them
-//! side by side in one run (`scripts/gpu-device-check.sh`); `sweep bench` records them.
+//! Variants of the GPU engine chosen at run time: how many steps go into one command buffer
+//! (`SWEEP_GPU_STEPS_PER_SUBMIT`), whether list builds sort the particles by cell
+//! (`SWEEP_GPU_SORT_BY_CELL`, 1 or 0), and whether a step is one dispatch (`SWEEP_GPU_FUSED_STEP`,
+//! 1 or 0: the forces fused with the next kick and drift, over two copies of the state). None
+//! changes a result, with one caveat for the one-dispatch step: a driver that fuses a·b + c in
+//! one kernel and not in another can make its bits depend on where chunks end (docs/design.md
+//! § Fused multiply-adds). The GPU machine's check times them side by side in one run
+//! (`scripts/gpu-device-check.sh`); `sweep bench` records them.
 
 use crate::engine::gpu::GpuOptions;
 

@@ -58,16 +58,28 @@ pub struct RateQuery<'a> {
     pub precision: &'a str,
     /// CPU threads (a GPU's rate does not depend on them).
     pub threads: i64,
+    /// The job's particles: a rate depends on N (a GPU's strongly, launch-bound when small).
+    pub particles: i64,
 }
 
-/// The particle-steps per second of the newest matching benchmark, the settled scene's first;
-/// `None` when there is none (or the query fails: an estimate is then just missing).
+/// The particle-steps per second of the matching benchmark nearest the job's N (by ratio), the
+/// settled scene's first, the newest of equals; `None` when there is none (or the query fails:
+/// an estimate is then just missing).
 pub fn newest_rate(conn: &Connection, q: &RateQuery) -> Option<f64> {
     conn.query_row(
         "SELECT particle_steps_per_s FROM bench_runs WHERE scene IN (?1, ?5) AND backend = ?2
          AND precision = ?3 AND (backend = 'gpu' OR threads = ?4)
-         ORDER BY scene = ?5 DESC, id DESC LIMIT 1",
-        params![q.scene, q.backend, q.precision, q.threads, q.settled_scene],
+         ORDER BY scene = ?5 DESC,
+                  MAX(MAX(particles, 1) * 1.0 / ?6, ?6 * 1.0 / MAX(particles, 1)), id DESC
+         LIMIT 1",
+        params![
+            q.scene,
+            q.backend,
+            q.precision,
+            q.threads,
+            q.settled_scene,
+            q.particles.max(1)
+        ],
         |r| r.get(0),
     )
     .ok()
@@ -115,8 +127,55 @@ pub fn measured_rate(conn: &Connection, q: &JobRateQuery) -> Option<(f64, usize)
 
 #[cfg(test)]
 mod tests {
-    use super::{measured_rate, JobRateQuery};
+    use super::{measured_rate, newest_rate, record, BenchRun, JobRateQuery, RateQuery};
     use crate::store::test_rows;
+
+    /// A GPU's rate depends on N (launch-bound when small): a plan takes the bench nearest the
+    /// job's N by ratio, the newest of equals, and any threads for a GPU.
+    #[test]
+    fn a_plan_takes_the_bench_nearest_the_jobs_n() {
+        let conn = test_rows::empty_db();
+        // (particles, rate, threads), oldest first.
+        let runs = [
+            (30_000, 5.0e8, 1),
+            (1_000_000, 2.0e9, 1),
+            (30_000, 6.0e8, 16),
+            (3_000, 1.0e8, 1),
+        ];
+        for (n, rate, threads) in runs {
+            let run = BenchRun {
+                scene: "silo-bed",
+                backend: "gpu",
+                precision: "f32",
+                threads,
+                particles: n,
+                steps: 500,
+                dt_s: 1e-5,
+                particle_steps_per_s: rate,
+                contacts_per_particle: 5.0,
+                state_checksum: "x",
+                machine: "test",
+            };
+            record(&conn, &run).unwrap();
+        }
+        let at = |particles| {
+            newest_rate(
+                &conn,
+                &RateQuery {
+                    scene: "silo-bed",
+                    settled_scene: "silo-bed/settled",
+                    backend: "gpu",
+                    precision: "f32",
+                    threads: 2,
+                    particles,
+                },
+            )
+        };
+        assert_eq!(at(30_144), Some(6.0e8));
+        assert_eq!(at(2_000), Some(1.0e8));
+        assert_eq!(at(600_000), Some(2.0e9));
+        assert_eq!(at(0), Some(1.0e8));
+    }
 
     /// The median over the store's done jobs of the scene, engine, precision and threads; a
     /// short job (setup-bound), a failed one, another precision or the spheres' engine does

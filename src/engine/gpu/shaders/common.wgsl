@@ -228,8 +228,10 @@ fn f64_rest(hi: vec3<f32>, lo: vec3<f32>) -> vec3<f32> {
 // `f64_rest`. A step's two half kicks are two of these, and so are a chunk's closing half kick
 // and the next chunk's opening one: where a chunk ends changes no bit. In plain f32 the slow
 // part of a speed (g dt/2 is ~40 ulps of 2 m/s at dt = 10⁻⁶ s) was rounded away at every step.
+// `d` is a product at every call (… · dt/2): `opaque` rounds it before the rest is added, so no
+// kernel can fuse d + lo into an FMA and two kernels' kicks cannot part by a rounding.
 fn kick_split(hi: vec3<f32>, lo: vec3<f32>, d: vec3<f32>) -> TwoSum {
-    var r = two_sum(hi, d + lo);
+    var r = two_sum(hi, opaque(d) + lo);
     r.e = f64_rest(r.s, r.e);
     return r;
 }

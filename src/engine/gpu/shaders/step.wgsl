@@ -36,8 +36,10 @@ fn translate(i: u32, k: u32) {
         vs = kick_split(vs.s, vs.e, dv);
     }
     let v = vs.s;
-    // The split drift (position::drift), then the wrap's shift added the same way.
-    let moved = two_sum(pos_r[i].xyz, v * params.dt + pos_r[lo_at(i)].xyz);
+    // The split drift (position::drift), then the wrap's shift added the same way. The product
+    // is rounded on its own (`opaque`): the fused step drifts in another kernel than a chunk's
+    // first step, and an FMA in one of them only would part the two.
+    let moved = two_sum(pos_r[i].xyz, opaque(v * params.dt) + pos_r[lo_at(i)].xyz);
     var x = moved.s;
     var lo = moved.e;
     let shift = wrap_shift(x);
