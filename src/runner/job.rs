@@ -117,6 +117,11 @@ pub trait Study {
     fn dt(&self) -> f64;
     /// Where a resumed job stands, for the log ("t = 1.2 s after opening").
     fn describe_resume(&self, s: &State<f64>, p: &Self::Progress) -> String;
+    /// Why a checkpoint's progress cannot be continued (written by an older rule whose results
+    /// would be wrong), if it cannot: it is then refused like a corrupt one.
+    fn refuse_checkpoint(&self, _p: &Self::Progress) -> Option<String> {
+        None
+    }
     /// What the job is doing at this point ('discharge', 'flow', 'measure').
     fn stage(&self, p: &Self::Progress) -> &'static str;
     /// Whether the job has reached its end at simulated time `t`.
@@ -316,6 +321,9 @@ fn resume_or_start<S: Study>(
         let Ok(p) = serde_json::from_str::<S::Progress>(extra) else {
             return Ok(());
         };
+        if let Some(why) = study.refuse_checkpoint(&p) {
+            return Err(why);
+        }
         let (t, end) = (S::ledger(&p).job_time_s, study.end_time(&p));
         if t > end + 1e-9 {
             Err(format!(

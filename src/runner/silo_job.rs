@@ -38,6 +38,10 @@ struct Progress {
     /// Wall time spent sampling fields (s), for the observer's cost.
     #[serde(default)]
     fields_wall_s: f64,
+    /// Re-insertion's floor (m), fixed at the opening (scene/silo_refill.rs). Absent from
+    /// checkpoints written before it was fixed: those are refused (`refuse_checkpoint`).
+    #[serde(default)]
+    refill_floor_m: Option<f64>,
 }
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
@@ -331,6 +335,7 @@ impl Study for SiloStudy {
             initial_count: s.len(),
             fields: self.field_observer(),
             fields_wall_s: 0.0,
+            refill_floor_m: self.scene.p.reinsert.then(|| self.scene.refill_floor(&s)),
         };
         Ok(Start::Ready(Box::new(s), prog))
     }
@@ -349,6 +354,14 @@ impl Study for SiloStudy {
 
     fn describe_resume(&self, s: &State<f64>, p: &Progress) -> String {
         format!("t = {:.3} s after opening", s.time - p.t_open)
+    }
+
+    fn refuse_checkpoint(&self, p: &Progress) -> Option<String> {
+        (self.scene.p.reinsert && p.refill_floor_m.is_none()).then(|| {
+            "it was written before re-insertion kept a fixed floor (particles could be lost \
+             at a large orifice: scene/silo_refill.rs); the job starts over"
+                .to_string()
+        })
     }
 
     fn stage(&self, _: &Progress) -> &'static str {
@@ -387,8 +400,15 @@ impl Study for SiloStudy {
                 Err(e) => return Ok(Err(kept(&e))),
             };
             let step = s.step;
-            self.scene
-                .reinsert(&mut s, &report.removed, self.spec.seed() ^ step);
+            let Some(floor) = p.refill_floor_m else {
+                return Ok(Err(kept(&"re-insertion has no floor")));
+            };
+            if let Err(e) =
+                self.scene
+                    .reinsert(&mut s, &report.removed, floor, self.spec.seed() ^ step)
+            {
+                return Ok(Err(kept(&e)));
+            }
             engine.upload(&s);
         }
         p.discharge.sample(t_now);

@@ -11,10 +11,12 @@ pub mod fill_rods;
 pub mod placement_checks;
 pub mod silo;
 mod silo_checks;
+pub mod silo_refill;
 
 pub use chute::ChuteParams;
 pub use chute_scene::ChuteScene;
 pub use silo::{SiloParams, SiloScene};
+pub use silo_refill::RefillError;
 
 /// Whether a scene's `origin_m` is the default (then it is left out of the job's parameters,
 /// so that jobs from before the parameter keep their hashes).

@@ -378,42 +378,4 @@ impl SiloScene {
         }
         m / (std::f64::consts::PI * r_core * r_core * (z1 - z0))
     }
-
-    /// Puts removed particles back at random spots above the bed, without overlap, each with
-    /// its own id and mass (re-insertion keeps a steady discharge going longer than the packing
-    /// would allow). Deterministic for a seed.
-    pub fn reinsert(&self, s: &mut State<f64>, removed: &[crate::engine::SinkEvent], seed: u64) {
-        use rand::{Rng, SeedableRng};
-        let p = &self.p;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let top = self.bed_height(s) + p.particle_diameter_m;
-        let r_max = p.particle_diameter_m * 0.5 * (1.0 + p.diameter_polydispersity);
-        for (k, ev) in removed.iter().enumerate() {
-            let r = r_max; // conservative spacing; the re-inserted particle keeps its own mass below
-            let radius = (ev.mass_kg
-                / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI))
-                .cbrt();
-            for attempt in 0..1000 {
-                let rr = (p.cylinder_radius_m - r * 1.05) * rng.random::<f64>().sqrt();
-                let th = rng.random::<f64>() * std::f64::consts::TAU;
-                let z = top + r + (k + attempt / 50) as f64 * 2.2 * r;
-                let x = [rr * th.cos(), rr * th.sin(), z];
-                let free = s.pos.iter().zip(&s.radius).all(|(q, &rq)| {
-                    let d2 = (q.x - x[0]).powi(2) + (q.y - x[1]).powi(2) + (q.z - x[2]).powi(2);
-                    d2 > (rq + radius) * (rq + radius) * 1.0001
-                });
-                if free && z < p.cylinder_height_m {
-                    s.push_sphere(
-                        ev.id,
-                        x,
-                        [0.0, 0.0, 0.0],
-                        radius,
-                        p.particle_density_kg_per_m3,
-                        false,
-                    );
-                    break;
-                }
-            }
-        }
-    }
 }

@@ -33,6 +33,7 @@ pub fn discharge(
     let chunk_dt = chunk_steps as f64 * scene.dt;
     let chunks = (scene.p.discharge_time_s / chunk_dt).round() as u64;
     let mut d = Discharge::new(settings.clone());
+    let floor = scene.refill_floor(&b.download());
     for k in 1..=chunks {
         let report = b.advance(chunk_steps).unwrap();
         for ev in &report.removed {
@@ -41,7 +42,9 @@ pub fn discharge(
         if scene.p.reinsert && !report.removed.is_empty() {
             let mut s = b.download();
             let step = s.step;
-            scene.reinsert(&mut s, &report.removed, seed ^ step);
+            scene
+                .reinsert(&mut s, &report.removed, floor, seed ^ step)
+                .unwrap();
             b.upload(&s);
         }
         d.sample(k as f64 * chunk_dt);
