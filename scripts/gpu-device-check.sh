@@ -4,10 +4,10 @@
 #   scripts/gpu-device-check.sh prepare         here: the Vulkan loader packages and the binaries
 #                                               that travel, all in .gl/ (ignored by git)
 #   scripts/gpu-device-check.sh run [--software] there, in one `run` call of the device tool:
-#       carry [".gl"], timeout_s 360. Its 19 steps' limits add up to 238 s; each is killed 2 s
-#       after its limit at worst (the paper job 10 s): 284 s, and the loader's setup and
-#       `nvidia-smi -L` before them are bounded by 15 s: under 300 s, so a second call still
-#       fits in the session's 15 minutes. (--software doubles every limit: lavapipe is a CPU.)
+#       carry [".gl"], timeout_s 360. Its 20 steps' limits add up to 235 s; each is killed 2 s
+#       after its limit at worst (the paper job 10 s): 283 s, and the loader's setup and
+#       `nvidia-smi -L` before them are bounded by 15 s: 298 s, so a second call still fits in
+#       the session's 15 minutes. (--software doubles every limit: lavapipe is a CPU.)
 #
 # `run --software` goes end to end on lavapipe here (and in CI) with smaller sizes, so the GPU
 # machine never meets this script for the first time. Everything lands in $OUT:
@@ -214,9 +214,9 @@ run() {
     # expected end; it has 10 s for that (a chunk of a paper-size job is about a second there).
     STEP_FG=1 STEP_KILL=$PAPER_KILL STEP_OK=$PAPER_OK step paper-job "$PAPER_S" "$B" launch campaigns/silo_paper_one_gpu.json --db "$P/paper.db" \
         --backend gpu "${SOFT[@]}" > "$OUT/paper.txt" 2>&1
-    step paper-status 3 "$B" status --db "$P/paper.db" >> "$OUT/paper.txt" 2>&1
+    step paper-status 2 "$B" status --db "$P/paper.db" >> "$OUT/paper.txt" 2>&1
     for c in silo_QvsF chute_DvsShear; do
-        step "plan $c" 5 "$B" plan "campaigns/$c.json" --db "$P/bench.db" --backend gpu \
+        step "plan $c" 4 "$B" plan "campaigns/$c.json" --db "$P/bench.db" --backend gpu \
             >> "$OUT/paper.txt" 2>&1
     done
     kill %1 2>/dev/null

@@ -337,6 +337,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// A job's checkpoints in its directory: `ckpt-<step>.bin`, newest last.
 pub fn list(dir: &Path) -> Vec<PathBuf> {
+    list_steps(dir).into_iter().map(|x| x.1).collect()
+}
+
+/// A job's checkpoints with their steps, newest last.
+fn list_steps(dir: &Path) -> Vec<(u64, PathBuf)> {
     let mut v: Vec<(u64, PathBuf)> = fs::read_dir(dir)
         .into_iter()
         .flatten()
@@ -352,10 +357,10 @@ pub fn list(dir: &Path) -> Vec<PathBuf> {
         })
         .collect();
     v.sort();
-    v.into_iter().map(|x| x.1).collect()
+    v
 }
 
-/// Saves a checkpoint in `dir` and deletes all but the newest two.
+/// Saves a checkpoint in `dir` and deletes all but the newest two, and any past it.
 ///
 /// # Errors
 /// I/O failures.
@@ -363,6 +368,12 @@ pub fn save(dir: &Path, h: &Header, s: &State<f64>, extra: &str) -> std::io::Res
     let path = dir.join(format!("ckpt-{:012}.bin", h.step));
     write_atomic(&path, &encode(h, s, extra))?;
     remove_leftovers(dir);
+    // A checkpoint past this one belongs to a trajectory the run left: it was refused when the
+    // run resumed (corrupt, past the job's end, written by an older rule). Kept, it would count
+    // among the newest two and this run's own checkpoints would be deleted as they are written.
+    for (_, later) in list_steps(dir).iter().filter(|(step, _)| *step > h.step) {
+        let _ = fs::remove_file(later);
+    }
     let all = list(dir);
     if all.len() > 2 {
         for old in &all[..all.len() - 2] {
@@ -420,4 +431,38 @@ pub fn load_latest_where(
         }
     }
     (None, refused)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(step: u64) -> Header {
+        Header {
+            job_hash: "a".repeat(64),
+            step,
+            time_s: step as f64 * 1e-3,
+            backend: "cpu".into(),
+            precision: "f64".into(),
+        }
+    }
+
+    /// A run that started over below refused checkpoints keeps its own: the later ones go at
+    /// its first save, and from then on the newest two are its own.
+    #[test]
+    fn a_run_started_over_keeps_its_own_checkpoints() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = State::<f64>::new(false, 0);
+        for step in [5000, 6000] {
+            save(dir.path(), &header(step), &s, "{}").unwrap();
+        }
+        for step in [100, 200, 300] {
+            save(dir.path(), &header(step), &s, "{}").unwrap();
+        }
+        let names: Vec<String> = list(dir.path())
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["ckpt-000000000200.bin", "ckpt-000000000300.bin"]);
+    }
 }

@@ -371,7 +371,7 @@ impl Study for SiloStudy {
     fn done(&self, p: &Progress, t_rel: f64) -> bool {
         let sp = &self.scene.p;
         // Without re-insertion the particles left are the initial ones minus those counted out.
-        let remaining = p.initial_count - p.discharge.count as usize;
+        let remaining = p.initial_count.saturating_sub(p.discharge.count as usize);
         t_rel >= self.end_s - 1e-12
             || p.discharge.permanently_clogged(t_rel)
             || (!sp.reinsert

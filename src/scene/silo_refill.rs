@@ -15,7 +15,7 @@ use crate::scene::SiloScene;
 
 /// Random places tried on one level before the next level up.
 const TRIES_PER_LEVEL: usize = 50;
-/// Levels tried above a particle's own before giving up.
+/// Levels tried (from a particle's own, upwards and round) before giving up.
 const LEVELS_TRIED: usize = 20;
 /// Vertical spacing of the levels and the margin of a place, in radii.
 const LEVEL_SPACING_RADII: f64 = 2.2;
@@ -46,7 +46,8 @@ impl SiloScene {
 
     /// Puts the removed particles back at random free places above `floor_m`, each with its own
     /// id and mass, at rest. Deterministic for a seed. The k-th particle of the chunk starts on
-    /// level k / (particles per level) and climbs a level every `TRIES_PER_LEVEL` tries.
+    /// level k / (particles per level) and climbs a level every `TRIES_PER_LEVEL` tries, back to
+    /// the lowest past the highest level under the lid.
     ///
     /// # Errors
     /// A particle that found no free place under the lid: the others are placed.
@@ -64,19 +65,24 @@ impl SiloScene {
         let r_place = p.cylinder_radius_m - r * 1.05;
         let per_level = ((LEVEL_COVERAGE * (r_place / r).powi(2)).floor() as usize).max(1);
         let lid = p.cylinder_height_m;
+        // Levels whose places lie wholly under the lid (z + r < lid); a particle's tries cycle
+        // through them.
+        let spacing = LEVEL_SPACING_RADII * r;
+        let room = lid - floor_m - 2.0 * r;
+        let levels = if room <= 0.0 {
+            0
+        } else {
+            (room / spacing).ceil() as usize
+        };
         let mut lost = 0;
         for (k, ev) in removed.iter().enumerate() {
             let radius = (ev.mass_kg
                 / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI))
                 .cbrt();
-            let first_level = k / per_level;
             let mut placed = false;
-            for attempt in 0..TRIES_PER_LEVEL * LEVELS_TRIED {
-                let level = first_level + attempt / TRIES_PER_LEVEL;
-                let z = floor_m + r + level as f64 * LEVEL_SPACING_RADII * r;
-                if z + r >= lid {
-                    break;
-                }
+            for attempt in 0..TRIES_PER_LEVEL * LEVELS_TRIED * usize::from(levels > 0) {
+                let level = (k / per_level + attempt / TRIES_PER_LEVEL) % levels;
+                let z = floor_m + r + level as f64 * spacing;
                 let rr = r_place * rng.random::<f64>().sqrt();
                 let th = rng.random::<f64>() * std::f64::consts::TAU;
                 let x = [rr * th.cos(), rr * th.sin(), z];
@@ -163,6 +169,20 @@ mod tests {
         sc.reinsert(&mut again, &removed(120, mass), floor, 7)
             .unwrap();
         assert!(s.pos.iter().zip(&again.pos).all(|(a, b)| a == b));
+    }
+
+    /// Near the lid a chunk's later particles start over at the lowest level instead of being
+    /// lost above the lid: two levels take more than two levels' worth of starts.
+    #[test]
+    fn near_the_lid_the_levels_are_reused() {
+        let sc = scene();
+        let r = sc.p.particle_diameter_m / 2.0;
+        let floor = sc.p.cylinder_height_m - 2.0 * r - 1.5 * LEVEL_SPACING_RADII * r;
+        let mut s = State::<f64>::new(true, 0);
+        sc.reinsert(&mut s, &removed(300, sc.p.particle_mass()), floor, 3)
+            .unwrap();
+        assert_eq!(s.len(), 300);
+        assert!(s.pos.iter().all(|q| q.z + r < sc.p.cylinder_height_m));
     }
 
     /// With no room left under the lid the particles are an error naming how many, not lost.
