@@ -446,23 +446,16 @@ fn target_forecast(
             .map_or_else(|| "none".into(), |m| format!("{m} s")),
         t.max_rounds
     );
-    let campaign = match project {
-        Some(p) => p.campaign_named(name, None)?,
-        None => None,
-    };
-    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
-        println!(
-            "  the work after the jobs above depends on the scatter they measure: launch it, then `sweep plan` again for the rest"
-        );
+    let Some((_, _, ev)) = stored_evaluation(
+        project,
+        name,
+        t,
+        "the work after the jobs above depends on the scatter they measure: launch it, then `sweep plan` again for the rest",
+        "the estimate uses",
+    )?
+    else {
         return Ok(());
     };
-    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
-    if ev.open > 0 {
-        println!(
-            "  ({} job(s) of the campaign not ended: the estimate uses the ended ones)",
-            ev.open
-        );
-    }
     let rounds_left = ev.target.max_rounds.saturating_sub(ev.rounds_done);
     let (mut total_ps, mut total_wall) = (0.0, Some(0.0));
     println!(
@@ -500,6 +493,40 @@ fn target_forecast(
         ))
     );
     Ok(())
+}
+
+/// The stored campaign `name` (its store and id) evaluated under `t` (its ended jobs), saying
+/// how many are still open (`uses`: what reads the ended ones); None, saying
+/// `not_yet`, before it is launched.
+pub(super) fn stored_evaluation<'a>(
+    project: Option<&'a Project>,
+    name: &str,
+    t: &sweep::campaign::Target,
+    not_yet: &str,
+    uses: &str,
+) -> anyhow::Result<
+    Option<(
+        &'a rusqlite::Connection,
+        i64,
+        sweep::runner::evaluation::Evaluation,
+    )>,
+> {
+    let campaign = match project {
+        Some(p) => p.campaign_named(name, None)?,
+        None => None,
+    };
+    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
+        println!("  {not_yet}");
+        return Ok(None);
+    };
+    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
+    if ev.open > 0 {
+        println!(
+            "  ({} job(s) of the campaign not ended: {uses} the ended ones)",
+            ev.open
+        );
+    }
+    Ok(Some((conn, campaign.id, ev)))
 }
 
 #[cfg(test)]

@@ -24,24 +24,17 @@ pub(super) fn claims_forecast(
         t.allocation.name()
     );
     }
-    let campaign = match project {
-        Some(p) => p.campaign_named(name, None)?,
-        None => None,
-    };
-    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
-        println!(
-            "  the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs"
-        );
+    let Some((conn, campaign_id, ev)) = super::plan::stored_evaluation(
+        project,
+        name,
+        t,
+        "the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs",
+        "the verdicts use",
+    )?
+    else {
         return Ok(());
     };
-    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
-    if ev.open > 0 {
-        println!(
-            "  ({} job(s) of the campaign not ended: the verdicts use the ended ones)",
-            ev.open
-        );
-    }
-    let look = sweep::runner::claim_rounds::look(conn, campaign.id, &ev, false)?;
+    let look = sweep::runner::claim_rounds::look(conn, campaign_id, &ev, false)?;
     let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
     super::claims::print_preview(&rows);
     let undecided: Vec<_> = rows
