@@ -446,7 +446,7 @@ fn target_forecast(
             .map_or_else(|| "none".into(), |m| format!("{m} s")),
         t.max_rounds
     );
-    let Some((_, _, ev)) = stored_evaluation(
+    let Some((_, ev)) = super::plan_claims::stored_evaluation(
         project,
         name,
         t,
@@ -493,40 +493,6 @@ fn target_forecast(
         ))
     );
     Ok(())
-}
-
-/// The stored campaign `name` (its store and id) evaluated under `t` (its ended jobs), saying
-/// how many are still open (`uses`: what reads the ended ones); None, saying
-/// `not_yet`, before it is launched.
-pub(super) fn stored_evaluation<'a>(
-    project: Option<&'a Project>,
-    name: &str,
-    t: &sweep::campaign::Target,
-    not_yet: &str,
-    uses: &str,
-) -> anyhow::Result<
-    Option<(
-        &'a rusqlite::Connection,
-        i64,
-        sweep::runner::evaluation::Evaluation,
-    )>,
-> {
-    let campaign = match project {
-        Some(p) => p.campaign_named(name, None)?,
-        None => None,
-    };
-    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
-        println!("  {not_yet}");
-        return Ok(None);
-    };
-    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
-    if ev.open > 0 {
-        println!(
-            "  ({} job(s) of the campaign not ended: {uses} the ended ones)",
-            ev.open
-        );
-    }
-    Ok(Some((conn, campaign.id, ev)))
 }
 
 #[cfg(test)]

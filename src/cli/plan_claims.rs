@@ -24,16 +24,17 @@ pub(super) fn claims_forecast(
         t.allocation.name()
     );
     }
-    let Some((conn, campaign_id, ev)) = super::plan::stored_evaluation(
+    let (Some(project), Some((campaign_id, ev))) = (project, stored_evaluation(
         project,
         name,
         t,
         "the claims are first looked at after the jobs above: launch it, then `sweep plan` again for their verdicts and what each still needs",
         "the verdicts use",
-    )?
+    )?)
     else {
         return Ok(());
     };
+    let conn = project.conn();
     let look = sweep::runner::claim_rounds::look(conn, campaign_id, &ev, false)?;
     let rows: Vec<_> = look.claims.into_iter().map(|c| c.2).collect();
     super::claims::print_preview(&rows);
@@ -122,6 +123,34 @@ fn point_groups(forecasts: &[Forecast]) -> Vec<Vec<usize>> {
         groups.push((members, set));
     }
     groups.into_iter().map(|g| g.0).collect()
+}
+
+/// The stored campaign `name` (its id) evaluated under `t` (its ended jobs), saying
+/// how many are still open (`uses`: what reads the ended ones); None, saying
+/// `not_yet`, before it is launched.
+pub(super) fn stored_evaluation(
+    project: Option<&Project>,
+    name: &str,
+    t: &sweep::campaign::Target,
+    not_yet: &str,
+    uses: &str,
+) -> anyhow::Result<Option<(i64, sweep::runner::evaluation::Evaluation)>> {
+    let campaign = match project {
+        Some(p) => p.campaign_named(name, None)?,
+        None => None,
+    };
+    let (Some(conn), Some(campaign)) = (project.map(Project::conn), campaign) else {
+        println!("  {not_yet}");
+        return Ok(None);
+    };
+    let ev = sweep::runner::evaluation::evaluate_for(conn, campaign.id, Some(t))?;
+    if ev.open > 0 {
+        println!(
+            "  ({} job(s) of the campaign not ended: {uses} the ended ones)",
+            ev.open
+        );
+    }
+    Ok(Some((campaign.id, ev)))
 }
 
 #[cfg(test)]
