@@ -101,6 +101,8 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     };
     let replicas = jobs.replicas() as usize;
     let mut in_store = InStore::default();
+    // Each point's bench rate (the bench nearest its N), for the target's forecast.
+    let mut bench_rates = std::collections::HashMap::new();
     for (p, point) in jobs.points().iter().enumerate() {
         let cost = match point.scene {
             SceneKind::Chute => chute_cost(point)?,
@@ -110,6 +112,12 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         };
         total_ps += cost.particle_steps * replicas as f64;
         let rate = rates.of(point);
+        if let Some(r) = rate {
+            bench_rates.insert(
+                sweep::campaign::label_without_replica(&point.replica(0).label),
+                r,
+            );
+        }
         total_wall = total_wall
             .zip(rate)
             .map(|(w, r)| w + cost.particle_steps / r * replicas as f64);
@@ -173,8 +181,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
     in_store.print(jobs.len());
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.
-        let bench_rate = rates.found.values().flatten().next().copied();
-        target_forecast(project.as_ref(), &file.name, t, bench_rate)?;
+        target_forecast(project.as_ref(), &file.name, t, &bench_rates)?;
     } else if !file.claims.is_empty() {
         super::plan_claims::claims_forecast(
             project.as_ref(),
@@ -421,13 +428,13 @@ fn effects_of(j: &sweep::campaign::JobSpec) -> anyhow::Result<Effects> {
 }
 
 /// What each point of a campaign with a target is expected to need still, from the jobs of it
-/// already in the database: their measured scatter and throughput (a `sweep bench` rate where
-/// a point has not run yet).
+/// already in the database: their measured scatter and throughput (where a point has not run
+/// yet, the `sweep bench` rate nearest its N, by point label).
 fn target_forecast(
     project: Option<&Project>,
     name: &str,
     t: &sweep::campaign::Target,
-    bench_rate: Option<f64>,
+    bench_rates: &std::collections::HashMap<String, f64>,
 ) -> anyhow::Result<()> {
     use sweep::campaign::adaptive::forecast;
     if t.decides_claims() {
@@ -464,7 +471,7 @@ fn target_forecast(
     );
     for p in &ev.points {
         let f = forecast(&p.state, &ev.target, rounds_left);
-        let rate = p.rate.or(bench_rate);
+        let rate = p.rate.or_else(|| bench_rates.get(&p.state.label).copied());
         total_ps += f.particle_steps;
         total_wall = total_wall.zip(rate).map(|(w, r)| w + f.particle_steps / r);
         let pct =

@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use rusqlite::Connection;
 
 use crate::campaign::adaptive::{Decision, PointState, RunState, Work};
-use crate::campaign::{point_key, CampaignFile, JobSpec, SceneKind, Target};
+use crate::campaign::{label_without_replica, point_key, CampaignFile, JobSpec, SceneKind, Target};
 use crate::observe::fits::{Pooled, PooledFrom};
 use crate::pooled::silo::{combine_replicas, CiSource, DischargeRow};
 use crate::scene::silo::SiloScene;
@@ -24,15 +24,6 @@ struct Point<'a> {
     jobs: Vec<&'a TargetJob>,
 }
 
-/// The label of a job without its `replica=K`.
-fn point_label(label: &str) -> String {
-    label
-        .split(',')
-        .filter(|p| !p.starts_with("replica="))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
 fn points_of(jobs: &[TargetJob]) -> Vec<Point<'_>> {
     let mut out: Vec<Point> = Vec::new();
     for j in jobs {
@@ -41,7 +32,7 @@ fn points_of(jobs: &[TargetJob]) -> Vec<Point<'_>> {
             Some(p) => p.jobs.push(j),
             None => out.push(Point {
                 key,
-                label: point_label(&j.label),
+                label: label_without_replica(&j.label),
                 jobs: vec![j],
             }),
         }
