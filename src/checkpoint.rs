@@ -371,14 +371,12 @@ pub fn save(dir: &Path, h: &Header, s: &State<f64>, extra: &str) -> std::io::Res
     // A checkpoint past this one belongs to a trajectory the run left: it was refused when the
     // run resumed (corrupt, past the job's end, written by an older rule). Kept, it would count
     // among the newest two and this run's own checkpoints would be deleted as they are written.
-    for (_, later) in list_steps(dir).iter().filter(|(step, _)| *step > h.step) {
-        let _ = fs::remove_file(later);
-    }
-    let all = list(dir);
-    if all.len() > 2 {
-        for old in &all[..all.len() - 2] {
-            let _ = fs::remove_file(old);
-        }
+    let (own, later): (Vec<_>, Vec<_>) = list_steps(dir)
+        .into_iter()
+        .partition(|(step, _)| *step <= h.step);
+    let older = own.len().saturating_sub(2);
+    for (_, stale) in later.iter().chain(&own[..older]) {
+        let _ = fs::remove_file(stale);
     }
     Ok(path)
 }

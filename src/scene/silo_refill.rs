@@ -80,7 +80,12 @@ impl SiloScene {
                 / (p.particle_density_kg_per_m3 * 4.0 / 3.0 * std::f64::consts::PI))
                 .cbrt();
             let mut placed = false;
-            for attempt in 0..TRIES_PER_LEVEL * LEVELS_TRIED * usize::from(levels > 0) {
+            let attempts = if levels == 0 {
+                0
+            } else {
+                TRIES_PER_LEVEL * LEVELS_TRIED
+            };
+            for attempt in 0..attempts {
                 let level = (k / per_level + attempt / TRIES_PER_LEVEL) % levels;
                 let z = floor_m + r + level as f64 * spacing;
                 let rr = r_place * rng.random::<f64>().sqrt();
