@@ -2,7 +2,9 @@
 //! and replicas of one (D, f) combined into one flow rate with its 95 % confidence interval.
 //! The queries live in `store::silo_reads`. Read-only; no plotting here.
 
-pub use crate::store::silo_reads::{done_discharge_rows, mass_series, DischargeRow};
+pub use crate::store::silo_reads::{
+    done_discharge_rows, drawable_discharge_rows, mass_series, DischargeRow,
+};
 
 use crate::observe::fits::{mean_ci95, pool, t_975};
 
@@ -343,6 +345,7 @@ mod tests {
             sim_time_s: 2.0,
             particle_steps: 0,
             q_method: String::new(),
+            running_on_to_s: None,
         }
     }
 

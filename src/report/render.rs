@@ -273,7 +273,8 @@ pub fn render_figure_with(
     let mut table = format!("{name}: campaign '{}'\n{}", campaign.name, drawn.text);
     if !completion.missing.is_empty() {
         table.push_str(&format!(
-            "{} of {} jobs not done (listed as missing): drawn from the done ones only\n",
+            "{} of {} jobs not done (listed as missing): drawn from the done ones, and from the \
+             earlier end of a job a round runs on where the figure says so\n",
             completion.missing.len(),
             completion.total
         ));

@@ -4,7 +4,7 @@
 use anyhow::Result;
 use rusqlite::{params, Connection};
 
-/// One done job's discharge summary, joined with its campaign label.
+/// One ended job's discharge summary, joined with its campaign label.
 #[derive(Debug, Clone)]
 pub struct DischargeRow {
     /// jobs.id
@@ -29,11 +29,15 @@ pub struct DischargeRow {
     pub permanently_clogged: bool,
     /// Blocks Q is the mean of (schema 8; older rows: parsed from q_method's `n=`).
     pub q_blocks: Option<usize>,
-    /// The job's simulated discharge time and cost (`jobs`).
+    /// The job's simulated discharge time and cost (`jobs`; while a round runs it on, its
+    /// progress so far, not the earlier end's).
     pub sim_time_s: f64,
     pub particle_steps: i64,
     /// How Q was obtained (`discharge_summary.q_method`).
     pub q_method: String,
+    /// Set while a round runs the job on (`jobs.extended_to_s`, the discharge time it runs to,
+    /// s): the row is then the job's earlier end, which stays stored until it ends again.
+    pub running_on_to_s: Option<f64>,
 }
 
 impl DischargeRow {
@@ -66,23 +70,44 @@ fn blocks_in_method(method: &str) -> Option<usize> {
 
 /// The summaries of the campaign's jobs whose status is 'done', ordered by D, f, job id.
 ///
-/// Jobs not done are left out even if they left a partial summary, so that a figure shows
-/// exactly the finished jobs and `missing` names the rest.
+/// Jobs not done are left out, so that a claim is evaluated on ended jobs only and `missing`
+/// names the rest (a summary is written only when a job ends).
 ///
 /// # Errors
 /// On a database error.
 pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
-    let mut stmt = conn.prepare(
+    discharge_rows(conn, campaign_id, "j.status = 'done'")
+}
+
+/// [`done_discharge_rows`] and, for each job a round is running on, its earlier end, marked by
+/// [`DischargeRow::running_on_to_s`]: what a figure draws, so that extending a job does not
+/// take its point off the figure until it ends again.
+///
+/// # Errors
+/// On a database error.
+pub fn drawable_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
+    discharge_rows(
+        conn,
+        campaign_id,
+        "(j.status = 'done' OR j.extended_to_s IS NOT NULL)",
+    )
+}
+
+/// The discharge summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a
+/// constant of this module), ordered by D, f, job id.
+fn discharge_rows(conn: &Connection, campaign_id: i64, filter: &str) -> Result<Vec<DischargeRow>> {
+    let mut stmt = conn.prepare(&format!(
         "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \
                 s.particle_diameter_m, s.bulk_density_kg_per_m3, s.q_kg_per_s, \
                 s.q_ci95_kg_per_s, j.params_json, s.permanently_clogged, s.q_blocks, s.q_method, \
-                j.sim_time_s, j.particle_steps \
+                j.sim_time_s, j.particle_steps, \
+                CASE WHEN j.status = 'done' THEN NULL ELSE j.extended_to_s END \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN discharge_summary s ON s.job_id = j.id \
-         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
-         ORDER BY s.orifice_diameter_m, s.rotation_frequency_hz, j.id",
-    )?;
+         WHERE cj.campaign_id = ?1 AND {filter} \
+         ORDER BY s.orifice_diameter_m, s.rotation_frequency_hz, j.id"
+    ))?;
     let rows = stmt
         .query_map(params![campaign_id], |r| {
             Ok(DischargeRow {
@@ -103,6 +128,7 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
                 sim_time_s: r.get(12)?,
                 particle_steps: r.get(13)?,
                 q_method: r.get(11)?,
+                running_on_to_s: r.get(14)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

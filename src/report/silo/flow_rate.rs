@@ -9,7 +9,7 @@ use crate::observe::fits::{
     JandaFit, JandaIntervals, JandaPoint, BOOTSTRAP_DRAWS, JANDA_PARAMETERS,
 };
 use crate::pooled::silo::{
-    clogged_points, combine_replicas, distinct, done_discharge_rows, gravity_m_per_s2,
+    clogged_points, combine_replicas, distinct, drawable_discharge_rows, gravity_m_per_s2,
     replica_label, same_value, CiSource, CloggedPoint, DischargeRow, FlowPoint, REPLICA_NOTE,
 };
 use crate::report::campaign::CampaignRef;
@@ -107,7 +107,8 @@ fn interval_mm(iv: Option<(f64, f64)>) -> String {
 
 /// Fig. 3: Q vs D per f with 95 % CIs and the Eq. (1) fits; second panel D_min = α2 ln α1 vs f.
 pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let rows = done_discharge_rows(conn, campaign.id)?;
+    let rows = drawable_discharge_rows(conn, campaign.id)?;
+    let running_on = super::running_on_note(&rows);
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);
     let fits = janda_rows(&points);
@@ -128,6 +129,7 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     f3.q_panel
         .notes
         .extend(crate::pooled::silo::target_note(conn, campaign.id)?);
+    f3.q_panel.notes.extend(running_on.clone());
     let dmin_label = (!f3.dmin_f.is_empty()).then(|| "D_min, 95 % bootstrap".to_string());
     f3.dmin_panel
         .series
@@ -150,6 +152,9 @@ pub(crate) fn fig3(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let mut text = String::from(
         "Janda fit Q = C (1 - alpha1 exp(-D/alpha2)) D^(5/2), per rotation frequency\n",
     );
+    if let Some(note) = running_on {
+        text.push_str(&format!("{note}\n"));
+    }
     text.push_str(&f3.fit_table.to_text());
     text.push_str(
         "\nflow rates over replicas: ci95_from 'pooled blocks' (every replica's blocks pooled, \

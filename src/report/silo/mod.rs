@@ -1,7 +1,8 @@
 //! Figures 2–5 of the silo paper (PRE 2020, Sec. III.A) redrawn from a campaign's rows in the
 //! database: M(t) (Fig. 2), Q(D) per f with the fit of Eq. (1) and D_min(f) (Fig. 3), and
 //! Q/Q_{f=1} vs f (Figs. 4 and 5). Every number comes from discharge_summary and
-//! discharge_series of the campaign's done jobs; nothing from the paper is hard-coded.
+//! discharge_series of the campaign's done jobs (and the earlier end of a job a round runs on,
+//! noted as such); nothing from the paper is hard-coded.
 
 pub(crate) mod fields;
 mod flow_rate;
@@ -21,14 +22,40 @@ use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, mm, sci, short, Table};
-use crate::pooled::silo::{distinct, done_discharge_rows, mass_series, same_value, spread};
+use crate::pooled::silo::{
+    distinct, drawable_discharge_rows, mass_series, same_value, spread, DischargeRow,
+};
+
+/// The note for the rows a round is running on ([`DischargeRow::running_on_to_s`]): which jobs
+/// are drawn from their earlier end, and how far each now runs; None when none is.
+pub(crate) fn running_on_note(rows: &[DischargeRow]) -> Option<String> {
+    let jobs: Vec<String> = rows
+        .iter()
+        .filter_map(|r| {
+            let to = r.running_on_to_s?;
+            Some(format!(
+                "job {} ({} mm, {} Hz, to {} s)",
+                r.job_id,
+                mm(r.orifice_diameter_m),
+                short(r.rotation_frequency_hz),
+                short(to)
+            ))
+        })
+        .collect();
+    (!jobs.is_empty()).then(|| {
+        format!(
+            "drawn from the earlier end of job(s) a round runs on: {}",
+            jobs.join(", ")
+        )
+    })
+}
 
 /// At most this many M(t) curves in Fig. 2, so the legend stays readable.
 const MAX_FIG2_CURVES: usize = 8;
 
 /// Fig. 2: discharged mass M(t) for up to eight (D, f), spread over the D and f present.
 pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let rows = done_discharge_rows(conn, campaign.id)?;
+    let rows = drawable_discharge_rows(conn, campaign.id)?;
     let ds = distinct(rows.iter().map(|r| r.orifice_diameter_m));
     let fs = distinct(rows.iter().map(|r| r.rotation_frequency_hz));
     // Two f per D first, then give the remaining budget back to whichever axis has values left.
@@ -48,14 +75,23 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         "t_s",
         "mass_kg",
     ]);
+    let mut drawn_running_on = Vec::new();
     for &d in &ds {
         for &f in &fs {
-            // Replicas of one (D, f) look alike in M(t); the first done one stands for them.
-            let Some(row) = rows.iter().find(|r| {
-                same_value(r.orifice_diameter_m, d) && same_value(r.rotation_frequency_hz, f)
-            }) else {
+            // Replicas of one (D, f) look alike in M(t); the first done one stands for them, and
+            // a job a round runs on (its earlier end) only when none has ended.
+            let Some(row) = rows
+                .iter()
+                .filter(|r| {
+                    same_value(r.orifice_diameter_m, d) && same_value(r.rotation_frequency_hz, f)
+                })
+                .min_by_key(|r| r.running_on_to_s.is_some())
+            else {
                 continue;
             };
+            if row.running_on_to_s.is_some() {
+                drawn_running_on.push(row.clone());
+            }
             let series = mass_series(conn, row.job_id)?;
             let last = series.last().copied();
             table.push(vec![
@@ -88,6 +124,8 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             panel.series.push(Series::line(Some(label), color, t, m));
         }
     }
+    let running_on = running_on_note(&drawn_running_on);
+    panel.notes.extend(running_on.clone());
     let fig = Figure {
         title: Some(format!(
             "Fig. 2: discharged mass M(t), campaign {}",
@@ -98,6 +136,9 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         panel_size: (1000, 700),
     };
     let mut text = String::from("M(t) from discharge_series, one done job per (D, f)\n");
+    if let Some(note) = running_on {
+        text.push_str(&format!("{note}\n"));
+    }
     if table.rows.is_empty() {
         text.push_str("no done job with a discharge summary yet\n");
     } else {

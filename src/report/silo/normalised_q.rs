@@ -7,8 +7,8 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::pooled::silo::{
-    clogged_points, combine_replicas, distinct, done_discharge_rows, replica_label, same_value,
-    spread, target_note, CloggedPoint, REPLICA_NOTE,
+    clogged_points, combine_replicas, distinct, drawable_discharge_rows, replica_label, same_value,
+    spread, target_note, CloggedPoint, DischargeRow, REPLICA_NOTE,
 };
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
@@ -112,7 +112,8 @@ fn clogged_note(clogged: &[CloggedPoint]) -> String {
 
 /// Fig. 4: Q/Q_{f=1} vs f, one series per orifice.
 pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let rows = done_discharge_rows(conn, campaign.id)?;
+    let rows = drawable_discharge_rows(conn, campaign.id)?;
+    let running_on = super::running_on_note(&rows);
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);
     let norm = normalise(&points);
@@ -133,6 +134,7 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     }
     let target = target_note(conn, campaign.id)?;
     panel.notes.extend(target.clone());
+    panel.notes.extend(running_on.clone());
     for &d in &norm.skipped_d_m {
         panel.notes.push(format!(
             "D = {} mm: no Q at the reference f, not normalised",
@@ -151,10 +153,11 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let all_clogged: Vec<&CloggedPoint> = clogged.iter().collect();
     let (table, csv) = norm.tables(norm.curves.iter(), &all_clogged);
     let text = format!(
-        "{}{}{}{}",
+        "{}{}{}{}{}",
         norm.note(),
         clogged_note(&clogged),
         target.map_or_else(String::new, |t| format!("{t}\n")),
+        running_on.map_or_else(String::new, |t| format!("{t}\n")),
         table.to_text()
     );
     Ok(Drawn {
@@ -165,7 +168,8 @@ pub(crate) fn fig4(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
 
 /// Fig. 5: the normalised Q vs f, one panel per large orifice (D/d > 4.5), up to four.
 pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let rows = done_discharge_rows(conn, campaign.id)?;
+    let rows = drawable_discharge_rows(conn, campaign.id)?;
+    let running_on = super::running_on_note(&rows);
     let points = combine_replicas(&rows);
     let clogged = clogged_points(&rows);
     let norm = normalise(&points);
@@ -197,7 +201,13 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 .push(Series::line(None, i, s.x.clone(), s.y.clone()));
             p.series.push(s);
             let marks = clogged_marks(&norm, &clogged, Some(c.d_m));
-            if !marks.is_empty() {
+            let here: Vec<DischargeRow> = rows
+                .iter()
+                .filter(|r| same_value(r.orifice_diameter_m, c.d_m))
+                .cloned()
+                .collect();
+            p.notes.extend(super::running_on_note(&here));
+            if !marks.is_empty() || !p.notes.is_empty() {
                 p.legend = Legend::Outside;
             }
             p.series.extend(marks);
@@ -227,6 +237,9 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
     let (table, csv) = norm.tables(shown.iter().copied(), &shown_clogged);
     let mut text = norm.note();
     text.push_str(&clogged_note(&clogged));
+    if let Some(note) = &running_on {
+        let _ = writeln!(text, "{note}");
+    }
     let _ = writeln!(
         text,
         "orifices with D/d > {LARGE_ORIFICE_D_OVER_PARTICLE}: {} found, {} shown",

@@ -12,6 +12,7 @@ use crate::report::render_figure;
 
 mod clogged;
 mod pooled;
+mod running_on;
 
 const PARTICLE_D_M: f64 = 0.0058;
 const BULK_DENSITY: f64 = 1550.0;
