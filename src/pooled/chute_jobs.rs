@@ -6,7 +6,7 @@
 
 pub use crate::store::chute_reads::{
     block_curves, blocks, chute_profile, done_campaign_jobs, done_chute_jobs, done_without_summary,
-    left_out_chute_jobs, shear_profile, BlockRow, ChuteJob, CurveTable,
+    drawable_chute_jobs, left_out_chute_jobs, shear_profile, BlockRow, ChuteJob, CurveTable,
 };
 
 use crate::pooled::silo::same_value;
@@ -51,6 +51,7 @@ mod tests {
             params_json: "{}".into(),
             measure_s: 240.0,
             layering: None,
+            running_on_to_s: None,
         }
     }
 

@@ -74,7 +74,7 @@ pub fn chute_profile(conn: &Connection, job_id: i64) -> anyhow::Result<Vec<Chute
     Ok(rows)
 }
 
-/// One done job's chute summary, joined with its campaign label.
+/// One ended job's chute summary, joined with its campaign label.
 #[derive(Debug, Clone)]
 pub struct ChuteJob {
     /// jobs.id
@@ -105,6 +105,9 @@ pub struct ChuteJob {
     /// The central bed's density variation (`observe::chute::density_layering`) from the stored
     /// profile; None without one. A layered job is not `steady`.
     pub layering: Option<f64>,
+    /// Set while a round runs the job on (`jobs.extended_to_s`, s): the rows are then the job's
+    /// earlier end, which stay stored until it ends again.
+    pub running_on_to_s: Option<f64>,
 }
 
 /// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
@@ -122,18 +125,49 @@ pub fn done_chute_jobs(
     campaign_id: i64,
     include_unsteady: bool,
 ) -> Result<Vec<ChuteJob>> {
-    let mut stmt = conn.prepare(
+    chute_jobs(conn, campaign_id, include_unsteady, "j.status = 'done'")
+}
+
+/// [`done_chute_jobs`] and, for each job a round is running on, its earlier end, marked by
+/// [`ChuteJob::running_on_to_s`]: what a figure draws, so that extending a job does not take it
+/// off the figure until it ends again.
+///
+/// # Errors
+/// On a database error.
+pub fn drawable_chute_jobs(
+    conn: &Connection,
+    campaign_id: i64,
+    include_unsteady: bool,
+) -> Result<Vec<ChuteJob>> {
+    chute_jobs(
+        conn,
+        campaign_id,
+        include_unsteady,
+        "(j.status = 'done' OR j.extended_to_s IS NOT NULL)",
+    )
+}
+
+/// The chute summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a constant
+/// of this module), judged and ordered as [`done_chute_jobs`] says.
+fn chute_jobs(
+    conn: &Connection,
+    campaign_id: i64,
+    include_unsteady: bool,
+    filter: &str,
+) -> Result<Vec<ChuteJob>> {
+    let mut stmt = conn.prepare(&format!(
         "SELECT j.id, cj.label, s.aspect_ratio, s.inclination_deg, s.total_length_m, \
                 s.bed_height_m, s.steady, s.msd_fit_min_lag_s, \
                 s.msd_fit_max_lag_s, s.d_perp_m, f.state, j.params_json, \
-                s.measure_end_s - s.measure_start_s \
+                s.measure_end_s - s.measure_start_s, \
+                CASE WHEN j.status = 'done' THEN NULL ELSE j.extended_to_s END \
          FROM campaign_jobs cj \
          JOIN jobs j ON j.id = cj.job_id \
          JOIN chute_summary s ON s.job_id = j.id \
          LEFT JOIN chute_flow_state f ON f.job_id = j.id \
-         WHERE cj.campaign_id = ?1 AND j.status = 'done' \
-         ORDER BY s.aspect_ratio, s.inclination_deg, j.id",
-    )?;
+         WHERE cj.campaign_id = ?1 AND {filter} \
+         ORDER BY s.aspect_ratio, s.inclination_deg, j.id"
+    ))?;
     let rows = stmt
         .query_map(params![campaign_id], |r| {
             let flow_state: Option<String> = r.get(10)?;
@@ -153,6 +187,7 @@ pub fn done_chute_jobs(
                 params_json: r.get(11)?,
                 measure_s: r.get(12)?,
                 layering: None,
+                running_on_to_s: r.get(13)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -8,7 +8,9 @@ use rusqlite::Connection;
 
 use crate::observe::chute::FlowState;
 use crate::pooled::chute::replicas_of;
-use crate::pooled::chute_jobs::{closest_job, done_without_summary, left_out_chute_jobs, ChuteJob};
+use crate::pooled::chute_jobs::{
+    closest_job, done_without_summary, drawable_chute_jobs, left_out_chute_jobs, ChuteJob,
+};
 use crate::pooled::silo::spread;
 use crate::report::campaign::CampaignRef;
 use crate::report::plot::{Axis, Panel};
@@ -95,15 +97,36 @@ pub(crate) fn preface(
     jobs: &[ChuteJob],
 ) -> Result<String> {
     let unsteady = jobs.iter().filter(|j| !j.steady).count();
+    let running_on: Vec<String> = jobs
+        .iter()
+        .filter_map(|j| {
+            let to = j.running_on_to_s?;
+            Some(format!(
+                "{} (job {}, to {} s)",
+                j.label,
+                j.job_id,
+                short(to)
+            ))
+        })
+        .collect();
     let mut text = format!(
-        "{} done job(s) drawn{}\n",
+        "{} {}job(s) drawn{}\n",
         jobs.len(),
+        if running_on.is_empty() { "done " } else { "" },
         if unsteady > 0 {
             format!(", {unsteady} of them NOT steady (--include-unsteady), marked")
         } else {
             String::new()
         }
     );
+    if !running_on.is_empty() {
+        let _ = writeln!(
+            text,
+            "{} of them from their earlier end while a round runs them on: {}",
+            running_on.len(),
+            running_on.join("; ")
+        );
+    }
     let orphans = done_without_summary(conn, campaign.id)?;
     if !orphans.is_empty() {
         let _ = writeln!(
@@ -140,6 +163,15 @@ pub(crate) fn preface(
 
 /// The figure's caption with, when jobs were left out as not steady, how many.
 pub(crate) fn caption(conn: &Connection, campaign: &CampaignRef, title: String) -> Result<String> {
+    let running_on = drawable_chute_jobs(conn, campaign.id, true)?
+        .iter()
+        .filter(|j| j.running_on_to_s.is_some())
+        .count();
+    let title = if running_on > 0 {
+        format!("{title} — {running_on} job(s) from an earlier end, run on by a round")
+    } else {
+        title
+    };
     let left = left_out_chute_jobs(conn, campaign.id)?;
     if left.is_empty() {
         return Ok(title);

@@ -11,7 +11,7 @@ use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, group_points, OverReplicas};
 use crate::pooled::chute_fields::{field_profiles, FieldPoint};
-use crate::pooled::chute_jobs::done_chute_jobs;
+use crate::pooled::chute_jobs::drawable_chute_jobs;
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure};
 use crate::report::drawn::{Drawn, Output};
@@ -48,7 +48,7 @@ fn profile_lines(
 
 /// Fig. 1(b): V_x(z) and φ(z) per point.
 pub(crate) fn fig1b(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let _ = writeln!(
         text,

@@ -13,7 +13,7 @@ use rusqlite::Connection;
 
 use crate::observe::fits::linear_fit;
 use crate::pooled::chute::{combine_point, group_points, PointProfiles, CENTRAL_BED};
-use crate::pooled::chute_jobs::done_chute_jobs;
+use crate::pooled::chute_jobs::drawable_chute_jobs;
 use crate::pooled::replica_results::full_blocks;
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
@@ -196,7 +196,7 @@ impl Drawing {
 
 /// D_y beside γ̇ per point, and D_y against γ̇ d_⊥².
 pub(crate) fn dy(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let (lo, hi) = CENTRAL_BED;
     let _ = writeln!(

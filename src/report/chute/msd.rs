@@ -11,7 +11,7 @@ use super::common::{
     GREY,
 };
 use crate::pooled::chute::{combine_point, replicas_of};
-use crate::pooled::chute_jobs::{block_curves, blocks, done_chute_jobs, CurveTable};
+use crate::pooled::chute_jobs::{block_curves, blocks, drawable_chute_jobs, CurveTable};
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::plot::{Axis, Figure, Panel, Series};
@@ -20,7 +20,7 @@ use crate::report::table::{csv_num, fixed, sci, short, Table};
 /// Fig. 2: MSD_z(τ)/L² per block, log-log, one panel per showcase job, with grey power laws of
 /// slope 2 (ballistic) and 1 (diffusive). Curves are not shifted in y (the paper shifts them).
 pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown, &jobs));

@@ -11,7 +11,7 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, group_points, OverReplicas, PointBlock};
-use crate::pooled::chute_jobs::done_chute_jobs;
+use crate::pooled::chute_jobs::drawable_chute_jobs;
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{color, empty_panel, preface, two_panel_figure, GREY};
@@ -46,7 +46,7 @@ pub(crate) fn orientation(
     campaign: &CampaignRef,
     out_dir: &Output,
 ) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(
         "S2 = largest eigenvalue of Q = <(3 u u - I)/2> over the rods centred in each block of \

@@ -12,7 +12,7 @@ use anyhow::Result;
 use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, group_points, replicas_caption};
-use crate::pooled::chute_jobs::{closest, done_chute_jobs, ChuteJob};
+use crate::pooled::chute_jobs::{closest, drawable_chute_jobs, ChuteJob};
 use crate::pooled::replica_results::full_blocks;
 use crate::pooled::silo::{distinct, replica_label, same_value, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
@@ -60,7 +60,7 @@ fn profiles(
     number: u32,
     target_xi: f64,
 ) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let xis = distinct(jobs.iter().map(|j| j.aspect_ratio));
     let mut d = Drawing {
         text: preface(conn, campaign, &jobs)?,

@@ -305,3 +305,46 @@ fn a_steady_replica_in_ordered_layers_is_left_out() {
         fig6.table
     );
 }
+
+#[test]
+fn a_job_a_round_runs_on_stays_drawn_from_its_earlier_end() {
+    let (mut conn, c) = db();
+    // The 28° point's only replica: without it, its point would leave every figure.
+    let label = "aspect_ratio=1.3,inclination_deg=28,replica=0";
+    let job: i64 = conn
+        .query_row(
+            "SELECT job_id FROM campaign_jobs WHERE label = ?1",
+            [label],
+            |r| r.get(0),
+        )
+        .expect("job");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (before, after) = (dir.path().join("before"), dir.path().join("after"));
+    for figure in ["fig3", "fig6"] {
+        crate::report::render_figure(&conn, figure, None, &before).expect(figure);
+    }
+    let tx = conn.transaction().expect("tx");
+    assert!(crate::store::targets::extend(&tx, job, 400.0, 400.0).expect("extend"));
+    tx.commit().expect("commit");
+    assert!(
+        done_chute_jobs(&conn, c, true)
+            .expect("jobs")
+            .iter()
+            .all(|j| j.job_id != job),
+        "the claims read ended jobs only"
+    );
+    for figure in ["fig3", "fig6"] {
+        let r = crate::report::render_figure(&conn, figure, None, &after).expect(figure);
+        let csv = |d: &std::path::Path| {
+            std::fs::read_to_string(d.join(format!("chute_{figure}.csv"))).expect("csv")
+        };
+        assert_eq!(csv(&after), csv(&before), "{figure} keeps the job's values");
+        let note = format!(
+            "1 of them from their earlier end while a round runs them on: {label} (job {job}, \
+             to 400 s)"
+        );
+        assert!(r.table.contains(&note), "{figure}: {}", r.table);
+    }
+    let svg = std::fs::read_to_string(after.join("chute_fig6.svg")).expect("svg");
+    assert!(svg.contains("run on by a round"), "fig6's caption names it");
+}

@@ -11,7 +11,7 @@ use rusqlite::Connection;
 use crate::observe::fits::{linear_fit, LinearFit};
 use crate::pooled::chute::CENTRAL_BED;
 use crate::pooled::chute::{combine_point, group_points, replicas_caption};
-use crate::pooled::chute_jobs::{done_chute_jobs, ChuteJob};
+use crate::pooled::chute_jobs::{drawable_chute_jobs, ChuteJob};
 use crate::pooled::silo::{distinct, same_value};
 use crate::report::campaign::CampaignRef;
 use crate::report::chute::common::{caption, color, preface, GREY};
@@ -67,7 +67,7 @@ fn fit_line(fit: Option<&LinearFit>, x: &[f64], label: String, color: usize) -> 
 
 /// Fig. 6: (a) D/γ̇ vs d_⊥², (b) D vs γ̇ d_⊥², central blocks of all done jobs.
 pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
     let (lo, hi) = CENTRAL_BED;
     let groups = group_points(&jobs);

@@ -11,7 +11,7 @@ use rusqlite::Connection;
 
 use crate::pooled::chute::{combine_point, replicas_caption, replicas_of};
 use crate::pooled::chute_jobs::{
-    block_curves, blocks, done_chute_jobs, BlockRow, ChuteJob, CurveTable,
+    block_curves, blocks, drawable_chute_jobs, BlockRow, ChuteJob, CurveTable,
 };
 use crate::pooled::silo::{replica_label, REPLICA_NOTE};
 use crate::report::campaign::CampaignRef;
@@ -42,7 +42,7 @@ fn area(points: &[(f64, f64)]) -> f64 {
 /// Fig. 5: (a), (b) standardised v_z PDFs per block, log y, with the standard Gaussian;
 /// (c) the skewness of v_z vs z/L for both jobs.
 pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown, &jobs));
@@ -249,7 +249,7 @@ fn gaussian(extent: f64) -> Series {
 /// the smallest-r bin, at r₀ (centre L/8), as the paper's Eq. (3) bins start at r = 0; the line
 /// goes through that bin so that its slope −1/l compares with the data's.
 pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
-    let jobs = done_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
+    let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let shown = showcase_jobs(&jobs);
     let mut text = preface(conn, campaign, &jobs)?;
     text.push_str(&showcase_note(&shown, &jobs));
