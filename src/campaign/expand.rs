@@ -52,7 +52,7 @@ pub fn expand(c: &CampaignFile, file: &str) -> Result<Jobs, CampaignError> {
     if !problems.is_empty() {
         return Err(invalid(problems));
     }
-    Ok(Jobs::new(points, c.replicas))
+    Ok(Jobs::new(points, c.replicas, c.first_replica))
 }
 
 /// The points of the sweep: the Cartesian product over `sweep` (keys in sorted order), crossed

@@ -105,6 +105,10 @@ fn one() -> u32 {
     1
 }
 
+fn is_zero(v: &u32) -> bool {
+    *v == 0
+}
+
 /// A campaign file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -128,6 +132,12 @@ pub struct CampaignFile {
     /// Independent replicas of every point (different seeds).
     #[serde(default = "one")]
     pub replicas: u32,
+    /// The index of each point's first replica (replicas `first_replica`,
+    /// `first_replica + 1`, …). A job's seed comes from its parameters and its replica index, so
+    /// a campaign that repeats another's points with fresh random numbers (an independent
+    /// experiment, with claims of its own) starts past the other's replicas.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub first_replica: u32,
     #[serde(default)]
     pub observers: Observers,
     #[serde(default)]

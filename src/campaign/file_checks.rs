@@ -53,7 +53,9 @@ fn key_problems(c: &CampaignFile) -> Vec<FieldProblem> {
         if k == "replica" {
             problems.push(FieldProblem {
                 path: format!("{section}.{k}"),
-                message: "a job's replica index is set by the file's `replicas` (0, 1, …), not by a value".into(),
+                message: "a job's replica index is set by the file's `replicas` and \
+                          `first_replica` (first_replica, first_replica + 1, …), not by a value"
+                    .into(),
             });
         } else if !known.contains_key(k)
             && k != "precision"
@@ -134,6 +136,15 @@ fn setting_problems(c: &CampaignFile) -> Vec<FieldProblem> {
         push(
             "replicas".into(),
             "expected at least 1 replica, got 0".into(),
+        );
+    }
+    if c.first_replica.checked_add(c.replicas).is_none() {
+        push(
+            "first_replica".into(),
+            format!(
+                "expected first_replica + replicas to fit in 32 bits, got {} + {}",
+                c.first_replica, c.replicas
+            ),
         );
     }
     if let Some(message) = name_problem(&c.name) {

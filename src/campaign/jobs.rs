@@ -4,17 +4,24 @@
 
 use super::job_spec::JobSpec;
 
-/// The jobs of a campaign, in the file's order: point by point, each point's replicas 0, 1, ….
+/// The jobs of a campaign, in the file's order: point by point, each point's replicas
+/// `first_replica`, `first_replica + 1`, ….
 #[derive(Clone, Debug)]
 pub struct Jobs {
     points: Vec<JobSpec>,
     replicas: u32,
+    first_replica: u32,
 }
 
 impl Jobs {
-    /// `points` (each its replica 0), each run `replicas` times.
-    pub fn new(points: Vec<JobSpec>, replicas: u32) -> Self {
-        Jobs { points, replicas }
+    /// `points` (each its replica 0), each run `replicas` times, as replicas `first_replica`,
+    /// `first_replica + 1`, ….
+    pub fn new(points: Vec<JobSpec>, replicas: u32, first_replica: u32) -> Self {
+        Jobs {
+            points,
+            replicas,
+            first_replica,
+        }
     }
 
     /// Jobs in all: points × replicas.
@@ -31,6 +38,11 @@ impl Jobs {
         self.replicas
     }
 
+    /// The replica index of a point's `r`-th replica (0-based, `r < replicas()`).
+    pub fn replica_index(&self, r: u32) -> u32 {
+        self.first_replica + r
+    }
+
     /// Each point's replica 0: what replicas share (scene, cost, memory, validity).
     pub fn points(&self) -> &[JobSpec] {
         &self.points
@@ -42,7 +54,7 @@ impl Jobs {
     /// `k >= len()`.
     pub fn get(&self, k: usize) -> JobSpec {
         let r = self.replicas as usize;
-        self.points[k / r].replica((k % r) as u32)
+        self.points[k / r].replica(self.replica_index((k % r) as u32))
     }
 
     /// Every job in the file's order, made one at a time.

@@ -136,7 +136,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             if k >= lines && a.lammps.is_none() && project.is_none() {
                 break;
             }
-            let j = point.replica(r as u32);
+            let j = point.replica(jobs.replica_index(r as u32));
             let stored = match &project {
                 Some(p) => p.job_by_hash(&j.hash())?,
                 None => None,

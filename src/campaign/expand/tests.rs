@@ -166,3 +166,47 @@ fn replicas_made_on_demand_differ_from_their_point_only_in_the_index() {
         "{e}"
     );
 }
+
+#[test]
+fn first_replica_numbers_the_replicas_and_gives_fresh_seeds() {
+    let file = |first: &str| {
+        CampaignFile::parse_str(
+            &format!(
+                r#"{{"name":"a","scene":"silo","base":{{"particle_count":100}},
+                    "sweep":{{"orifice_diameter_m":[0.02]}},"replicas":2{first}}}"#
+            ),
+            "t.json",
+        )
+        .unwrap()
+    };
+    let jobs = |first: &str| expand(&file(first), "t.json").unwrap().to_vec();
+    let (from_0, from_5) = (jobs(""), jobs(r#","first_replica":5"#));
+    assert_eq!(jobs(r#","first_replica":0"#).len(), 2);
+    let labels: Vec<&str> = from_5.iter().map(|j| j.label.as_str()).collect();
+    assert_eq!(
+        labels,
+        [
+            "orifice_diameter_m=0.02,replica=5",
+            "orifice_diameter_m=0.02,replica=6"
+        ]
+    );
+    for j in &from_0 {
+        assert!(
+            from_5
+                .iter()
+                .all(|k| k.seed() != j.seed() && k.hash() != j.hash()),
+            "replicas 5 and 6 share no seed or job with replicas 0 and 1"
+        );
+    }
+    // The default leaves a file's version as it was: the field is not written when 0.
+    let written = serde_json::to_string(&file(r#","first_replica":0"#)).unwrap();
+    assert!(!written.contains("first_replica"), "{written}");
+    let e = CampaignFile::parse_str(
+        r#"{"name":"a","scene":"silo","replicas":2,"first_replica":4294967295}"#,
+        "t.json",
+    )
+    .and_then(|c| expand(&c, "t.json").map(|_| ()))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("first_replica") && e.contains("32 bits"), "{e}");
+}
