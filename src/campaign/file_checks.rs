@@ -138,12 +138,18 @@ fn setting_problems(c: &CampaignFile) -> Vec<FieldProblem> {
             "expected at least 1 replica, got 0".into(),
         );
     }
-    if c.first_replica.checked_add(c.replicas).is_none() {
+    // Rounds add replicas up to the target's max_replicas, numbered on from the largest.
+    let most = c
+        .target
+        .as_ref()
+        .map_or(c.replicas, |t| t.max_replicas.max(c.replicas));
+    if c.first_replica.checked_add(most).is_none() {
         push(
             "first_replica".into(),
             format!(
-                "expected first_replica + replicas to fit in 32 bits, got {} + {}",
-                c.first_replica, c.replicas
+                "expected first_replica + replicas (or the target's max_replicas) to fit in 32 \
+                 bits, got {} + {most}",
+                c.first_replica
             ),
         );
     }

@@ -22,14 +22,14 @@ pub fn closest(values: impl Iterator<Item = f64>, target: f64) -> Option<f64> {
 }
 
 /// The job whose ξ is closest to `xi` and, among those, whose α is closest to `alpha_deg`
-/// (ties: the lower job id, as `jobs` is ordered).
+/// (ties: an ended job before one a round runs on, then the lower job id).
 pub fn closest_job(jobs: &[ChuteJob], xi: f64, alpha_deg: f64) -> Option<&ChuteJob> {
     let xi = closest(jobs.iter().map(|j| j.aspect_ratio), xi)?;
     let at_xi = jobs.iter().filter(|j| same_value(j.aspect_ratio, xi));
     let alpha = closest(at_xi.clone().map(|j| j.inclination_deg), alpha_deg)?;
     at_xi
         .filter(|j| same_value(j.inclination_deg, alpha))
-        .min_by_key(|j| j.job_id)
+        .min_by_key(|j| (j.running_on_to_s.is_some(), j.job_id))
 }
 
 #[cfg(test)]
@@ -75,5 +75,9 @@ mod tests {
         assert_eq!(closest_job(&jobs, 1.3, 27.5).map(|j| j.job_id), Some(3));
         assert_eq!(closest_job(&jobs, 2.5, 0.0).map(|j| j.job_id), Some(5));
         assert!(closest_job(&[], 1.3, 27.0).is_none());
+        // A job a round runs on stands in only where no replica has ended.
+        let mut run_on = jobs.clone();
+        run_on[2].running_on_to_s = Some(400.0);
+        assert_eq!(closest_job(&run_on, 1.3, 27.5).map(|j| j.job_id), Some(4));
     }
 }

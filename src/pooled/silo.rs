@@ -196,8 +196,9 @@ pub type QPoint = (String, String, Vec<i64>, Option<FlowPoint>);
 /// (point key (`campaign::point_key`), its label without `replica=K`, the point's done jobs
 /// (with or without Q), its combined Q (None when no replica has Q)): the
 /// same rows (`done_discharge_rows`), the same grouping and the same [`combine_replicas`]
-/// statistics, so a campaign loop that stops on a point's CI stops on the figure's CI. Sorted
-/// by D, f, point key.
+/// statistics, so a campaign loop that stops on a point's CI stops on the figure's CI (the loop
+/// looks when every job has ended; while a round runs, a figure also draws the earlier end of the
+/// jobs it runs on, `drawable_discharge_rows`). Sorted by D, f, point key.
 ///
 /// # Errors
 /// On a database error.

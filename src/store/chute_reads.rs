@@ -6,6 +6,7 @@ use anyhow::Result;
 use rusqlite::{params, Connection, OptionalExtension};
 
 use super::chute_flow_reads::judged_flow_states;
+use super::targets::RUNNING_ON_OR_DONE;
 use crate::observe::chute::{density_layering, is_layered, FlowState};
 
 /// The measurement window and kernel of a chute job's profiles (from `chute_summary`).
@@ -110,13 +111,11 @@ pub struct ChuteJob {
     pub running_on_to_s: Option<f64>,
 }
 
-/// The chute summaries of the campaign's jobs whose status is 'done' and whose flow was steady
-/// (`chute_flow_state` read under today's rule, `judged_flow_states`; a job from before schema
-/// 7 has only the transient's verdict,
-/// `chute_summary.steady`) and whose stored density profile shows no ordered layers
-/// (`observe::chute::layering`), ordered by ξ, α, job id. Jobs not done are left out even with a
-/// partial summary (render lists them as missing); done jobs that were not steady, or layered,
-/// are listed by `left_out_chute_jobs`.
+/// The chute summaries of the campaign's done jobs whose flow was steady (`chute_flow_state`
+/// under today's rule, `judged_flow_states`; before schema 7, `chute_summary.steady`) and whose
+/// density profile shows no ordered layers (`observe::chute::layering`), by ξ, α, job id. Jobs
+/// not done are left out (render lists them as missing); done jobs that were not steady, or
+/// layered, are listed by `left_out_chute_jobs`.
 ///
 /// # Errors
 /// On a database error.
@@ -139,12 +138,7 @@ pub fn drawable_chute_jobs(
     campaign_id: i64,
     include_unsteady: bool,
 ) -> Result<Vec<ChuteJob>> {
-    chute_jobs(
-        conn,
-        campaign_id,
-        include_unsteady,
-        "(j.status = 'done' OR j.extended_to_s IS NOT NULL)",
-    )
+    chute_jobs(conn, campaign_id, include_unsteady, RUNNING_ON_OR_DONE)
 }
 
 /// The chute summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a constant

@@ -4,6 +4,8 @@
 use anyhow::Result;
 use rusqlite::{params, Connection};
 
+use super::targets::RUNNING_ON_OR_DONE;
+
 /// One ended job's discharge summary, joined with its campaign label.
 #[derive(Debug, Clone)]
 pub struct DischargeRow {
@@ -86,11 +88,7 @@ pub fn done_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Di
 /// # Errors
 /// On a database error.
 pub fn drawable_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<DischargeRow>> {
-    discharge_rows(
-        conn,
-        campaign_id,
-        "(j.status = 'done' OR j.extended_to_s IS NOT NULL)",
-    )
+    discharge_rows(conn, campaign_id, RUNNING_ON_OR_DONE)
 }
 
 /// The discharge summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a

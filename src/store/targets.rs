@@ -64,6 +64,11 @@ pub fn rounds(conn: &Connection, campaign_id: i64) -> Result<u32> {
     Ok(r.unwrap_or(0) as u32)
 }
 
+/// SQL over `j` (jobs) for what a figure draws: ended jobs, and jobs a round runs on (extended,
+/// and pending, running or paused; a failed extension is not drawn as running on).
+pub(crate) const RUNNING_ON_OR_DONE: &str = "(j.status = 'done' OR (j.extended_to_s IS NOT NULL \
+     AND j.status IN ('pending', 'running', 'paused')))";
+
 /// Sets done job `job_id` to run on (from its checkpoint) until its own time (the silo's
 /// discharge, the chute's measurement) is `to_s`, i.e. its simulated end is `end_s` (the
 /// chute's adds its longest wait for the steady state): pending again, with fresh attempts.

@@ -8,9 +8,7 @@ use rusqlite::Connection;
 
 use crate::observe::chute::FlowState;
 use crate::pooled::chute::replicas_of;
-use crate::pooled::chute_jobs::{
-    closest_job, done_without_summary, drawable_chute_jobs, left_out_chute_jobs, ChuteJob,
-};
+use crate::pooled::chute_jobs::{closest_job, done_without_summary, left_out_chute_jobs, ChuteJob};
 use crate::pooled::silo::spread;
 use crate::report::campaign::CampaignRef;
 use crate::report::plot::{Axis, Panel};
@@ -59,7 +57,7 @@ pub(crate) fn showcase_jobs(jobs: &[ChuteJob]) -> Vec<&ChuteJob> {
 /// `jobs`, that the curves are this one replica's.
 pub(crate) fn showcase_note(shown: &[&ChuteJob], jobs: &[ChuteJob]) -> String {
     let mut text = String::from(
-        "showcase jobs (done job with xi closest to 1.3 then alpha closest to 27 deg; \
+        "showcase jobs (the job with xi closest to 1.3 then alpha closest to 27 deg; \
          xi closest to 2.5 then alpha closest to 30 deg):",
     );
     if shown.is_empty() {
@@ -161,12 +159,15 @@ pub(crate) fn preface(
     Ok(text)
 }
 
-/// The figure's caption with, when jobs were left out as not steady, how many.
-pub(crate) fn caption(conn: &Connection, campaign: &CampaignRef, title: String) -> Result<String> {
-    let running_on = drawable_chute_jobs(conn, campaign.id, true)?
-        .iter()
-        .filter(|j| j.running_on_to_s.is_some())
-        .count();
+/// The figure's caption with how many of the `drawn` jobs a round runs on (drawn from their
+/// earlier end) and, when jobs were left out as not steady, how many.
+pub(crate) fn caption(
+    conn: &Connection,
+    campaign: &CampaignRef,
+    drawn: &[ChuteJob],
+    title: String,
+) -> Result<String> {
+    let running_on = drawn.iter().filter(|j| j.running_on_to_s.is_some()).count();
     let title = if running_on > 0 {
         format!("{title} — {running_on} job(s) from an earlier end, run on by a round")
     } else {
@@ -208,6 +209,7 @@ pub(crate) fn shown_indices(n: usize) -> Vec<usize> {
 pub(crate) fn two_panel_figure(
     conn: &Connection,
     campaign: &CampaignRef,
+    drawn: &[ChuteJob],
     title: String,
     panels: Vec<crate::report::plot::Panel>,
     panel_size: (u32, u32),
@@ -218,7 +220,7 @@ pub(crate) fn two_panel_figure(
     name: &str,
 ) -> Result<crate::report::drawn::Drawn> {
     let fig = crate::report::plot::Figure {
-        title: Some(caption(conn, campaign, title)?),
+        title: Some(caption(conn, campaign, drawn, title)?),
         panels,
         columns: 2,
         panel_size,

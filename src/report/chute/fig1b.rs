@@ -164,6 +164,7 @@ pub(crate) fn fig1b(conn: &Connection, campaign: &CampaignRef, out_dir: &Output)
     two_panel_figure(
         conn,
         campaign,
+        &jobs,
         format!(
             "Fig. 1(b): V_x and φ profiles, campaign {}{}",
             campaign.name,

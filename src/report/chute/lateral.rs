@@ -285,6 +285,7 @@ pub(crate) fn dy(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) ->
     two_panel_figure(
         conn,
         campaign,
+        &jobs,
         format!("ESI: D_y and the shear rate, campaign {}", campaign.name),
         panels,
         (750, 600),

@@ -149,6 +149,7 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         title: Some(caption(
             conn,
             campaign,
+            &jobs,
             format!(
                 "Fig. 2: MSD_z(τ) per block of height L, campaign {}",
                 campaign.name

@@ -182,6 +182,7 @@ pub(crate) fn orientation(
     two_panel_figure(
         conn,
         campaign,
+        &jobs,
         format!("Rod orientation per block, campaign {}", campaign.name),
         panels,
         (750, 600),

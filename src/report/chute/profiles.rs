@@ -103,6 +103,7 @@ fn profiles(
         title: Some(caption(
             conn,
             campaign,
+            &jobs,
             format!(
                 "Fig. {number}: D/D_max and γ̇/γ̇_max vs height, campaign {}{}",
                 campaign.name,

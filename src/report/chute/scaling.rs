@@ -65,7 +65,7 @@ fn fit_line(fit: Option<&LinearFit>, x: &[f64], label: String, color: usize) -> 
     ))
 }
 
-/// Fig. 6: (a) D/γ̇ vs d_⊥², (b) D vs γ̇ d_⊥², central blocks of all done jobs.
+/// Fig. 6: (a) D/γ̇ vs d_⊥², (b) D vs γ̇ d_⊥², central blocks of all drawn jobs.
 pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
     let jobs = drawable_chute_jobs(conn, campaign.id, out_dir.include_unsteady)?;
     let mut text = preface(conn, campaign, &jobs)?;
@@ -186,6 +186,7 @@ pub(crate) fn fig6(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         title: Some(caption(
             conn,
             campaign,
+            &jobs,
             format!(
                 "Fig. 6: D ~ γ̇ d_⊥², central bed, campaign {}{}",
                 campaign.name,

@@ -112,6 +112,7 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         title: Some(caption(
             conn,
             campaign,
+            &jobs,
             format!(
                 "Fig. 5: standardised v_z PDFs and their skewness, campaign {}{}",
                 campaign.name,
@@ -372,6 +373,7 @@ pub(crate) fn fig7(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         title: Some(caption(
             conn,
             campaign,
+            &jobs,
             format!(
                 "Fig. 7: spatial correlation of v_z per block, campaign {}",
                 campaign.name

@@ -55,4 +55,9 @@ fn a_job_a_round_runs_on_is_drawn_from_its_earlier_end_and_named() {
             "{figure}'s drawing names it"
         );
     }
+    // A failed extension is not running on: its point leaves the figure, as for the claims.
+    conn.execute("UPDATE jobs SET status = 'failed' WHERE id = ?1", [job])
+        .expect("fail");
+    let r = render_figure(&conn, "fig3", None, &after).expect("fig3");
+    assert!(!r.table.contains("earlier end of job(s)"), "{}", r.table);
 }
