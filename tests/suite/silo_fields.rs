@@ -165,6 +165,23 @@ fn fields_are_stored_listed_and_identical_after_kill_and_resume() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no job 99"));
 
+    // A round that runs the job on keeps it in the fields figures, from its earlier end, named
+    // in the title (fig10 and fig11 draw every orifice and f: the only job).
+    drop(conn);
+    let mut conn = sweep::store::open(&db).unwrap();
+    let figs = a.path().join("figs");
+    let tx = conn.transaction().unwrap();
+    assert!(sweep::store::targets::extend(&tx, 1, 0.8, 0.8).unwrap());
+    tx.commit().unwrap();
+    for figure in ["fig9", "fig10", "fig11"] {
+        sweep::report::render_figure(&conn, figure, None, &figs).unwrap();
+        let svg = std::fs::read_to_string(figs.join(format!("{figure}.svg"))).unwrap();
+        assert!(
+            svg.contains("earlier end of job(s) a round runs on: 1 (to 0.8 s)"),
+            "{figure}'s title does not name job 1"
+        );
+    }
+
     // Killed after its first discharge checkpoint, then resumed: the same bytes.
     let b = TempDir::new().unwrap();
     let file = write(b.path(), &campaign(0.05));

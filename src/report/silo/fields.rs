@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use rusqlite::Connection;
 
 use crate::observe::silo_fields::MEAN_FLOWING;
-use crate::pooled::silo::{distinct, done_discharge_rows, same_value};
+use crate::pooled::silo::{distinct, drawable_discharge_rows, same_value};
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
 use crate::report::field_map::{MapFigure, MapPanel, MapRow};
@@ -20,9 +20,11 @@ use crate::store::fields::{list_field_sets, load_field_arrays, FieldArray, Field
 /// Cells with a solid fraction below this hold (almost) no particles: left white in the maps.
 const EMPTY_PHI: f64 = 0.02;
 
-/// One done job with field sets.
+/// One ended job with field sets (or, while a round runs it on, its earlier end).
 pub(super) struct FieldJob {
     pub(super) job_id: i64,
+    /// Set while a round runs the job on: the discharge time it runs to, s.
+    pub(super) running_on_to_s: Option<f64>,
     pub(super) d_m: f64,
     pub(super) f_hz: f64,
     pub(super) particle_d_m: f64,
@@ -84,10 +86,11 @@ impl FieldJob {
     }
 }
 
-/// The campaign's done jobs that have field sets, by D, f, job id.
+/// The campaign's drawn jobs (`drawable_discharge_rows`) that have field sets, by D, f, an
+/// ended job before one a round runs on, job id.
 pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<FieldJob>> {
     let mut out = Vec::new();
-    for r in done_discharge_rows(conn, c.id)? {
+    for r in drawable_discharge_rows(conn, c.id)? {
         let sets = list_field_sets(conn, r.job_id)?;
         if sets.is_empty() {
             continue;
@@ -96,6 +99,7 @@ pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<Field
         let silo_radius_m = p["silo"]["cylinder_radius_m"].as_f64().unwrap_or(f64::NAN);
         out.push(FieldJob {
             job_id: r.job_id,
+            running_on_to_s: r.running_on_to_s,
             d_m: r.orifice_diameter_m,
             f_hz: r.rotation_frequency_hz,
             particle_d_m: r.particle_diameter_m,
@@ -105,6 +109,16 @@ pub(super) fn field_jobs(conn: &Connection, c: &CampaignRef) -> Result<Vec<Field
             sets,
         });
     }
+    // Stable: job ids stay in order within each group.
+    out.sort_by(|a, b| {
+        (a.d_m.total_cmp(&b.d_m))
+            .then(a.f_hz.total_cmp(&b.f_hz))
+            .then(
+                a.running_on_to_s
+                    .is_some()
+                    .cmp(&b.running_on_to_s.is_some()),
+            )
+    });
     if out.is_empty() {
         bail!(
             "campaign '{}' has no done job with coarse-grained fields: add \"fields\" to its observers (see campaigns/silo_QvsF_quick.json) and run it",
@@ -143,6 +157,22 @@ fn rows_of<'a>(jobs: &'a [FieldJob], d: f64, fs: &[f64]) -> Vec<&'a FieldJob> {
                 .find(|j| same_value(j.d_m, d) && same_value(j.f_hz, *f))
         })
         .collect()
+}
+
+/// "; earlier end of job(s) a round runs on: N (to T s), …" for those of `jobs` a round runs on,
+/// or "" (a figure's title names them).
+pub(super) fn running_on_suffix<'a>(jobs: impl IntoIterator<Item = &'a FieldJob>) -> String {
+    let named: Vec<String> = jobs
+        .into_iter()
+        .filter_map(|j| Some(format!("{} (to {} s)", j.job_id, short(j.running_on_to_s?))))
+        .collect();
+    if named.is_empty() {
+        return String::new();
+    }
+    format!(
+        "; earlier end of job(s) a round runs on: {}",
+        named.join(", ")
+    )
 }
 
 /// The largest orifice (the paper's fig6–9 show its large D = 36 mm) and up to 3 frequencies.
@@ -339,10 +369,11 @@ fn time_maps(
     };
     let figure = MapFigure {
         title: format!(
-            "{fig}: {what}, D = {} mm ({:.2} d), w = {} mm",
+            "{fig}: {what}, D = {} mm ({:.2} d), w = {} mm{}",
             mm(d),
             d / chosen[0].particle_d_m,
-            mm(chosen[0].sets[0].kernel_width_m)
+            mm(chosen[0].sets[0].kernel_width_m),
+            running_on_suffix(chosen.iter().copied())
         ),
         rows,
         length_m: rc,
@@ -461,9 +492,10 @@ pub(crate) fn fig9(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<D
     panels[2].notes = notes;
     let fig = Figure {
         title: Some(format!(
-            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), mean over flowing samples",
+            "fig9: profiles across the orifice (z = 0), D = {} mm ({:.2} d), mean over flowing samples{}",
             mm(d),
-            d / chosen[0].particle_d_m
+            d / chosen[0].particle_d_m,
+            running_on_suffix(chosen.iter().copied())
         )),
         panels: panels.to_vec(),
         columns: 3,
@@ -539,8 +571,9 @@ pub(crate) fn fig10(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
     let w = jobs[0].sets[0].kernel_width_m;
     let figure = MapFigure {
         title: format!(
-            "fig10: p^k = tr⟨σᵏ⟩_t over flowing samples, w = {} mm; dashed: r ≤ R, |z| ≤ R/2{}",
+            "fig10: p^k = tr⟨σᵏ⟩_t over flowing samples, w = {} mm; dashed: r ≤ R, |z| ≤ R/2{}{}",
             mm(w),
+            running_on_suffix(ds.iter().flat_map(|&d| rows_of(&jobs, d, &fs))),
             if clogged.is_empty() {
                 String::new()
             } else {

@@ -138,9 +138,10 @@ pub(crate) fn fig11(conn: &Connection, c: &CampaignRef, out: &Output) -> Result<
         )
     });
     let fig = Figure {
-        title: Some(
-            "fig11: mean kinetic pressure at the orifice vs f, 95 % CI (flowing samples)".into(),
-        ),
+        title: Some(format!(
+            "fig11: mean kinetic pressure at the orifice vs f, 95 % CI (flowing samples){}",
+            super::fields::running_on_suffix(&jobs)
+        )),
         panels: vec![abs, rel],
         columns: 2,
         panel_size: (760, 520),
