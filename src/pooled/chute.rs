@@ -5,7 +5,8 @@
 //! other block profiles (γ̇, V_x, φ, skewness of v_z) and the coarse-grained γ̇(z) as the mean
 //! over replicas with a Student-t interval from 2 replicas on. Only steady replicas are pooled:
 //! the figures draw what `drawable_chute_jobs` gives them (the done jobs, and while a round runs
-//! the earlier end of the jobs it runs on), and a point that has steady replicas pools those only. [`pooled_points`] gives a campaign loop the same statistics as the figures.
+//! the earlier end of the jobs it runs on), and a point that has steady replicas pools those
+//! only. [`pooled_points`] gives a campaign loop the same statistics as the figures.
 
 use anyhow::Result;
 use rusqlite::Connection;

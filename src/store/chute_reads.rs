@@ -142,7 +142,7 @@ pub fn drawable_chute_jobs(
 }
 
 /// The chute summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a constant
-/// of this module), judged and ordered as [`done_chute_jobs`] says.
+/// string), judged and ordered as [`done_chute_jobs`] says.
 fn chute_jobs(
     conn: &Connection,
     campaign_id: i64,

@@ -92,7 +92,7 @@ pub fn drawable_discharge_rows(conn: &Connection, campaign_id: i64) -> Result<Ve
 }
 
 /// The discharge summaries of the campaign's jobs that satisfy `filter` (SQL over `j`, a
-/// constant of this module), ordered by D, f, job id.
+/// constant string), ordered by D, f, job id.
 fn discharge_rows(conn: &Connection, campaign_id: i64, filter: &str) -> Result<Vec<DischargeRow>> {
     let mut stmt = conn.prepare(&format!(
         "SELECT j.id, cj.label, s.orifice_diameter_m, s.rotation_frequency_hz, \

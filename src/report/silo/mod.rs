@@ -28,9 +28,11 @@ use crate::pooled::silo::{
 
 /// The note for the rows a round is running on ([`DischargeRow::running_on_to_s`]): which jobs
 /// are drawn from their earlier end, and how far each now runs; None when none is.
-pub(crate) fn running_on_note(rows: &[DischargeRow]) -> Option<String> {
+pub(crate) fn running_on_note<'a>(
+    rows: impl IntoIterator<Item = &'a DischargeRow>,
+) -> Option<String> {
     let jobs: Vec<String> = rows
-        .iter()
+        .into_iter()
         .filter_map(|r| {
             let to = r.running_on_to_s?;
             Some(format!(
@@ -90,7 +92,7 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 continue;
             };
             if row.running_on_to_s.is_some() {
-                drawn_running_on.push(row.clone());
+                drawn_running_on.push(row);
             }
             let series = mass_series(conn, row.job_id)?;
             let last = series.last().copied();
@@ -124,7 +126,7 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             panel.series.push(Series::line(Some(label), color, t, m));
         }
     }
-    let running_on = running_on_note(&drawn_running_on);
+    let running_on = running_on_note(drawn_running_on);
     panel.notes.extend(running_on.clone());
     let fig = Figure {
         title: Some(format!(

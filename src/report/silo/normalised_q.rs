@@ -8,7 +8,7 @@ use rusqlite::Connection;
 
 use crate::pooled::silo::{
     clogged_points, combine_replicas, distinct, drawable_discharge_rows, replica_label, same_value,
-    spread, target_note, CloggedPoint, DischargeRow, REPLICA_NOTE,
+    spread, target_note, CloggedPoint, REPLICA_NOTE,
 };
 use crate::report::campaign::CampaignRef;
 use crate::report::drawn::{write_all, Drawn, Output};
@@ -201,12 +201,10 @@ pub(crate) fn fig5(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
                 .push(Series::line(None, i, s.x.clone(), s.y.clone()));
             p.series.push(s);
             let marks = clogged_marks(&norm, &clogged, Some(c.d_m));
-            let here: Vec<DischargeRow> = rows
+            let here = rows
                 .iter()
-                .filter(|r| same_value(r.orifice_diameter_m, c.d_m))
-                .cloned()
-                .collect();
-            p.notes.extend(super::running_on_note(&here));
+                .filter(|r| same_value(r.orifice_diameter_m, c.d_m));
+            p.notes.extend(super::running_on_note(here));
             if !marks.is_empty() || !p.notes.is_empty() {
                 p.legend = Legend::Outside;
             }
