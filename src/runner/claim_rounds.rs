@@ -93,8 +93,8 @@ pub fn look(
     let (steps, wall, core_hours) = claims::spent(conn, campaign_id)?;
     let rate = (wall > 0.0).then_some(steps / wall);
     let results = scene_results(ev.file.scene);
-    // A claim decided at an earlier look of this campaign stays decided (`kept_decision`), and
-    // a look already recorded stands (`recorded`).
+    // A claim decided at an earlier look of this campaign or an earlier version of it stays
+    // decided (`kept_decision`), and a look already recorded stands (`recorded`).
     let decided = crate::store::claims::first_decisions(conn, campaign_id, look)?;
     let stored = if keep_recorded {
         claims::look_rows(conn, campaign_id, look)?
@@ -172,7 +172,7 @@ pub fn look(
             forecast_particle_steps: forecast,
             forecast_wall_s: forecast.and_then(|s| rate.map(|r| s / r)),
         };
-        let (v, row) = match decided.get(&claim.id) {
+        let (v, row) = match crate::store::claims::standing(&decided, &row) {
             Some(first) => {
                 let kept = crate::store::claims::kept_decision(first, &row);
                 let decision = Verdictum::parse(&kept.verdict).unwrap_or(v.decision);

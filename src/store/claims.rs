@@ -105,7 +105,9 @@ fn verdict_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<VerdictRow> {
 }
 
 /// Each claim's first decision (supported or contradicted) at a look before `before_round`,
-/// by claim id.
+/// by claim id. An earlier version's looks count: a new version is the same study looked at
+/// again, and its looks go on from the earlier ones' numbers (`store::looks`). A caller keeps
+/// such a decision only for the same test of the claim (`standing`).
 ///
 /// # Errors
 /// Database errors.
@@ -116,7 +118,10 @@ pub fn first_decisions(
 ) -> Result<std::collections::BTreeMap<String, VerdictRow>> {
     let mut q = conn.prepare(&format!(
         "SELECT {ROW_COLUMNS} FROM claim_verdicts
-         WHERE campaign_id = ?1 AND round < ?2 AND verdict IN ('supported', 'contradicted')
+         WHERE campaign_id IN (SELECT e.id FROM campaigns e JOIN campaigns c
+                                 ON e.name = c.name AND e.version <= c.version
+                               WHERE c.id = ?1)
+           AND round < ?2 AND verdict IN ('supported', 'contradicted')
          ORDER BY round DESC"
     ))?;
     let rows = q
@@ -176,6 +181,17 @@ pub fn recorded(stored: &VerdictRow, today: &VerdictRow) -> (VerdictRow, Option<
     (stored.clone(), line)
 }
 
+/// The earlier decision that stands for `now`'s claim: one of the same test, what and bound.
+/// A later version may keep a claim's id and change its test; its looks then decide afresh.
+pub fn standing<'a>(
+    decided: &'a std::collections::BTreeMap<String, VerdictRow>,
+    now: &VerdictRow,
+) -> Option<&'a VerdictRow> {
+    decided
+        .get(&now.claim_id)
+        .filter(|f| (&f.test, &f.what, &f.bound) == (&now.test, &now.what, &now.bound))
+}
+
 /// A claim decided at an earlier look stays decided, as a sequential test stops at its first
 /// decision: later looks spend α on the claims still open, not on re-testing this one. The row
 /// of look `now.round` keeps the deciding look's verdict, value and interval, and says what the
@@ -224,7 +240,7 @@ pub fn latest_verdicts(conn: &Connection, campaign_id: i64) -> Result<Vec<Verdic
     let decided = first_decisions(conn, campaign_id, latest)?;
     Ok(rows
         .into_iter()
-        .map(|r| match decided.get(&r.claim_id) {
+        .map(|r| match standing(&decided, &r) {
             Some(first) => kept_decision(first, &r),
             None => r,
         })
@@ -337,6 +353,64 @@ mod tests {
         assert_eq!(
             latest_verdicts(&conn, d).expect("d"),
             vec![row(0, "a", "undecided", 0.05)]
+        );
+    }
+
+    #[test]
+    fn an_earlier_versions_decision_stands_for_the_same_test_only() {
+        let conn = test_rows::empty_db();
+        let v1 = test_rows::campaign(&conn, "c", "silo", "2026-01-01T00:00:00Z");
+        conn.execute(
+            "INSERT INTO campaigns (name, version, file, scene, spec_json) VALUES ('c', 2, 'c.json', 'silo', '{}')",
+            [],
+        )
+        .expect("version 2");
+        let v2 = conn.last_insert_rowid();
+        // Another campaign's decision of a claim of the same id is not this study's.
+        let other = test_rows::campaign(&conn, "other", "silo", "2026-01-01T00:00:00Z");
+        save_verdicts(&conn, other, &[row(0, "c", "contradicted", -0.3)]).expect("other");
+        save_verdicts(
+            &conn,
+            v1,
+            &[
+                row(0, "a", "supported", 0.15),
+                row(0, "b", "supported", 0.2),
+                row(0, "c", "undecided", 0.0),
+            ],
+        )
+        .expect("v1");
+        // Version 2 keeps `a`, tests `b` against another bound, and looks on from look 1.
+        let mut b = row(1, "b", "undecided", 0.05);
+        b.bound = "> 0.1".into();
+        save_verdicts(
+            &conn,
+            v2,
+            &[
+                row(1, "a", "undecided", 0.05),
+                b.clone(),
+                row(1, "c", "undecided", 0.0),
+            ],
+        )
+        .expect("v2");
+        let latest = latest_verdicts(&conn, v2).expect("latest");
+        let a = &latest[0];
+        assert_eq!(
+            (a.round, a.verdict.as_str(), a.value),
+            (1, "supported", Some(0.15))
+        );
+        assert!(
+            a.note.starts_with("decided at look 0; look 1 reads"),
+            "{}",
+            a.note
+        );
+        assert_eq!(latest[1], b, "a changed test is decided afresh");
+        assert_eq!(latest[2], row(1, "c", "undecided", 0.0));
+        // A later version's decision does not reach back into an earlier one.
+        save_verdicts(&conn, v2, &[row(2, "c", "supported", 0.3)]).expect("v2 look 2");
+        save_verdicts(&conn, v1, &[row(3, "c", "undecided", 0.0)]).expect("v1 look 3");
+        assert_eq!(
+            latest_verdicts(&conn, v1).expect("v1")[0].verdict,
+            "undecided"
         );
     }
 }
