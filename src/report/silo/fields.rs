@@ -75,13 +75,14 @@ impl FieldJob {
     }
 
     /// The map sets (`map_t…`), by time.
-    fn maps(&self) -> Vec<&FieldSet> {
+    pub(super) fn maps(&self) -> Vec<&FieldSet> {
         let mut m: Vec<&FieldSet> = self
             .sets
             .iter()
             .filter(|s| s.name.starts_with("map_t"))
             .collect();
-        m.sort_by(|a, b| a.name.cmp(&b.name));
+        // By time, not by name: "map_t10.000" sorts before "map_t5.000".
+        m.sort_by(|a, b| a.t_start_s.total_cmp(&b.t_start_s));
         m
     }
 }
