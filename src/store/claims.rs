@@ -105,7 +105,7 @@ fn verdict_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<VerdictRow> {
 }
 
 /// Each claim's first decision (supported or contradicted) at a look before `before_round`,
-/// by claim id. An earlier version's looks count: a new version is the same study looked at
+/// by claim id, each claim's in order of looks. An earlier version's looks count: a new version is the same study looked at
 /// again, and its looks go on from the earlier ones' numbers (`store::looks`). A caller keeps
 /// such a decision only for the same test of the claim (`standing`).
 ///
@@ -115,20 +115,24 @@ pub fn first_decisions(
     conn: &Connection,
     campaign_id: i64,
     before_round: u32,
-) -> Result<std::collections::BTreeMap<String, VerdictRow>> {
+) -> Result<std::collections::BTreeMap<String, Vec<VerdictRow>>> {
     let mut q = conn.prepare(&format!(
         "SELECT {ROW_COLUMNS} FROM claim_verdicts
          WHERE campaign_id IN (SELECT e.id FROM campaigns e JOIN campaigns c
                                  ON e.name = c.name AND e.version <= c.version
                                WHERE c.id = ?1)
            AND round < ?2 AND verdict IN ('supported', 'contradicted')
-         ORDER BY round DESC"
+         ORDER BY round"
     ))?;
     let rows = q
         .query_map(params![campaign_id, before_round], verdict_row)?
         .collect::<rusqlite::Result<Vec<_>>>()?;
-    // Descending rounds: the earliest decision of a claim is inserted last and stays.
-    Ok(rows.into_iter().map(|r| (r.claim_id.clone(), r)).collect())
+    // Each claim's decisions by round: `standing` takes the first of the claim's present test.
+    let mut by_claim = std::collections::BTreeMap::<String, Vec<VerdictRow>>::new();
+    for r in rows {
+        by_claim.entry(r.claim_id.clone()).or_default().push(r);
+    }
+    Ok(by_claim)
 }
 
 /// The rows stored for look `round`, by claim id, while the look's data are those it read: no
@@ -184,12 +188,13 @@ pub fn recorded(stored: &VerdictRow, today: &VerdictRow) -> (VerdictRow, Option<
 /// The earlier decision that stands for `now`'s claim: one of the same test, what and bound.
 /// A later version may keep a claim's id and change its test; its looks then decide afresh.
 pub fn standing<'a>(
-    decided: &'a std::collections::BTreeMap<String, VerdictRow>,
+    decided: &'a std::collections::BTreeMap<String, Vec<VerdictRow>>,
     now: &VerdictRow,
 ) -> Option<&'a VerdictRow> {
     decided
-        .get(&now.claim_id)
-        .filter(|f| (&f.test, &f.what, &f.bound) == (&now.test, &now.what, &now.bound))
+        .get(&now.claim_id)?
+        .iter()
+        .find(|f| (&f.test, &f.what, &f.bound) == (&now.test, &now.what, &now.bound))
 }
 
 /// A claim decided at an earlier look stays decided, as a sequential test stops at its first
@@ -327,7 +332,7 @@ mod tests {
             save_verdicts(&conn, c, rows).expect("save");
         }
         let first = first_decisions(&conn, c, 2).expect("first");
-        assert_eq!(first["a"].round, 1);
+        assert_eq!(first["a"][0].round, 1);
         assert!(first_decisions(&conn, c, 1).expect("none").is_empty());
         let latest = latest_verdicts(&conn, c).expect("latest");
         assert_eq!(latest.len(), 2);
@@ -405,6 +410,15 @@ mod tests {
         );
         assert_eq!(latest[1], b, "a changed test is decided afresh");
         assert_eq!(latest[2], row(1, "c", "undecided", 0.0));
+        // Version 2's own decision of its changed `b` stands over version 1's of the old test.
+        let mut b2 = row(2, "b", "supported", 0.3);
+        b2.bound = "> 0.1".into();
+        save_verdicts(&conn, v2, &[b2]).expect("v2 look 2");
+        let mut b3 = row(3, "b", "undecided", 0.05);
+        b3.bound = "> 0.1".into();
+        save_verdicts(&conn, v2, &[b3]).expect("v2 look 3");
+        let b = &latest_verdicts(&conn, v2).expect("look 3")[0];
+        assert_eq!((b.verdict.as_str(), b.value), ("supported", Some(0.3)));
         // A later version's decision does not reach back into an earlier one.
         save_verdicts(&conn, v2, &[row(2, "c", "supported", 0.3)]).expect("v2 look 2");
         save_verdicts(&conn, v1, &[row(3, "c", "undecided", 0.0)]).expect("v1 look 3");
