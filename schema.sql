@@ -394,3 +394,15 @@ CREATE TABLE IF NOT EXISTS claim_verdicts (
     created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     PRIMARY KEY (campaign_id, round, claim_id)
 );
+
+-- What a campaign had spent when each look was taken (every job's work then, the claims'
+-- own points or not), so that a claims table printed later still says the look's cost.
+CREATE TABLE IF NOT EXISTS claim_looks (
+    campaign_id     INTEGER NOT NULL REFERENCES campaigns(id),
+    round           INTEGER NOT NULL,
+    particle_steps  REAL NOT NULL,
+    wall_s          REAL NOT NULL,
+    core_hours      REAL NOT NULL,
+    created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    PRIMARY KEY (campaign_id, round)
+);

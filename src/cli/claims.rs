@@ -144,7 +144,11 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
             (
                 sweep::report::claims::campaign_scale(conn, c.id, &c.scene)?,
                 look.claims.into_iter().map(|x| x.2).collect(),
-                sweep::report::claims::spending(conn, c.id)?,
+                // The look is taken now, so the work to date is its cost.
+                sweep::report::claims::Spending {
+                    at_look: true,
+                    ..sweep::report::claims::spending(conn, c.id)?
+                },
             )
         }
     };

@@ -11,12 +11,15 @@ use super::table::{csv_num, escape};
 use crate::observe::claims::short;
 use crate::store::claims::VerdictRow;
 
-/// What the campaign spent in all.
+/// What the campaign spent: at the look the table shows, or (for a look stored by a sweep
+/// that did not record its cost) every job's work so far.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spending {
     pub particle_steps: f64,
     pub wall_s: f64,
     pub core_hours: f64,
+    /// The look's own cost; false: the work to date, which later rounds may have added to.
+    pub at_look: bool,
 }
 
 /// The scale a campaign's jobs ran at, in one line: N, container, stiffness, time step,
@@ -133,7 +136,12 @@ pub fn claims_markdown(
     let _ = writeln!(m, "Scale: {scale}.\n");
     let _ = writeln!(
         m,
-        "Look {look}: intervals at {level} at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. Spent: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
+        "Look {look}: intervals at {level} at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. {}: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
+        if spent.at_look {
+            "Spent by this look"
+        } else {
+            "Spent to date (the look's own cost was not recorded)"
+        },
         spent.particle_steps,
         hours(spent.wall_s),
         spent.core_hours
@@ -257,10 +265,19 @@ pub fn stored_claims(
     if rows.is_empty() {
         return Ok(None);
     }
+    let spent = match crate::store::claims::look_spent(conn, campaign_id, rows[0].round)? {
+        Some((particle_steps, wall_s, core_hours)) => Spending {
+            particle_steps,
+            wall_s,
+            core_hours,
+            at_look: true,
+        },
+        None => spending(conn, campaign_id)?,
+    };
     Ok(Some((
         campaign_scale(conn, campaign_id, scene)?,
         rows,
-        spending(conn, campaign_id)?,
+        spent,
     )))
 }
 
@@ -306,7 +323,7 @@ pub fn distinct_scales(scales: impl IntoIterator<Item = String>) -> String {
         .join("; ")
 }
 
-/// What a campaign's jobs spent.
+/// What a campaign's jobs have spent to date.
 ///
 /// # Errors
 /// Database errors.
@@ -316,6 +333,7 @@ pub fn spending(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
         particle_steps,
         wall_s,
         core_hours,
+        at_look: false,
     })
 }
 
@@ -360,5 +378,80 @@ mod tests {
         );
         assert!(mixed.contains("box 8L × 8L, bed 20L") && mixed.contains("box 6L × 6L, bed 16L"));
         assert_eq!(distinct_scales(Vec::<String>::new()), "");
+    }
+
+    #[test]
+    fn the_table_states_the_looks_own_cost_not_later_rounds_work() {
+        use crate::store::{claims, test_rows};
+        let conn = test_rows::empty_db();
+        let row = VerdictRow {
+            round: 0,
+            claim_id: "a".into(),
+            statement: String::new(),
+            paper: String::new(),
+            paper_value: String::new(),
+            test: "compare".into(),
+            what: "q ratio".into(),
+            verdict: "undecided".into(),
+            value: Some(0.0),
+            lo: Some(-0.1),
+            hi: Some(0.1),
+            level: 0.99,
+            bound: "> 0".into(),
+            points: String::new(),
+            note: String::new(),
+            particle_steps: 1e9,
+            wall_s: 100.0,
+            forecast_particle_steps: None,
+            forecast_wall_s: None,
+        };
+        let work = |job: i64, steps: f64| {
+            conn.execute(
+                "UPDATE jobs SET particle_steps = ?2, wall_time_s = 3600 WHERE id = ?1",
+                rusqlite::params![job, steps],
+            )
+            .expect("work");
+        };
+        let c = test_rows::campaign(&conn, "c", "silo", "2026-01-01T00:00:00Z");
+        let job = test_rows::silo_job(&conn, c, "j", "done", "{}");
+        work(job, 1e9);
+        claims::save_verdicts(&conn, c, std::slice::from_ref(&row)).expect("verdicts");
+        claims::save_look_spent(&conn, c, 0, (1e9, 3600.0, 1.0)).expect("spent");
+        // The look evaluated again after an interruption keeps its first cost.
+        claims::save_look_spent(&conn, c, 0, (2e9, 7200.0, 2.0)).expect("again");
+        // A round runs the job on after the look.
+        work(job, 3e9);
+        let (_, _, spent) = stored_claims(&conn, c, "silo")
+            .expect("read")
+            .expect("a look");
+        assert_eq!(
+            spent,
+            Spending {
+                particle_steps: 1e9,
+                wall_s: 3600.0,
+                core_hours: 1.0,
+                at_look: true
+            }
+        );
+        let md = claims_markdown("c", "", std::slice::from_ref(&row), spent);
+        assert!(
+            md.contains("Spent by this look: 1.000e9 particle-steps"),
+            "{md}"
+        );
+
+        // A look stored by a sweep that did not record its cost reads the work to date, so named.
+        let d = test_rows::campaign(&conn, "d", "silo", "2026-01-01T00:00:00Z");
+        let job = test_rows::silo_job(&conn, d, "k", "done", "{}");
+        work(job, 3e9);
+        claims::save_verdicts(&conn, d, std::slice::from_ref(&row)).expect("verdicts");
+        let (_, _, spent) = stored_claims(&conn, d, "silo")
+            .expect("read")
+            .expect("a look");
+        assert!(!spent.at_look && spent.particle_steps == 3e9, "{spent:?}");
+        let md = claims_markdown("d", "", &[row], spent);
+        assert!(
+            md.contains("Spent to date (the look's own cost was not recorded): 3.000e9"),
+            "{md}"
+        );
     }
 }

@@ -42,6 +42,13 @@ pub struct Spent {
     pub core_hours: f64,
 }
 
+impl Spent {
+    /// (particle-steps, wall s, core-hours), as the store keeps them.
+    pub fn triple(self) -> (f64, f64, f64) {
+        (self.particle_steps, self.wall_s, self.core_hours)
+    }
+}
+
 /// One look of a claims target and what followed it.
 #[derive(Clone, Debug)]
 pub struct ClaimsRound {
@@ -529,6 +536,7 @@ pub fn next_claims_round(
     let rows: Vec<VerdictRow> = l.claims.iter().map(|c| c.2.clone()).collect();
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     claims::save_verdicts(&tx, campaign_id, &rows)?;
+    claims::save_look_spent(&tx, campaign_id, l.look, l.spent.triple())?;
     let work = register_work(&tx, campaign_id, &ev.file, ev.rounds_done + 1, planned)?;
     tx.commit()?;
     Ok(ClaimsRound {
@@ -561,6 +569,7 @@ pub fn look_once(
     let rows: Vec<VerdictRow> = l.claims.into_iter().map(|c| c.2).collect();
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
     claims::save_verdicts(&tx, campaign_id, &rows)?;
+    claims::save_look_spent(&tx, campaign_id, l.look, l.spent.triple())?;
     tx.commit()?;
     Ok(Some((rows, l.reread)))
 }

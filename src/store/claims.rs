@@ -281,6 +281,47 @@ pub fn spent(conn: &Connection, campaign_id: i64) -> Result<(f64, f64, f64)> {
     )?)
 }
 
+/// Stores what campaign `campaign_id` had spent at look `round` (particle-steps, wall s,
+/// core-hours). A look evaluated again after an interruption keeps its recorded verdicts
+/// (`recorded`), so it keeps its first cost too.
+///
+/// # Errors
+/// Database errors.
+pub fn save_look_spent(
+    conn: &Connection,
+    campaign_id: i64,
+    round: u32,
+    spent: (f64, f64, f64),
+) -> Result<()> {
+    conn.execute(
+        "INSERT OR IGNORE INTO claim_looks (campaign_id, round, particle_steps, wall_s, core_hours)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![campaign_id, round, spent.0, spent.1, spent.2],
+    )?;
+    Ok(())
+}
+
+/// What campaign `campaign_id` had spent at look `round`; None for a look stored by a sweep
+/// that did not record it.
+///
+/// # Errors
+/// Database errors.
+pub fn look_spent(
+    conn: &Connection,
+    campaign_id: i64,
+    round: u32,
+) -> Result<Option<(f64, f64, f64)>> {
+    use rusqlite::OptionalExtension;
+    Ok(conn
+        .query_row(
+            "SELECT particle_steps, wall_s, core_hours FROM claim_looks
+             WHERE campaign_id = ?1 AND round = ?2",
+            params![campaign_id, round],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+        )
+        .optional()?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

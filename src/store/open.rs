@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 13;
+pub const SCHEMA_VERSION: i64 = 14;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -120,6 +120,7 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
         // `slurm_tasks`, 3 → 4 the coarse-grained fields (`field_sets`, `field_arrays`,
         // `silo_field_series`): schema.sql is idempotent, so every step is running it again.
         tx.execute_batch(include_str!("../../schema.sql"))?;
+        // 13 → 14 adds `claim_looks` (what a campaign had spent at each look) the same way.
         // 4 → 5: campaign versions (the name is no longer unique alone, which SQLite can only
         // change by rebuilding the table, ids kept), and the jobs' attempt limit and stage.
         if !has_column(&tx, "campaigns", "version")? {

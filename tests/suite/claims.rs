@@ -130,6 +130,26 @@ fn a_claim_is_decided_over_rounds_and_the_same_after_a_kill() {
     );
     let csv = std::fs::read_to_string(a.path().join("figs/tiny_claims.csv")).unwrap();
     assert_eq!(csv.lines().count(), 2, "{csv}");
+    // Each look recorded what had been spent by then: look 0 less than the last look, whose
+    // cost the table states.
+    let spent = |round: usize| {
+        read_db(&db_a)
+            .query_row(
+                "SELECT particle_steps FROM claim_looks WHERE round = ?1",
+                [round],
+                |r| r.get::<_, f64>(0),
+            )
+            .unwrap()
+    };
+    let (first, last) = (spent(0), spent(looks.len() - 1));
+    assert!(
+        0.0 < first && first < last,
+        "look 0: {first}, last look: {last}"
+    );
+    assert!(
+        md.contains(&format!("Spent by this look: {last:.3e} particle-steps")),
+        "{last:.3e}\n{md}"
+    );
 
     // Killed once a round's work is running, then resumed: the same rounds and verdicts.
     let b = TempDir::new().unwrap();
