@@ -20,6 +20,7 @@ mod render;
 mod silo;
 mod streamlines;
 mod table;
+mod thin;
 
 pub use crate::pooled::chute::{
     combine_point, group_points, pool_diffusion, pool_diffusion_y, pooled_points, ChutePoint,

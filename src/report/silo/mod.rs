@@ -22,6 +22,7 @@ use super::campaign::CampaignRef;
 use super::drawn::{write_all, Drawn, Output};
 use super::plot::{Axis, Figure, Panel, Series};
 use super::table::{csv_num, fixed, mm, sci, short, Table};
+use super::thin::thinned;
 use crate::pooled::silo::{
     distinct, drawable_discharge_rows, mass_series, same_value, spread, DischargeRow,
 };
@@ -54,6 +55,10 @@ pub(crate) fn running_on_note<'a>(
 
 /// At most this many M(t) curves in Fig. 2, so the legend stays readable.
 const MAX_FIG2_CURVES: usize = 8;
+
+/// At most this many samples of each M(t) curve drawn and written to the CSV (the figure is
+/// 1000 pixels wide).
+const MAX_FIG2_SAMPLES: usize = 1000;
 
 /// Fig. 2: discharged mass M(t) for up to eight (D, f), spread over the D and f present.
 pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) -> Result<Drawn> {
@@ -94,12 +99,13 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
             if row.running_on_to_s.is_some() {
                 drawn_running_on.push(row);
             }
-            let series = mass_series(conn, row.job_id)?;
-            let last = series.last().copied();
+            let stored = mass_series(conn, row.job_id)?;
+            let last = stored.last().copied();
+            let series = thinned(&stored, MAX_FIG2_SAMPLES);
             table.push(vec![
                 mm(d),
                 short(f),
-                series.len().to_string(),
+                stored.len().to_string(),
                 fixed(last.map(|p| p.0), 2),
                 sci(last.map(|p| p.1), 3),
                 sci(row.q_kg_per_s, 3),
@@ -137,7 +143,10 @@ pub(crate) fn fig2(conn: &Connection, campaign: &CampaignRef, out_dir: &Output) 
         columns: 1,
         panel_size: (1000, 700),
     };
-    let mut text = String::from("M(t) from discharge_series, one done job per (D, f)\n");
+    let mut text = format!(
+        "M(t) from discharge_series, one done job per (D, f), drawn and written at most \
+         {MAX_FIG2_SAMPLES} evenly spaced samples per curve (`samples`: how many are stored)\n"
+    );
     if let Some(note) = running_on {
         text.push_str(&format!("{note}\n"));
     }

@@ -11,6 +11,7 @@ use crate::store::test_rows;
 use crate::report::render_figure;
 
 mod clogged;
+mod fig2_samples;
 mod map_order;
 mod pooled;
 mod running_on;
