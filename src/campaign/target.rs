@@ -40,7 +40,9 @@ pub struct Target {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub claims: Option<ClaimsGoal>,
     /// The most core-hours (jobs' wall time × their threads) the campaign may spend in all,
-    /// its first runs included; absent: no cap but the rounds'.
+    /// its first runs included: a look that finds them spent adds no round. The campaign's own
+    /// jobs always run in full (`sweep plan` says when they alone exceed it); absent: no cap
+    /// but the rounds'.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_core_hours: Option<f64>,
     /// How a claims target spreads its work: "adaptive" (default: the points whose uncertainty

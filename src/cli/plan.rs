@@ -179,6 +179,17 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         ))
     );
     in_store.print(jobs.len());
+    if let (Some(cap), Some(w)) = (
+        file.target.as_ref().and_then(|t| t.max_core_hours),
+        total_wall,
+    ) {
+        let core_hours = w * threads as f64 / 3600.0;
+        if core_hours > cap {
+            println!(
+                "note: these jobs alone forecast {core_hours:.1} core-hours, over the target's max_core_hours {cap}: they run in full, since the cap stops only the rounds a look would add"
+            );
+        }
+    }
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.
         target_forecast(project.as_ref(), &file.name, t, &bench_rates)?;

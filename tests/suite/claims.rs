@@ -403,3 +403,44 @@ fn a_recorded_look_stands_when_its_data_read_otherwise() {
     assert!(!out.contains("stands as recorded"), "{out}");
     assert_ne!(verdicts(&db), before, "the look is read again");
 }
+
+/// `sweep plan` says when a claims campaign's own jobs alone forecast more core-hours than its
+/// `max_core_hours`: the cap stops only added rounds, so they would run past it.
+#[test]
+fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
+    let dir = TempDir::new().unwrap();
+    let d = dir.path();
+    let db = d.join("plan.db");
+    let conn = sweep::store::open(&db).unwrap();
+    // 10⁴ particle-steps/s: the four 600-particle jobs forecast about 0.1 core-hours each.
+    conn.execute(
+        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
+         VALUES ('silo-bed', 'cpu', 'f32', 1, 600, 10, 1e-6, 1.0e4, 5.0, 'x', 'test')",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let plan = |cap: f64| {
+        let mut c = tiny_claims("adaptive");
+        c["base"]["precision"] = json!("f32");
+        c["target"]["max_core_hours"] = json!(cap);
+        let file = write_campaign(d, "c.json", &c);
+        let o = sweep_cmd(d)
+            .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+            .args(["--threads", "1"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+        stdout(&o)
+    };
+    let over = plan(0.05);
+    assert!(
+        over.contains("core-hours, over the target's max_core_hours 0.05: they run in full"),
+        "{over}"
+    );
+    let under = plan(1000.0);
+    assert!(
+        under.contains("on this machine") && !under.contains("they run in full"),
+        "{under}"
+    );
+}

@@ -7,7 +7,8 @@ fn a_long_mass_series_is_thinned_to_its_ends() {
     let conn = synthetic_db(&[0.0]);
     let id = test_rows::campaign_id(&conn, "rotating");
     // Drop the synthetic jobs' short series and give one job 5001 samples (50 s at 0.01 s).
-    conn.execute("DELETE FROM discharge_series", []).expect("clear");
+    conn.execute("DELETE FROM discharge_series", [])
+        .expect("clear");
     let job: i64 = conn
         .query_row(
             "SELECT job_id FROM campaign_jobs WHERE campaign_id = ?1 ORDER BY job_id LIMIT 1",
@@ -21,7 +22,11 @@ fn a_long_mass_series_is_thinned_to_its_ends() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let fig2 = render_figure(&conn, "fig2", Some("rotating"), dir.path()).expect("fig2");
-    assert!(fig2.table.contains("5001"), "stored samples\n{}", fig2.table);
+    assert!(
+        fig2.table.contains("5001"),
+        "stored samples\n{}",
+        fig2.table
+    );
     let csv = std::fs::read_to_string(dir.path().join("fig2.csv")).expect("csv");
     let t: Vec<f64> = csv
         .lines()
