@@ -289,6 +289,7 @@ mod tests {
             max_rounds: 8,
             claims: None,
             max_core_hours: None,
+            max_particle_steps: None,
             allocation: Default::default(),
         }
     }

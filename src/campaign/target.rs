@@ -45,6 +45,12 @@ pub struct Target {
     /// but the rounds'.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_core_hours: Option<f64>,
+    /// The most particle-steps the campaign may spend in all, its first runs included, counted
+    /// as `max_core_hours` is. Unlike core-hours (wall time × threads) it does not grow when
+    /// jobs share their cores with other work, so a budget stated this way means the same on
+    /// a loaded machine. With both caps set, the tighter one binds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_particle_steps: Option<f64>,
     /// How a claims target spreads its work: "adaptive" (default: the points whose uncertainty
     /// most keeps a claim undecided, cheapest decision first) or "uniform" (every point run on
     /// equally each round: the design to measure the adaptive one against).
@@ -102,6 +108,7 @@ impl Target {
             max_rounds: 0,
             claims: None,
             max_core_hours: None,
+            max_particle_steps: None,
             allocation: Allocation::Adaptive,
         }
     }
@@ -109,6 +116,23 @@ impl Target {
     /// Whether the target runs until the file's claims are decided.
     pub fn decides_claims(&self) -> bool {
         self.claims == Some(ClaimsGoal::Decided)
+    }
+
+    /// Whether a campaign that has spent `particle_steps` and `core_hours` has reached a cap.
+    pub fn budget_spent(&self, particle_steps: f64, core_hours: f64) -> bool {
+        self.max_core_hours.is_some_and(|h| core_hours >= h)
+            || self.max_particle_steps.is_some_and(|s| particle_steps >= s)
+    }
+
+    /// The caps as text, " of 48 core-hours" and " of 2.5e11 particle-steps" after what was
+    /// spent: `(particle_steps_cap, core_hours_cap)`, each "" when absent.
+    pub fn budget_words(&self) -> (String, String) {
+        (
+            self.max_particle_steps
+                .map_or(String::new(), |s| format!(" of {s:.3e}")),
+            self.max_core_hours
+                .map_or(String::new(), |h| format!(" of {h}")),
+        )
     }
 
     /// How many times the claims are looked at in all: after the first runs and after each
@@ -149,6 +173,14 @@ impl Target {
                 );
             }
         }
+        if let Some(s) = self.max_particle_steps {
+            if !(s > 0.0 && s.is_finite()) {
+                bad(
+                    "max_particle_steps",
+                    format!("expected particle-steps > 0, got {s}"),
+                );
+            }
+        }
         if self.decides_claims() {
             for (field, v) in [
                 ("q_ci95_rel", self.q_ci95_rel),
@@ -158,8 +190,11 @@ impl Target {
                     bad(field, "a target runs either until its claims are decided or until each point's interval is met; expected one of claims and this".into());
                 }
             }
-        } else if self.max_core_hours.is_some() || !self.allocation.is_adaptive() {
-            bad("claims", "max_core_hours and allocation belong to a claims target; expected \"claims\": \"decided\"".into());
+        } else if self.max_core_hours.is_some()
+            || self.max_particle_steps.is_some()
+            || !self.allocation.is_adaptive()
+        {
+            bad("claims", "max_core_hours, max_particle_steps and allocation belong to a claims target; expected \"claims\": \"decided\"".into());
         }
         match scene {
             _ if self.decides_claims() => {}
@@ -227,5 +262,55 @@ impl Target {
             bad("max_rounds", "expected at least 1 round".into());
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn claims_target() -> Target {
+        Target {
+            claims: Some(ClaimsGoal::Decided),
+            max_rounds: 2,
+            ..Target::claims_looked_at_once()
+        }
+    }
+
+    #[test]
+    fn a_particle_step_cap_is_checked_and_binds_like_the_core_hours_one() {
+        let paths = |t: &Target| -> Vec<String> {
+            t.problems(SceneKind::Chute, 1, 1.0)
+                .into_iter()
+                .map(|p| p.path)
+                .collect()
+        };
+        let mut t = claims_target();
+        assert!(paths(&t).is_empty(), "{:?}", paths(&t));
+        t.max_particle_steps = Some(0.0);
+        t.max_core_hours = Some(f64::NAN);
+        assert_eq!(
+            paths(&t),
+            vec!["target.max_core_hours", "target.max_particle_steps"]
+        );
+        // Not a claims target: the caps belong to one.
+        let q = Target {
+            q_ci95_rel: Some(0.03),
+            max_rounds: 2,
+            max_particle_steps: Some(1e9),
+            ..Target::claims_looked_at_once()
+        };
+        assert!(paths(&q).contains(&"target.claims".to_string()));
+
+        t.max_core_hours = Some(10.0);
+        t.max_particle_steps = Some(1e9);
+        assert!(!t.budget_spent(5e8, 5.0));
+        assert!(t.budget_spent(1e9, 5.0), "particle-steps spent");
+        assert!(t.budget_spent(5e8, 10.0), "core-hours spent");
+        assert_eq!(
+            t.budget_words(),
+            (" of 1.000e9".to_string(), " of 10".to_string())
+        );
+        assert!(!claims_target().budget_spent(1e20, 1e9), "no cap");
     }
 }

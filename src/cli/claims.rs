@@ -89,12 +89,12 @@ pub fn print_reread(lines: &[String]) {
 pub fn print_round(r: &ClaimsRound) {
     print_verdicts(&r.verdicts);
     println!(
-        "claims: spent {:.3e} particle-steps, {:.1} min of job wall time, {:.3} core-hours{}",
+        "claims: spent {:.3e}{} particle-steps, {:.1} min of job wall time, {:.3}{} core-hours",
         r.spent.particle_steps,
+        r.budget_words.0,
         r.spent.wall_s / 60.0,
         r.spent.core_hours,
-        r.max_core_hours
-            .map_or(String::new(), |h| format!(" of {h}"))
+        r.budget_words.1
     );
     for why in &r.limited {
         println!("claims: limited: {why}");

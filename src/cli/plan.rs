@@ -179,16 +179,22 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
         ))
     );
     in_store.print(jobs.len());
-    if let (Some(cap), Some(w)) = (
-        file.target.as_ref().and_then(|t| t.max_core_hours),
-        total_wall,
-    ) {
-        let core_hours = w * threads as f64 / 3600.0;
-        if core_hours > cap {
-            println!(
-                "note: these jobs alone forecast {core_hours:.1} core-hours, over the target's max_core_hours {cap}: they run in full, since the cap stops only the rounds a look would add"
-            );
-        }
+    let caps = file.target.as_ref().filter(|t| t.decides_claims());
+    let over_hours = caps
+        .and_then(|t| t.max_core_hours)
+        .zip(total_wall.map(|w| w * threads as f64 / 3600.0))
+        .filter(|(cap, h)| h > cap)
+        .map(|(cap, h)| format!("{h:.1} core-hours, over the target's max_core_hours {cap}"));
+    let over_steps = caps
+        .and_then(|t| t.max_particle_steps)
+        .filter(|&cap| total_ps > cap)
+        .map(|cap| {
+            format!("{total_ps:.3e} particle-steps, over the target's max_particle_steps {cap:.3e}")
+        });
+    for over in over_hours.into_iter().chain(over_steps) {
+        println!(
+            "note: these jobs alone forecast {over}: they run in full, since the caps stop only the rounds a look would add"
+        );
     }
     if let Some(t) = &file.target {
         // The first round is the jobs above; what follows depends on the measured scatter.

@@ -16,11 +16,12 @@ pub(super) fn claims_forecast(
         );
     } else {
         println!(
-        "target: decide every claim (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, allocation {})",
+        "target: decide every claim (max_rounds {}, max_replicas {}, max_time_s {}, max_core_hours {}, max_particle_steps {}, allocation {})",
         t.max_rounds,
         t.max_replicas,
         t.max_time_s.map_or_else(|| "none".into(), |m| format!("{m} s")),
         t.max_core_hours.map_or_else(|| "none".into(), |h| format!("{h}")),
+        t.max_particle_steps.map_or_else(|| "none".into(), |s| format!("{s:.3e}")),
         t.allocation.name()
     );
     }

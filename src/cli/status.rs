@@ -276,11 +276,10 @@ fn print_brief_target(project: &Project, campaign_id: i64) -> anyhow::Result<()>
             .map(|w| w.round)
             .max()
             .unwrap_or(0);
-        let (_, _, core_hours) = project.spent(campaign_id)?;
+        let (steps, _, core_hours) = project.spent(campaign_id)?;
+        let (steps_cap, hours_cap) = t.budget_words();
         println!(
-            "         target: {rounds} round(s) of added work; {core_hours:.2} core-hours spent{}",
-            t.max_core_hours
-                .map_or(String::new(), |h| format!(" of {h}"))
+            "         target: {rounds} round(s) of added work; {steps:.3e}{steps_cap} particle-steps, {core_hours:.2}{hours_cap} core-hours spent"
         );
     }
     Ok(())
@@ -303,13 +302,13 @@ fn print_target(project: &Project, campaign_id: i64) -> anyhow::Result<()> {
     if t.decides_claims() {
         let work = project.target_work(campaign_id)?;
         let (steps, wall, core_hours) = project.spent(campaign_id)?;
+        let (steps_cap, hours_cap) = t.budget_words();
         println!(
-            "target: decide every claim — so far {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e} particle-steps, {:.1} min of job wall time, {core_hours:.3} core-hours{}",
+            "target: decide every claim — so far {} round(s) of added work ({} extension(s), {} replica(s)); spent {steps:.3e}{steps_cap} particle-steps, {:.1} min of job wall time, {core_hours:.3}{hours_cap} core-hours",
             work.iter().map(|w| w.round).max().unwrap_or(0),
             work.iter().filter(|w| w.action == "extend").count(),
             work.iter().filter(|w| w.action == "replica").count(),
             wall / 60.0,
-            t.max_core_hours.map_or(String::new(), |h| format!(" of {h}"))
         );
         return Ok(());
     }

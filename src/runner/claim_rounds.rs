@@ -64,7 +64,8 @@ pub struct ClaimsRound {
     /// A recorded look's claims whose data read today differ from the record (`Look::reread`).
     pub reread: Vec<String>,
     pub spent: Spent,
-    pub max_core_hours: Option<f64>,
+    /// The target's caps as text after what was spent (`Target::budget_words`).
+    pub budget_words: (String, String),
 }
 
 /// The claims of a campaign decided at one look.
@@ -307,6 +308,7 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
         l.spent.particle_steps,
         l.spent.core_hours,
         ev.target.max_core_hours,
+        ev.target.max_particle_steps,
     );
     for k in order {
         let (claim, v, row) = &l.claims[k];
@@ -506,11 +508,12 @@ pub fn next_claims_round(
             "max_rounds = {} reached with {undecided} claim(s) undecided",
             t.max_rounds
         ))
-    } else if t.max_core_hours.is_some_and(|h| l.spent.core_hours >= h) {
+    } else if t.budget_spent(l.spent.particle_steps, l.spent.core_hours) {
+        let (steps_cap, hours_cap) = t.budget_words();
         Some(format!(
-            "the budget is spent ({:.3} of {} core-hours) with {undecided} claim(s) undecided",
+            "the budget is spent ({:.3e}{steps_cap} particle-steps, {:.3}{hours_cap} core-hours) with {undecided} claim(s) undecided",
+            l.spent.particle_steps,
             l.spent.core_hours,
-            t.max_core_hours.unwrap_or(0.0)
         ))
     } else {
         None
@@ -547,7 +550,7 @@ pub fn next_claims_round(
         limited,
         reread: l.reread,
         spent: l.spent,
-        max_core_hours: t.max_core_hours,
+        budget_words: t.budget_words(),
     })
 }
 

@@ -433,6 +433,20 @@ fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
         assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
         stdout(&o)
     };
+    let steps_over = {
+        let mut c = tiny_claims("adaptive");
+        c["target"]["max_particle_steps"] = json!(1.0e6);
+        let file = write_campaign(d, "s.json", &c);
+        let o = sweep_cmd(d)
+            .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
+            .output()
+            .unwrap();
+        stdout(&o)
+    };
+    assert!(
+        steps_over.contains("over the target's max_particle_steps 1.000e6: they run in full"),
+        "{steps_over}"
+    );
     let over = plan(0.05);
     assert!(
         over.contains("core-hours, over the target's max_core_hours 0.05: they run in full"),
@@ -443,4 +457,23 @@ fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
         under.contains("on this machine") && !under.contains("they run in full"),
         "{under}"
     );
+}
+
+/// A particle-step budget stops the rounds once the campaign's work reaches it, whatever the
+/// core-hours: a tiny one is spent by the first runs, so look 0 is the last.
+#[test]
+fn a_spent_particle_step_budget_adds_no_round() {
+    let dir = TempDir::new().unwrap();
+    let mut c = tiny_claims_above("adaptive", DECIDED_ABOVE);
+    c["target"]["max_particle_steps"] = json!(1000.0);
+    let file = write_campaign(dir.path(), "c.json", &c);
+    let db = dir.path().join("sweep.db");
+    let out = stdout(&launch_ok(dir.path(), &file, &db));
+    assert!(
+        out.contains("claims: stopped: the budget is spent (")
+            && out.contains(" of 1.000e3 particle-steps"),
+        "{out}"
+    );
+    assert_eq!(verdicts(&db).len(), 1, "one look, no round\n{out}");
+    assert!(work(&db).is_empty(), "no work added\n{out}");
 }
