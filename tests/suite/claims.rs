@@ -411,15 +411,8 @@ fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
     let db = d.join("plan.db");
-    let conn = sweep::store::open(&db).unwrap();
     // 10⁴ particle-steps/s: the four 600-particle jobs forecast about 0.1 core-hours each.
-    conn.execute(
-        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
-         VALUES ('silo-bed', 'cpu', 'f32', 1, 600, 10, 1e-6, 1.0e4, 5.0, 'x', 'test')",
-        [],
-    )
-    .unwrap();
-    drop(conn);
+    bench_row(&db, "silo-bed", "cpu", 1, 1.0e4);
     let plan = |cap: f64| {
         let mut c = tiny_claims("adaptive");
         c["base"]["precision"] = json!("f32");

@@ -792,14 +792,7 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
     let db = d.join("plan.db");
-    let conn = sweep::store::open(&db).unwrap();
-    conn.execute(
-        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
-         VALUES ('silo-bed', 'cpu', 'f32', 1, 1000, 10, 1e-6, 1.0e6, 5.0, 'x', 'test')",
-        [],
-    )
-    .unwrap();
-    drop(conn);
+    bench_row(&db, "silo-bed", "cpu", 1, 1.0e6);
     let mut c = campaign("plan", &[0.02], &[1.0], 0.1);
     c["zip"] = json!({ "backend": [null, "gpu"], "precision": ["f32", "f32"] });
     let file = write_campaign(d, "plan.json", &c);
@@ -815,25 +808,11 @@ fn plan_estimates_each_job_from_its_engines_bench() {
     };
     plan_assertions(&plan(), 1.0e6);
     // A settled bed's bench (`--settle`) is preferred to the lattice start's, even an older one.
-    let conn = sweep::store::open(&db).unwrap();
-    conn.execute(
-        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
-         VALUES ('silo-bed/settled', 'cpu', 'f32', 1, 1000, 10, 1e-6, 2.0e6, 5.0, 'x', 'test'),
-                ('silo-bed', 'cpu', 'f32', 1, 1000, 10, 1e-6, 4.0e6, 5.0, 'x', 'test')",
-        [],
-    )
-    .unwrap();
-    drop(conn);
+    bench_row(&db, "silo-bed/settled", "cpu", 1, 2.0e6);
+    bench_row(&db, "silo-bed", "cpu", 1, 4.0e6);
     plan_assertions(&plan(), 2.0e6);
     // `--backend gpu`: the job without a backend of its own is estimated from the GPU's bench.
-    let conn = sweep::store::open(&db).unwrap();
-    conn.execute(
-        "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s, particle_steps_per_s, contacts_per_particle, state_checksum, machine)
-         VALUES ('silo-bed', 'gpu', 'f32', 0, 1000, 10, 1e-6, 8.0e6, 5.0, 'x', 'test')",
-        [],
-    )
-    .unwrap();
-    drop(conn);
+    bench_row(&db, "silo-bed", "gpu", 0, 8.0e6);
     let o = sweep_cmd(d)
         .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
         .args(["--threads", "1", "--backend", "gpu"])

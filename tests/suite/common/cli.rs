@@ -157,6 +157,20 @@ pub fn read_db(db: &Path) -> Connection {
     Connection::open_with_flags(db, OpenFlags::SQLITE_OPEN_READ_ONLY).unwrap()
 }
 
+/// A `sweep bench` result of `scene` on `backend` (f32, 1000 particles) at `rate`
+/// particle-steps/s, stored in `db` for `sweep plan`'s wall-time estimates.
+pub fn bench_row(db: &Path, scene: &str, backend: &str, threads: i64, rate: f64) {
+    sweep::store::open(db)
+        .unwrap()
+        .execute(
+            "INSERT INTO bench_runs (scene, backend, precision, threads, particles, steps, dt_s,
+                 particle_steps_per_s, contacts_per_particle, state_checksum, machine)
+             VALUES (?1, ?2, 'f32', ?3, 1000, 10, 1e-6, ?4, 5.0, 'x', 'test')",
+            rusqlite::params![scene, backend, threads, rate],
+        )
+        .unwrap();
+}
+
 pub fn count(db: &Path, sql: &str) -> i64 {
     read_db(db).query_row(sql, [], |r| r.get(0)).unwrap()
 }
