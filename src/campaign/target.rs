@@ -124,8 +124,8 @@ impl Target {
             || self.max_particle_steps.is_some_and(|s| particle_steps >= s)
     }
 
-    /// The caps as text, " of 48 core-hours" and " of 2.5e11 particle-steps" after what was
-    /// spent: `(particle_steps_cap, core_hours_cap)`, each "" when absent.
+    /// The caps as text to follow what was spent, its unit after them: (particle-steps,
+    /// core-hours), e.g. `(" of 2.000e11", " of 48")`, each "" when absent.
     pub fn budget_words(&self) -> (String, String) {
         (
             self.max_particle_steps

@@ -415,8 +415,8 @@ mod tests {
         let c = test_rows::campaign(&conn, "c", "silo", "2026-01-01T00:00:00Z");
         let job = test_rows::silo_job(&conn, c, "j", "done", "{}");
         work(job, 1e9);
-        claims::save_verdicts(&conn, c, std::slice::from_ref(&row)).expect("verdicts");
         claims::save_look_spent(&conn, c, 0, (1e9, 3600.0, 1.0)).expect("spent");
+        claims::save_verdicts(&conn, c, std::slice::from_ref(&row)).expect("verdicts");
         // The look evaluated again after an interruption keeps its first cost.
         claims::save_look_spent(&conn, c, 0, (2e9, 7200.0, 2.0)).expect("again");
         // A round runs the job on after the look.
@@ -444,6 +444,8 @@ mod tests {
         let job = test_rows::silo_job(&conn, d, "k", "done", "{}");
         work(job, 3e9);
         claims::save_verdicts(&conn, d, std::slice::from_ref(&row)).expect("verdicts");
+        // Evaluated again by this sweep, it records no cost: its jobs may have run on since.
+        claims::save_look_spent(&conn, d, 0, (3e9, 3600.0, 1.0)).expect("again");
         let (_, _, spent) = stored_claims(&conn, d, "silo")
             .expect("read")
             .expect("a look");

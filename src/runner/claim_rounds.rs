@@ -538,8 +538,8 @@ pub fn next_claims_round(
     };
     let rows: Vec<VerdictRow> = l.claims.iter().map(|c| c.2.clone()).collect();
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    claims::save_verdicts(&tx, campaign_id, &rows)?;
     claims::save_look_spent(&tx, campaign_id, l.look, l.spent.triple())?;
+    claims::save_verdicts(&tx, campaign_id, &rows)?;
     let work = register_work(&tx, campaign_id, &ev.file, ev.rounds_done + 1, planned)?;
     tx.commit()?;
     Ok(ClaimsRound {
@@ -571,8 +571,8 @@ pub fn look_once(
     let l = look(conn, campaign_id, &ev, true)?;
     let rows: Vec<VerdictRow> = l.claims.into_iter().map(|c| c.2).collect();
     let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
-    claims::save_verdicts(&tx, campaign_id, &rows)?;
     claims::save_look_spent(&tx, campaign_id, l.look, l.spent.triple())?;
+    claims::save_verdicts(&tx, campaign_id, &rows)?;
     tx.commit()?;
     Ok(Some((rows, l.reread)))
 }

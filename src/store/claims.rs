@@ -282,8 +282,9 @@ pub fn spent(conn: &Connection, campaign_id: i64) -> Result<(f64, f64, f64)> {
 }
 
 /// Stores what campaign `campaign_id` had spent at look `round` (particle-steps, wall s,
-/// core-hours). A look evaluated again after an interruption keeps its recorded verdicts
-/// (`recorded`), so it keeps its first cost too.
+/// core-hours), before the look's verdicts are saved: only a look taken for the first time
+/// records it. A look evaluated again keeps its recorded verdicts (`recorded`) and its first
+/// cost, or none if a sweep before schema 14 took it (its jobs may have run on since).
 ///
 /// # Errors
 /// Database errors.
@@ -295,7 +296,8 @@ pub fn save_look_spent(
 ) -> Result<()> {
     conn.execute(
         "INSERT OR IGNORE INTO claim_looks (campaign_id, round, particle_steps, wall_s, core_hours)
-         VALUES (?1, ?2, ?3, ?4, ?5)",
+         SELECT ?1, ?2, ?3, ?4, ?5 WHERE NOT EXISTS
+             (SELECT 1 FROM claim_verdicts WHERE campaign_id = ?1 AND round = ?2)",
         params![campaign_id, round, spent.0, spent.1, spent.2],
     )?;
     Ok(())

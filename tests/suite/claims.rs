@@ -405,9 +405,10 @@ fn a_recorded_look_stands_when_its_data_read_otherwise() {
 }
 
 /// `sweep plan` says when a claims campaign's own jobs alone forecast more core-hours than its
-/// `max_core_hours`: the cap stops only added rounds, so they would run past it.
+/// `max_core_hours`, or more particle-steps than its `max_particle_steps`: the caps stop only
+/// added rounds, so they would run past them.
 #[test]
-fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
+fn plan_says_when_the_first_runs_alone_exceed_a_cap() {
     let dir = TempDir::new().unwrap();
     let d = dir.path();
     let db = d.join("plan.db");
@@ -434,6 +435,7 @@ fn plan_says_when_the_first_runs_alone_exceed_the_core_hour_cap() {
             .args(["plan", file.to_str().unwrap(), "--db", db.to_str().unwrap()])
             .output()
             .unwrap();
+        assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
         stdout(&o)
     };
     assert!(
