@@ -144,9 +144,15 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
             (
                 sweep::report::claims::campaign_scale(conn, c.id, &c.scene)?,
                 look.claims.into_iter().map(|x| x.2).collect(),
-                // The look is taken now, so the work to date is its cost.
+                // Taken now, at the work to date: the campaign's look once its jobs have
+                // ended (claims looked at once, added by a version whose jobs had run), a
+                // preview while some are open.
                 sweep::report::claims::Spending {
-                    at_look: true,
+                    at: if ev.open > 0 {
+                        sweep::report::claims::SpentAt::Preview
+                    } else {
+                        sweep::report::claims::SpentAt::Look
+                    },
                     ..sweep::report::claims::spending(conn, c.id)?
                 },
             )
@@ -154,7 +160,7 @@ pub fn report(project: &Project, campaign: Option<&str>, out: &Path) -> anyhow::
     };
     std::fs::create_dir_all(out)?;
     let md = sweep::report::claims::claims_markdown(&c.name, &scale, &rows, spent);
-    let csv = sweep::report::claims::claims_csv(&scale, &rows);
+    let csv = sweep::report::claims::claims_csv(&scale, &rows, spent.at);
     // An older version named as NAME@vK keeps that suffix, so it does not overwrite the
     // latest version's table.
     let latest = project.campaign_named(&c.name, None)?.map(|l| l.id);

@@ -11,15 +11,26 @@ use super::table::{csv_num, escape};
 use crate::observe::claims::short;
 use crate::store::claims::VerdictRow;
 
-/// What the campaign spent: at the look the table shows, or (for a look stored by a sweep
-/// that did not record its cost) every job's work so far.
+/// What the campaign spent, and when.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spending {
     pub particle_steps: f64,
     pub wall_s: f64,
     pub core_hours: f64,
-    /// The look's own cost; false: the work to date, which later rounds may have added to.
-    pub at_look: bool,
+    pub at: SpentAt,
+}
+
+/// What a claims table shows and when its cost was counted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpentAt {
+    /// A stored look, with the cost it recorded.
+    Look,
+    /// A stored look taken by a sweep that did not record its cost: the work to date, which
+    /// later rounds may have added to.
+    ToDate,
+    /// No look is stored yet: the table is what a look taken now would read, decides nothing,
+    /// and the cost is the work to date.
+    Preview,
 }
 
 /// The scale a campaign's jobs ran at, in one line: N, container, stiffness, time step,
@@ -134,14 +145,23 @@ pub fn claims_markdown(
     let level = levels_text(rows);
     let _ = writeln!(m, "## Claims of `{campaign}`\n");
     let _ = writeln!(m, "Scale: {scale}.\n");
+    let levels = format!(
+        "intervals at {level} at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %"
+    );
+    let (what, spent_words) = match spent.at {
+        SpentAt::Look => (format!("Look {look}: {levels}."), "Spent by this look"),
+        SpentAt::ToDate => (
+            format!("Look {look}: {levels}."),
+            "Spent to date (the look's own cost was not recorded)",
+        ),
+        SpentAt::Preview => (
+            format!("**A preview, not a look**: no look is stored yet (the first comes once the campaign's jobs have ended), so nothing below is decided or stored. It is what a look taken now would read, with {levels}."),
+            "Spent to date",
+        ),
+    };
     let _ = writeln!(
         m,
-        "Look {look}: intervals at {level} at this look, so that the verdicts of all looks together (an earlier version's included) hold at 95 %. {}: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
-        if spent.at_look {
-            "Spent by this look"
-        } else {
-            "Spent to date (the look's own cost was not recorded)"
-        },
+        "{what} {spent_words}: {:.3e} particle-steps, {} wall, {:.3} core-hours.\n",
         spent.particle_steps,
         hours(spent.wall_s),
         spent.core_hours
@@ -185,8 +205,8 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-/// The claims table as CSV, every number in full.
-pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
+/// The claims table as CSV, every number in full; a preview's `look` column reads "preview".
+pub fn claims_csv(scale: &str, rows: &[VerdictRow], at: SpentAt) -> String {
     let mut c = String::from(
         "claim_id,statement,paper,paper_value,test,what,value,lo,hi,level,bound,verdict,note,points,scale,particle_steps,wall_s,forecast_particle_steps,forecast_wall_s,look\n",
     );
@@ -211,7 +231,11 @@ pub fn claims_csv(scale: &str, rows: &[VerdictRow]) -> String {
             format!("{}", r.wall_s),
             csv_num(r.forecast_particle_steps),
             csv_num(r.forecast_wall_s),
-            r.round.to_string(),
+            if at == SpentAt::Preview {
+                "preview".to_string()
+            } else {
+                r.round.to_string()
+            },
         ];
         c.push_str(&fields.join(","));
         c.push('\n');
@@ -270,7 +294,7 @@ pub fn stored_claims(
             particle_steps,
             wall_s,
             core_hours,
-            at_look: true,
+            at: SpentAt::Look,
         },
         None => spending(conn, campaign_id)?,
     };
@@ -333,7 +357,7 @@ pub fn spending(conn: &rusqlite::Connection, campaign_id: i64) -> anyhow::Result
         particle_steps,
         wall_s,
         core_hours,
-        at_look: false,
+        at: SpentAt::ToDate,
     })
 }
 
@@ -430,7 +454,7 @@ mod tests {
                 particle_steps: 1e9,
                 wall_s: 3600.0,
                 core_hours: 1.0,
-                at_look: true
+                at: SpentAt::Look
             }
         );
         let md = claims_markdown("c", "", std::slice::from_ref(&row), spent);
@@ -449,11 +473,32 @@ mod tests {
         let (_, _, spent) = stored_claims(&conn, d, "silo")
             .expect("read")
             .expect("a look");
-        assert!(!spent.at_look && spent.particle_steps == 3e9, "{spent:?}");
-        let md = claims_markdown("d", "", &[row], spent);
+        assert!(
+            spent.at == SpentAt::ToDate && spent.particle_steps == 3e9,
+            "{spent:?}"
+        );
+        let md = claims_markdown("d", "", std::slice::from_ref(&row), spent);
         assert!(
             md.contains("Spent to date (the look's own cost was not recorded): 3.000e9"),
             "{md}"
+        );
+
+        // A table taken while jobs are open says it decides nothing, in both files.
+        let preview = Spending {
+            at: SpentAt::Preview,
+            ..spent
+        };
+        let md = claims_markdown("d", "", std::slice::from_ref(&row), preview);
+        assert!(
+            md.contains("**A preview, not a look**") && !md.contains("Look 0:"),
+            "{md}"
+        );
+        let csv = claims_csv("", &[row], SpentAt::Preview);
+        let last = |l: &str| l.rsplit(',').next().unwrap_or_default().to_string();
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            (last(lines[0]), last(lines[1])),
+            ("look".into(), "preview".into())
         );
     }
 }
