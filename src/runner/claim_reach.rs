@@ -35,9 +35,83 @@ pub(super) fn out_of_reach(id: &str, forecast: Option<f64>, left: Option<f64>) -
     })
 }
 
+/// The first items of a round, in its order of priority, whose expected particle-steps fit
+/// in what the budget has `left`; the round stops at the first item that would pass it (a later,
+/// cheaper item would buy a lower priority). With the items cut, the line that says so. An item
+/// whose cost is unknown (not finite) is kept and not counted. Everything is kept without a cap.
+pub(super) fn within_budget<T>(
+    items: Vec<T>,
+    cost: impl Fn(&T) -> f64,
+    label: impl Fn(&T) -> String,
+    left: Option<f64>,
+) -> (Vec<T>, Option<String>) {
+    let Some(left) = left else {
+        return (items, None);
+    };
+    let n = items.len();
+    let all: f64 = items.iter().map(&cost).filter(|c| c.is_finite()).sum();
+    let mut spent = 0.0;
+    let mut kept = Vec::new();
+    let mut out = Vec::new();
+    for item in items {
+        let c = cost(&item);
+        if out.is_empty() && (!c.is_finite() || spent + c <= left) {
+            spent += if c.is_finite() { c } else { 0.0 };
+            kept.push(item);
+        } else {
+            out.push(item);
+        }
+    }
+    if out.is_empty() {
+        return (kept, None);
+    }
+    let mut points: Vec<String> = Vec::new();
+    for l in out.iter().map(&label) {
+        if !points.contains(&l) {
+            points.push(l);
+        }
+    }
+    let why = format!(
+        "the budget left ({left:.2e} particle-steps) covers the first {} of {n} work item(s) ({spent:.2e} of {all:.2e} particle-steps expected); left out: {}",
+        kept.len(),
+        points.join(", ")
+    );
+    (kept, Some(why))
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{out_of_reach, steps_left};
+    use super::{out_of_reach, steps_left, within_budget};
+
+    #[test]
+    fn a_round_stops_at_the_first_item_the_budget_cannot_pay() {
+        let items = vec![("a", 4e10), ("b", 3e10), ("c", 2e10), ("d", 1e9)];
+        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), Some(8e10));
+        // a + b = 7e10 fit; c would pass 8e10, and d, cheaper, comes after it.
+        assert_eq!(kept, items[..2].to_vec());
+        let why = why.expect("cut");
+        assert!(
+            why.contains("covers the first 2 of 4")
+                && why.contains("7.00e10 of 9.10e10")
+                && why.contains("left out: c, d"),
+            "{why}"
+        );
+        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), None);
+        assert_eq!((kept.len(), why), (4, None));
+        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), Some(1e12));
+        assert_eq!((kept.len(), why), (4, None));
+        // Nothing fits: nothing is added, and the line says so.
+        let (kept, why) = within_budget(items, |i| i.1, |i| i.0.to_string(), Some(1e9));
+        assert!(kept.is_empty() && why.unwrap().contains("first 0 of 4"));
+        // A cost not known is kept, uncounted.
+        let (kept, _) = within_budget(
+            vec![("x", f64::NAN), ("y", 5e9)],
+            |i| i.1,
+            |i| i.0.to_string(),
+            Some(6e9),
+        );
+        assert_eq!(kept.len(), 2);
+    }
 
     #[test]
     fn the_budget_left_is_counted_at_the_campaigns_own_rate() {

@@ -24,7 +24,7 @@ use crate::store::looks;
 use crate::store::targets::WorkRow;
 
 use super::claim_points::claim_points;
-use super::claim_reach::{out_of_reach, steps_left};
+use super::claim_reach::{out_of_reach, steps_left, within_budget};
 use super::claim_replicas::{
     after_replicas, cut_short, replicas_for_goal, replicas_to_add, steady_share,
 };
@@ -479,6 +479,14 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
     (planned, capped)
 }
 
+/// The particle-steps a planned item is expected to cost (0 for anything but work).
+fn work_cost(d: &Decision) -> f64 {
+    match d {
+        Decision::Work { cost, .. } => *cost,
+        _ => 0.0,
+    }
+}
+
 /// Looks at the claims of a campaign whose jobs have all ended, stores the verdicts, and adds
 /// the next round of work unless every claim is decided or a cap is reached.
 ///
@@ -520,10 +528,19 @@ pub fn next_claims_round(
     };
     let mut limited = Vec::new();
     let planned = if stop.is_none() {
-        let (planned, capped) = match t.allocation {
+        let (planned, mut capped) = match t.allocation {
             Allocation::Adaptive => adaptive_work(&l, &ev),
             Allocation::Uniform => uniform_work(&l, &ev),
         };
+        // A cap bounds the rounds, not only the looks: a round may not spend past it.
+        let left = steps_left(
+            l.spent.particle_steps,
+            l.spent.core_hours,
+            t.max_core_hours,
+            t.max_particle_steps,
+        );
+        let (planned, cut) = within_budget(planned, |p| work_cost(&p.0), |p| p.2.clone(), left);
+        capped.extend(cut);
         if planned.is_empty() {
             stop = Some(format!(
                 "no work can be added for the {undecided} undecided claim(s): {}",

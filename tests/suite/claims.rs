@@ -472,3 +472,47 @@ fn a_spent_particle_step_budget_adds_no_round() {
     assert_eq!(verdicts(&db).len(), 1, "one look, no round\n{out}");
     assert!(work(&db).is_empty(), "no work added\n{out}");
 }
+
+/// A particle-step cap that leaves, after the tiny silo's look 0 (6.59e7 particle-steps),
+/// room for two of its uniform round's four pieces (1.55e7 and 1.86e7 expected, then 1.55e7).
+const ROUND_CUT_CAP: f64 = 1.05e8;
+
+#[test]
+fn a_round_is_cut_to_the_budget_left() {
+    let dir = TempDir::new().unwrap();
+    let mut c = tiny_claims_above("uniform", DECIDED_ABOVE);
+    c["target"]["max_particle_steps"] = json!(ROUND_CUT_CAP);
+    let file = write_campaign(dir.path(), "c.json", &c);
+    let db = dir.path().join("sweep.db");
+    let out = stdout(&launch_ok(dir.path(), &file, &db));
+    assert!(
+        out.contains(
+            "the budget left (3.91e7 particle-steps) covers the first 2 of 4 work item(s)"
+        ),
+        "the round was not cut as sized (did the tiny silo's cost change?)\n{out}"
+    );
+    let num = |s: &str| {
+        s.split_whitespace()
+            .nth(s.starts_with("int").into())
+            .unwrap()
+            .parse::<f64>()
+            .unwrap()
+    };
+    let spent: Vec<f64> = rows(&db, "SELECT particle_steps FROM claim_looks ORDER BY round")
+        .iter()
+        .map(|r| num(&r[0]))
+        .collect();
+    let planned = rows(
+        &db,
+        "SELECT round, SUM(particle_steps_expected), COUNT(*) FROM target_work GROUP BY round ORDER BY round",
+    );
+    assert_eq!(planned[0][2], "int 2", "{planned:?}\n{out}");
+    // Every round fits in what the look before it left.
+    for r in &planned {
+        let round = num(&r[0]) as usize;
+        assert!(
+            spent[round - 1] + num(&r[1]) <= ROUND_CUT_CAP,
+            "round {round} passes the cap: {spent:?} {planned:?}\n{out}"
+        );
+    }
+}
