@@ -46,6 +46,7 @@ CREATE TABLE IF NOT EXISTS jobs (
     precision       TEXT,
     backend_note    TEXT,                  -- why this backend: auto's reason for the CPU, a software adapter allowed
     threads         INTEGER,               -- engine threads it ran with (core-hours = wall_time_s × threads)
+    cpu_time_s      REAL,                  -- CPU time its threads ran (NULL: part of it ran before sweep counted it)
     program_version TEXT,
     created_at      TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
     finished_at     TEXT

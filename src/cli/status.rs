@@ -214,8 +214,32 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             }
         }
         print_target(&project, c.id)?;
+        if let Some(line) = cpu_line(&project.cpu_use(c.id)?) {
+            println!("{line}");
+        }
     }
     Ok(0)
+}
+
+/// What the jobs' threads ran against the cores they held: on cores shared with other work
+/// the core-hours (wall time × threads) grow while the CPU hours do not. None before any job
+/// has counted its CPU time.
+fn cpu_line(u: &sweep::store::claims::CpuUse) -> Option<String> {
+    (u.counted > 0).then(|| {
+        let before = u.ran - u.counted;
+        format!(
+            "cpu: {:.3} CPU-hours used of {:.3} core-hours held ({:.0} %) by the {} job(s) that counted it{}",
+            u.cpu_hours,
+            u.core_hours,
+            100.0 * u.cpu_hours / u.core_hours.max(1e-12),
+            u.counted,
+            if before > 0 {
+                format!("; {before} ran before sweep counted CPU time")
+            } else {
+                String::new()
+            }
+        )
+    })
 }
 
 /// The backend note of the listed jobs that have run (those with a backend), when there are

@@ -158,6 +158,11 @@ pub trait Backend: Send {
     /// A backend that cannot provide it, or a device failure.
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError>;
     fn describe(&self) -> BackendInfo;
+    /// CPU seconds the engine's own worker threads have run since it was built (the CPU
+    /// engine's pool and team; 0 for an engine that steps on the caller's thread or a device).
+    fn workers_cpu_s(&self) -> f64 {
+        0.0
+    }
     /// The dispatches recorded since the engine was built (GPU engines; None on the CPU).
     fn dispatches(&self) -> Option<DispatchCount> {
         None

@@ -6,6 +6,7 @@ pub mod choice;
 pub mod config;
 pub mod contact;
 pub mod cpu;
+pub mod cpu_clock;
 pub mod effects;
 pub mod gpu;
 pub mod grid;

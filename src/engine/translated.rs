@@ -119,6 +119,10 @@ impl Backend for Translated {
     fn describe(&self) -> BackendInfo {
         self.inner.describe()
     }
+
+    fn workers_cpu_s(&self) -> f64 {
+        self.inner.workers_cpu_s()
+    }
 }
 
 #[cfg(test)]

@@ -102,6 +102,14 @@ impl Project {
         claims::spent(&self.conn, cid)
     }
 
+    /// The CPU hours the campaign's jobs used beside the core-hours they held.
+    ///
+    /// # Errors
+    /// Database errors.
+    pub fn cpu_use(&self, cid: i64) -> anyhow::Result<claims::CpuUse> {
+        claims::cpu_use(&self.conn, cid)
+    }
+
     /// The work the campaign's target added, in order.
     ///
     /// # Errors

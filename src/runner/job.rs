@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::backend::{self, BackendChoice, GpuSelect};
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
+use crate::engine::cpu_clock;
 use crate::engine::translated::{self, Translated};
 use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::snapshots::SnapshotWriter;
@@ -61,7 +62,7 @@ pub use crate::campaign::job_dir;
 
 /// What every study's checkpoint keeps about the run itself (flattened into its progress
 /// record, so the checkpoint's JSON keeps its fields where they always were).
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Ledger {
     /// Chunks run so far.
     pub chunk: u64,
@@ -73,6 +74,24 @@ pub struct Ledger {
     /// stamped with (the engine's own clock may include a shared fill stage). Read by `export`.
     #[serde(default)]
     pub job_time_s: f64,
+    /// CPU seconds the job's threads have run: the thread that runs it and its engines'
+    /// workers. None when part of the job ran before sweep counted it (a checkpoint without
+    /// it), so that a partial count is never taken for the whole.
+    #[serde(default)]
+    pub cpu_time_s: Option<f64>,
+}
+
+impl Default for Ledger {
+    fn default() -> Self {
+        Self {
+            chunk: 0,
+            particle_steps: 0,
+            wall_time_s: 0.0,
+            numerics: Default::default(),
+            job_time_s: 0.0,
+            cpu_time_s: Some(0.0),
+        }
+    }
 }
 
 /// How a fresh start went.
@@ -192,6 +211,7 @@ pub fn run<S: Study>(
 ) -> anyhow::Result<Outcome> {
     let dir = job_dir(&ctx.work_dir, &job.hash);
     let started = Instant::now();
+    let thread_cpu0 = cpu_clock::this_thread_s();
     // This process holds the job's lock: temp files of a killed writer are leftovers.
     checkpoint::remove_leftovers(&dir);
     let Some((state, mut prog)) = resume_or_start(conn, job, lease, ctx, study, &dir)? else {
@@ -223,6 +243,12 @@ pub fn run<S: Study>(
     let chunk_dt = chunk_steps as f64 * study.dt();
     let ckpt_every = ((ctx.checkpoint_interval_s / chunk_dt).round() as u64).max(1);
     let wall0 = S::ledger(&prog).wall_time_s;
+    let cpu0 = S::ledger(&prog).cpu_time_s;
+    // The job's CPU time so far: what it had, this thread's since the start (its fill stage
+    // included) and the engine's workers'.
+    let cpu_now = |engine: &dyn Backend| {
+        cpu0.map(|c| c + cpu_clock::this_thread_s() - thread_cpu0 + engine.workers_cpu_s())
+    };
     let mut last_beat = Instant::now();
     let save = |engine: &mut Box<dyn Backend>, prog: &S::Progress| {
         save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
@@ -249,6 +275,7 @@ pub fn run<S: Study>(
                 l.wall_time_s,
                 Some(&path.display().to_string()),
             )?;
+            jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
             return Ok(Outcome::Paused);
         }
         let t0 = Instant::now();
@@ -272,7 +299,9 @@ pub fn run<S: Study>(
         if let Err(reason) = study.observe(&run, &mut prog, engine.as_mut(), &report, t_now)? {
             return Ok(Outcome::Failed(reason));
         }
-        S::ledger_mut(&mut prog).wall_time_s = wall0 + started.elapsed().as_secs_f64();
+        let l = S::ledger_mut(&mut prog);
+        l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
+        l.cpu_time_s = cpu_now(engine.as_ref());
         let saved = if S::ledger(&prog).chunk % ckpt_every == 0 {
             Some(save(&mut engine, &prog)?)
         } else {
@@ -292,6 +321,7 @@ pub fn run<S: Study>(
                 l.wall_time_s,
                 path.as_deref(),
             )?;
+            jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
             last_beat = Instant::now();
         }
         if let Some(p) = &ctx.progress {
@@ -299,7 +329,10 @@ pub fn run<S: Study>(
         }
     }
     let t_end = S::ledger(&prog).chunk as f64 * chunk_dt;
-    S::ledger_mut(&mut prog).wall_time_s = wall0 + started.elapsed().as_secs_f64();
+    let l = S::ledger_mut(&mut prog);
+    l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
+    l.cpu_time_s = cpu_now(engine.as_ref());
+    jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
     study.finish(conn, job, ctx, prog, t_end)?;
     Ok(Outcome::Done)
 }

@@ -45,14 +45,15 @@ struct Progress {
 }
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
-/// same fill parameters. Returns the settled state and the particle-steps it cost (0 if reused).
+/// same fill parameters. Returns the settled state, the particle-steps it cost and the CPU seconds
+/// its engines' workers ran (0 if reused).
 /// A GPU job fills on its GPU; its fill is stored apart from the CPU's (and each adapter's),
 /// since the bits differ.
 fn fill_stage(
     spec: &JobSpec,
     scene: &SiloScene,
     ctx: &JobContext,
-) -> anyhow::Result<(State<f64>, u64)> {
+) -> anyhow::Result<(State<f64>, u64, f64)> {
     let dev = backend::job_device(
         backend::for_job(spec, ctx.backend),
         &ctx.gpu,
@@ -78,7 +79,7 @@ fn fill_stage(
                 &key[..16],
                 path.display()
             ));
-            return Ok((s, 0));
+            return Ok((s, 0, 0.0));
         }
         if let Some(lock) = DirLock::try_take(&dir)? {
             // The filler may have finished between the look and the lock.
@@ -115,7 +116,7 @@ fn fill_stage_run(
     dir: &Path,
     key: &str,
     seed: u64,
-) -> anyhow::Result<(State<f64>, u64)> {
+) -> anyhow::Result<(State<f64>, u64, f64)> {
     let config = scene.engine_config(SiloPhase::Fill);
     let interrupted = || ctx.interrupt.load(Ordering::SeqCst);
     let fill_backend = if dev.is_some() { "gpu" } else { "cpu" };
@@ -126,7 +127,7 @@ fn fill_stage_run(
     for r in refused {
         (ctx.log)(r);
     }
-    let (init, mut steps) = match found {
+    let (init, mut steps, cpu_before) = match found {
         Some((path, _, s, extra)) => {
             (ctx.log)(format!(
                 "fill stage {}: settling goes on from {} (t = {:.3} s)",
@@ -134,15 +135,16 @@ fn fill_stage_run(
                 path.display(),
                 s.time
             ));
-            let spent =
-                serde_json::from_str::<SettlingProgress>(&extra).map_or(0, |p| p.particle_steps);
-            (s, spent)
+            let spent = serde_json::from_str::<SettlingProgress>(&extra)
+                .map_or((0, 0.0), |p| (p.particle_steps, p.workers_cpu_s));
+            (s, spent.0, spent.1)
         }
         None => (
             scene
                 .initial_state_until(seed, &interrupted)
                 .ok_or(Interrupted)?,
             0,
+            0.0,
         ),
     };
     let mut engine: Box<dyn Backend> = match dev {
@@ -163,7 +165,7 @@ fn fill_stage_run(
     let mut next_checkpoint_s = init.time + ctx.checkpoint_interval_s;
     drop(init);
     let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
-    let save_settling = |s: &State<f64>, steps: u64| -> anyhow::Result<()> {
+    let save_settling = |s: &State<f64>, steps: u64, workers_cpu_s: f64| -> anyhow::Result<()> {
         let h = Header {
             job_hash: key.to_string(),
             step: s.step,
@@ -173,6 +175,7 @@ fn fill_stage_run(
         };
         let extra = serde_json::to_string(&SettlingProgress {
             particle_steps: steps,
+            workers_cpu_s,
         })?;
         checkpoint::save(&settling, &h, s, &extra)?;
         Ok(())
@@ -200,11 +203,11 @@ fn fill_stage_run(
         }
         // Every loop that runs the engine stops on an interrupt, here after a checkpoint.
         if interrupted() {
-            save_settling(&s, steps)?;
+            save_settling(&s, steps, cpu_before + engine.workers_cpu_s())?;
             return Err(Interrupted.into());
         }
         if s.time >= next_checkpoint_s {
-            save_settling(&s, steps)?;
+            save_settling(&s, steps, cpu_before + engine.workers_cpu_s())?;
             next_checkpoint_s = s.time + ctx.checkpoint_interval_s;
         }
     }
@@ -225,7 +228,7 @@ fn fill_stage_run(
     checkpoint::save(dir, &h, &s, "{}")?;
     // The finished fill is kept: its settling checkpoints are not needed again.
     let _ = std::fs::remove_dir_all(&settling);
-    Ok((s, steps))
+    Ok((s, steps, cpu_before + engine.workers_cpu_s()))
 }
 
 /// What a settling checkpoint keeps besides the particles.
@@ -233,6 +236,9 @@ fn fill_stage_run(
 struct SettlingProgress {
     /// Particle-steps the fill has cost so far.
     particle_steps: u64,
+    /// CPU seconds its engines' worker threads have run so far.
+    #[serde(default)]
+    workers_cpu_s: f64,
 }
 
 /// Mass of the free (not fixed) particles of `s` (kg): the silo's charge at opening.
@@ -313,7 +319,7 @@ impl Study for SiloStudy {
 
     fn start(&self, run: &JobRun) -> anyhow::Result<Start<Progress>> {
         jobs::set_stage(run.conn, run.job.id, run.lease, "fill")?;
-        let (s, fill_steps) = match fill_stage(&self.spec, &self.scene, run.ctx) {
+        let (s, fill_steps, fill_cpu_s) = match fill_stage(&self.spec, &self.scene, run.ctx) {
             Ok(x) => x,
             Err(e) if e.is::<Interrupted>() => return Ok(Start::Paused),
             Err(e) => return Err(e),
@@ -323,6 +329,8 @@ impl Study for SiloStudy {
             step_open: s.step,
             ledger: Ledger {
                 particle_steps: fill_steps,
+                // The fill's workers; the job's own thread counts from the job's start.
+                cpu_time_s: Some(fill_cpu_s),
                 ..Ledger::default()
             },
             bulk_density: self.scene.bulk_density(&s),

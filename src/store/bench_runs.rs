@@ -99,11 +99,16 @@ pub struct JobRateQuery<'a> {
 }
 
 /// The median particle-steps per second of this store's done jobs that fit `q` (each over at
-/// least a minute of wall time), with how many there were; None without any.
+/// least a minute of wall time), with how many there were; None without any. A one-thread CPU
+/// job that counted its CPU time gives its rate per second of that (at most its wall time), so
+/// that jobs which shared their core with other work do not slow the forecast.
 pub fn measured_rate(conn: &Connection, q: &JobRateQuery) -> Option<(f64, usize)> {
     let mut stmt = conn
         .prepare(
-            "SELECT CAST(particle_steps AS REAL) / wall_time_s FROM jobs
+            "SELECT CAST(particle_steps AS REAL)
+                    / CASE WHEN backend = 'cpu' AND threads = 1 AND cpu_time_s > 0
+                           THEN MIN(cpu_time_s, wall_time_s) ELSE wall_time_s END
+             FROM jobs
              WHERE status = 'done' AND scene = ?1 AND backend = ?2 AND precision = ?3
                AND (backend = 'gpu' OR threads = ?4) AND wall_time_s >= 60 AND particle_steps > 0
                AND (?5 IS NULL OR scene <> 'chute'
@@ -218,7 +223,20 @@ mod tests {
             ..q.clone()
         };
         assert_eq!(measured_rate(&conn, &spheres), Some((9.0e6, 1)));
-        let two = JobRateQuery { threads: 2, ..q };
+        let two = JobRateQuery {
+            threads: 2,
+            ..q.clone()
+        };
         assert_eq!(measured_rate(&conn, &two), None);
+        // A job that shared its core counted half its wall time as CPU: per CPU second it
+        // ran at 4e6 (3e9 in 750 s); one whose CPU count passes its wall time (the pool's
+        // spin beside the caller) is taken at its wall time.
+        conn.execute_batch(
+            "UPDATE jobs SET cpu_time_s = 500.0 WHERE particle_steps = 2000000000;
+             UPDATE jobs SET cpu_time_s = 750.0 WHERE particle_steps = 3000000000;
+             UPDATE jobs SET cpu_time_s = 1100.0 WHERE particle_steps = 1000000000;",
+        )
+        .unwrap();
+        assert_eq!(measured_rate(&conn, &q), Some((4.0e6, 3)));
     }
 }

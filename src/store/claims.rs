@@ -281,6 +281,43 @@ pub fn spent(conn: &Connection, campaign_id: i64) -> Result<(f64, f64, f64)> {
     )?)
 }
 
+/// The CPU a campaign's jobs used against the cores they held.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpuUse {
+    /// CPU hours of the jobs that counted theirs.
+    pub cpu_hours: f64,
+    /// Their core-hours (wall time × threads).
+    pub core_hours: f64,
+    /// Jobs that counted their CPU time, and jobs that ran at all.
+    pub counted: i64,
+    pub ran: i64,
+}
+
+/// The CPU hours a campaign's jobs used, beside the core-hours the same jobs held; jobs that ran
+/// before sweep counted CPU time (`cpu_time_s` NULL) are left out of both and counted apart.
+///
+/// # Errors
+/// Database errors.
+pub fn cpu_use(conn: &Connection, campaign_id: i64) -> Result<CpuUse> {
+    Ok(conn.query_row(
+        "SELECT COALESCE(SUM(j.cpu_time_s), 0) / 3600.0,
+                COALESCE(SUM(CASE WHEN j.cpu_time_s IS NOT NULL
+                                  THEN j.wall_time_s * COALESCE(j.threads, 1) END), 0) / 3600.0,
+                COUNT(j.cpu_time_s), COUNT(*)
+         FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id
+         WHERE cj.campaign_id = ?1 AND j.wall_time_s > 0",
+        [campaign_id],
+        |r| {
+            Ok(CpuUse {
+                cpu_hours: r.get(0)?,
+                core_hours: r.get(1)?,
+                counted: r.get(2)?,
+                ran: r.get(3)?,
+            })
+        },
+    )?)
+}
+
 /// Stores what campaign `campaign_id` had spent at look `round` (particle-steps, wall s,
 /// core-hours), before the look's verdicts are saved: only a look taken for the first time
 /// records it. A look evaluated again keeps its recorded verdicts (`recorded`) and its first

@@ -161,6 +161,25 @@ pub fn heartbeat(
     Ok(())
 }
 
+/// Records the CPU time a job's threads have run (None: part of the job ran before sweep counted
+/// it, and the column stays NULL).
+///
+/// # Errors
+/// Database errors.
+pub fn set_cpu_time(
+    conn: &Connection,
+    id: i64,
+    lease: &Lease,
+    cpu_time_s: Option<f64>,
+) -> anyhow::Result<()> {
+    conn.execute(
+        "UPDATE jobs SET cpu_time_s = ?3 WHERE id = ?1 AND lease_owner = ?2",
+        params![id, lease.owner, cpu_time_s],
+    )
+    .context("CPU time")?;
+    Ok(())
+}
+
 /// Records the backend a job runs on (and its engine threads), with what was said about the choice (`backend_note`: why
 /// `--backend auto` took the CPU, a software adapter allowed). (`particles` stays the job's own
 /// count, set at registration, whatever the checkpoint it resumes from holds.)

@@ -8,7 +8,7 @@ use anyhow::Context;
 use rusqlite::Connection;
 
 /// Current schema version.
-pub const SCHEMA_VERSION: i64 = 14;
+pub const SCHEMA_VERSION: i64 = 15;
 
 /// Opens (creating if needed) the store at `path`.
 ///
@@ -172,6 +172,8 @@ fn migrate_tx(conn: &mut Connection, name: &str) -> anyhow::Result<()> {
             ("chute_blocks", "mean_abs_cos_flow", "REAL"),
             ("chute_blocks", "diffusion_y_m2_per_s", "REAL"),
             ("chute_blocks", "diffusion_y_stderr_m2_per_s", "REAL"),
+            // 14 → 15: the CPU time a job's threads ran (NULL for jobs that ran before).
+            ("jobs", "cpu_time_s", "REAL"),
         ] {
             if !has_column(&tx, table, column)? {
                 tx.execute_batch(&format!("ALTER TABLE {table} ADD COLUMN {column} {kind};"))?;

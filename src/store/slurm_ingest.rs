@@ -222,10 +222,14 @@ fn ingest_attached(
          WHERE id = ?1",
         params![job_id, now(), j.2, j.3, j.4, j.5, j.6, j.7, j.8, j.9, j.10, j.11],
     )?;
-    if columns(&tx, "job_result", "jobs")?
-        .iter()
-        .any(|c| c == "backend_note")
-    {
+    let result_columns = columns(&tx, "job_result", "jobs")?;
+    if result_columns.iter().any(|c| c == "cpu_time_s") {
+        tx.execute(
+            "UPDATE jobs SET cpu_time_s = (SELECT cpu_time_s FROM job_result.jobs WHERE id = ?1) WHERE id = ?1",
+            [job_id],
+        )?;
+    }
+    if result_columns.iter().any(|c| c == "backend_note") {
         tx.execute(
             "UPDATE jobs SET backend_note = (SELECT backend_note FROM job_result.jobs WHERE id = ?1) WHERE id = ?1",
             [job_id],

@@ -132,6 +132,8 @@ fn as_previous_build(job_dir: &Path) -> usize {
             continue;
         };
         assert!(obs.remove("orientation").is_some() && obs.remove("lateral").is_some());
+        // Nor did it count CPU time (the ledger is flattened into the progress record).
+        assert!(v.as_object_mut().unwrap().remove("cpu_time_s").is_some());
         let text = serde_json::to_string(&v).unwrap();
         sweep::checkpoint::write_atomic(&path, &sweep::checkpoint::encode(&h, &s, &text)).unwrap();
         rewritten += 1;
@@ -190,6 +192,12 @@ fn a_chute_resumes_from_checkpoints_of_this_and_the_previous_build() {
         new_same, new_ref,
         "the new columns, resumed from this build's checkpoint"
     );
+    let cpu = |d: &Path| crate::common::cli::job_field(&d.join("sweep.db"), 1, "cpu_time_s");
+    assert!(
+        cpu(same.path()).parse::<f64>().is_ok_and(|c| c > 0.0),
+        "a job resumed from its own checkpoint counts its CPU time: {}",
+        cpu(same.path())
+    );
 
     let previous = tempfile::TempDir::new().unwrap();
     let job_dir = killed_while_measuring(previous.path());
@@ -205,4 +213,6 @@ fn a_chute_resumes_from_checkpoints_of_this_and_the_previous_build() {
         new_prev.iter().all(|v| *v == Sql::Null),
         "a job resumed from an older checkpoint stores the new columns NULL: {new_prev:?}"
     );
+    // Its CPU time is partly unknown: stored NULL, not as the part counted after the resume.
+    assert_eq!(cpu(previous.path()), "null");
 }

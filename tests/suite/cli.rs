@@ -508,6 +508,16 @@ fn a_time_limit_pauses_the_run_and_resume_equals_uninterrupted() {
     let (o, db) = launch(dir.path(), &["--time-limit", "1500ms"]);
     paused(&o, &db);
     let first = sim_time(&db);
+    // CPU time is counted from the job's start across its legs: more than 0, growing, and no
+    // more than the job's threads could run in its wall time (one thread and its caller).
+    let cpu_s = |db: &Path| -> f64 { job_field(db, 1, "cpu_time_s").parse().unwrap() };
+    let wall = |db: &Path| -> f64 { job_field(db, 1, "wall_time_s").parse().unwrap() };
+    let first_cpu = cpu_s(&db);
+    assert!(
+        first_cpu > 0.0 && first_cpu <= 2.0 * wall(&db) + 0.1,
+        "{first_cpu} s CPU, {} s wall",
+        wall(&db)
+    );
     let o = sweep_cmd(dir.path())
         .args([
             "resume",
@@ -526,8 +536,29 @@ fn a_time_limit_pauses_the_run_and_resume_equals_uninterrupted() {
         stderr(&o)
     );
     assert!(sim_time(&db) > first, "the second leg ran on");
+    let second_cpu = cpu_s(&db);
+    assert!(
+        second_cpu > first_cpu,
+        "{second_cpu} after {first_cpu}: not carried over"
+    );
     let o = resume(dir.path(), &db);
     assert!(o.status.success(), "resume failed:\n{}", stderr(&o));
+    assert!(
+        cpu_s(&db) > second_cpu && cpu_s(&db) <= 2.0 * wall(&db) + 0.1,
+        "{} s CPU, {} s wall",
+        cpu_s(&db),
+        wall(&db)
+    );
+    let st = sweep_cmd(dir.path())
+        .args(["status", "--db", db.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        stdout(&st).contains(" core-hours held (")
+            && stdout(&st).contains("by the 1 job(s) that counted it"),
+        "{}",
+        stdout(&st)
+    );
     assert_same_results(&results(&reference_db), &results(&db));
 }
 

@@ -34,8 +34,8 @@ fn columns(conn: &Connection, table: &str) -> Vec<String> {
 
 /// Law: migration adds columns and changes nothing else. A schema-12 store with one chute
 /// block row, opened twice, is at the current version with the four schema-13 columns and
-/// schema 14's `claim_looks`; the row's values read back unchanged and its new columns are
-/// NULL (`blocks` gives None). A failure means old stores are refused, rewritten, or misread.
+/// schema 14's `claim_looks` and schema 15's `jobs.cpu_time_s` (NULL for its job); the row's
+/// values read back unchanged and its new columns are NULL (`blocks` gives None). A failure means old stores are refused, rewritten, or misread.
 #[test]
 fn a_schema_12_store_migrates_in_place() {
     let dir = tempfile::tempdir().unwrap();
@@ -44,6 +44,7 @@ fn a_schema_12_store_migrates_in_place() {
         let conn = sweep::store::open(&path).unwrap();
         conn.execute_batch(&format!(
             "DROP TABLE chute_blocks; {CHUTE_BLOCKS_V12}; DROP TABLE claim_looks;
+             ALTER TABLE jobs DROP COLUMN cpu_time_s;
              INSERT INTO jobs (id, hash, scene, params_json, seed, target_time_s)
                  VALUES (1, 'h', 'chute', '{{}}', 0, 1.0);
              INSERT INTO chute_blocks (job_id, block, z_m, diffusion_m2_per_s, shear_rate_per_s,
@@ -60,9 +61,14 @@ fn a_schema_12_store_migrates_in_place() {
             .query_row("PRAGMA user_version", [], |r| r.get(0))
             .unwrap();
         assert_eq!(v, sweep::store::SCHEMA_VERSION);
-        assert_eq!(v, 14);
+        assert_eq!(v, 15);
         // Schema 14's table of what each look had spent.
         assert!(columns(&conn, "claim_looks").contains(&"core_hours".to_string()));
+        // Schema 15's CPU time of each job: unknown for the jobs that ran before.
+        let cpu: Option<f64> = conn
+            .query_row("SELECT cpu_time_s FROM jobs WHERE id = 1", [], |r| r.get(0))
+            .unwrap();
+        assert_eq!(cpu, None);
         let cols = columns(&conn, "chute_blocks");
         for c in [
             "nematic_order_s2",

@@ -68,6 +68,7 @@ use super::real::{Real, V3};
 use super::state::State;
 use super::walls::WallKernel;
 pub use super::watchdog::Watchdog;
+use crate::engine::cpu_clock::WorkerClocks;
 
 /// Smallest piece of work a rayon task takes: small runs stay on one thread.
 const MIN_LEN: usize = 512;
@@ -140,6 +141,8 @@ pub struct CpuEngine<R: Real> {
     pool: std::sync::Arc<rayon::ThreadPool>,
     /// The sphere step's passes run on this team (its threads stay awake between passes).
     team: Team,
+    /// The CPU clocks of the pool's and the team's threads (`Backend::workers_cpu_s`).
+    clocks: WorkerClocks,
     threads: usize,
     pub watchdog: Watchdog,
 }
@@ -174,13 +177,16 @@ impl<R: Real> CpuEngine<R> {
         if let Some(why) = thread_room::lacking_room(threads) {
             return Err(refused(&why));
         }
+        let clocks = WorkerClocks::default();
+        let pool_clocks = clocks.clone();
         let pool: std::sync::Arc<rayon::ThreadPool> = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
+            .start_handler(move |_| pool_clocks.register_this_thread())
             .build()
             .map_err(|e| refused(&e))?
             .into();
         let threads = pool.current_num_threads();
-        let team = Team::try_new(threads).map_err(|e| refused(&e))?;
+        let team = Team::try_new(threads, &clocks).map_err(|e| refused(&e))?;
         let periodic = Periodic {
             x: config
                 .periodic_x
@@ -219,6 +225,7 @@ impl<R: Real> CpuEngine<R> {
             contacts: Vec::new(),
             pool,
             team,
+            clocks,
             threads,
             watchdog: Watchdog::default(),
             state,
@@ -282,6 +289,10 @@ impl<R: Real> CpuEngine<R> {
 }
 
 impl<R: Real> Backend for CpuEngine<R> {
+    fn workers_cpu_s(&self) -> f64 {
+        self.clocks.total_s()
+    }
+
     fn advance(&mut self, steps: u64) -> Result<ChunkReport, EngineError> {
         let mut report = ChunkReport::default();
         let builds0 = self.list.builds + self.half.builds;

@@ -14,6 +14,8 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crate::engine::cpu_clock::WorkerClocks;
+
 /// How long an idle helper spins before it parks.
 const SPIN: Duration = Duration::from_micros(50);
 
@@ -54,7 +56,7 @@ impl Team {
     ///
     /// # Errors
     /// A helper thread cannot be spawned.
-    pub fn try_new(threads: usize) -> std::io::Result<Self> {
+    pub fn try_new(threads: usize, clocks: &WorkerClocks) -> std::io::Result<Self> {
         let shared = Arc::new(Shared {
             claim: (0..threads.max(1))
                 .map(|_| Padded(AtomicU64::new(0)))
@@ -71,9 +73,13 @@ impl Team {
         };
         for k in 1..threads.max(1) {
             let sh = team.shared.clone();
+            let clocks = clocks.clone();
             let helper = std::thread::Builder::new()
                 .name(format!("sweep-team-{k}"))
-                .spawn(move || helper(&sh, k))?;
+                .spawn(move || {
+                    clocks.register_this_thread();
+                    helper(&sh, k)
+                })?;
             // Dropping `team` on an error stops the helpers started so far.
             team.helpers.push(helper);
         }
@@ -222,7 +228,7 @@ mod tests {
     #[test]
     fn every_task_runs_once_and_results_come_in_task_order() {
         for threads in [1, 2, 3] {
-            let mut team = Team::try_new(threads).unwrap();
+            let mut team = Team::try_new(threads, &WorkerClocks::default()).unwrap();
             for round in 0..200 {
                 let counts: Vec<AtomicUsize> = (0..37).map(|_| AtomicUsize::new(0)).collect();
                 let out = team.run(37, |k| {
@@ -237,7 +243,7 @@ mod tests {
 
     #[test]
     fn a_panicking_task_is_reraised_after_the_others_finish() {
-        let mut team = Team::try_new(2).unwrap();
+        let mut team = Team::try_new(2, &WorkerClocks::default()).unwrap();
         let finished = AtomicUsize::new(0);
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             team.run(16, |k| {
