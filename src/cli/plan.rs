@@ -369,7 +369,7 @@ impl Rates<'_> {
                 (r, self.measured.get(&(backend.clone(), precision.clone())))
             {
                 println!(
-                    "wall times for {backend}/{precision}: the median rate of this store's {n} done job(s) of the scene, {r:.3e} particle-steps/s (no `sweep bench --scene {bench_scene}` result)"
+                    "wall times for {backend}/{precision}: the median rate of this store's {n} done job(s) of the scene, {r:.3e} particle-steps/s (per CPU second where a one-thread job counted it; no `sweep bench --scene {bench_scene}` result)"
                 );
             } else if r.is_none() {
                 println!(

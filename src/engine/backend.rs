@@ -159,9 +159,10 @@ pub trait Backend: Send {
     fn contacts(&mut self) -> Result<Vec<ContactRecord>, EngineError>;
     fn describe(&self) -> BackendInfo;
     /// CPU seconds the engine's own worker threads have run since it was built (the CPU
-    /// engine's pool and team; 0 for an engine that steps on the caller's thread or a device).
-    fn workers_cpu_s(&self) -> f64 {
-        0.0
+    /// engine's pool and team; 0 for an engine that steps on the caller's thread or a device);
+    /// None where a worker's clock cannot be read.
+    fn workers_cpu_s(&self) -> Option<f64> {
+        Some(0.0)
     }
     /// The dispatches recorded since the engine was built (GPU engines; None on the CPU).
     fn dispatches(&self) -> Option<DispatchCount> {

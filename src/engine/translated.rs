@@ -120,7 +120,7 @@ impl Backend for Translated {
         self.inner.describe()
     }
 
-    fn workers_cpu_s(&self) -> f64 {
+    fn workers_cpu_s(&self) -> Option<f64> {
         self.inner.workers_cpu_s()
     }
 }

@@ -35,10 +35,12 @@ pub(super) fn out_of_reach(id: &str, forecast: Option<f64>, left: Option<f64>) -
     })
 }
 
-/// The first items of a round, in its order of priority, whose expected particle-steps fit
-/// in what the budget has `left`; the round stops at the first item that would pass it (a later,
-/// cheaper item would buy a lower priority). With the items cut, the line that says so. An item
-/// whose cost is unknown (not finite) is kept and not counted. Everything is kept without a cap.
+/// The items of a round that the budget has `left` for: taken in the round's order of priority,
+/// each run of consecutive items of one point as a whole (a chute point short of steady
+/// replicas gets them all or none: a part would spend without giving it a result), a group that
+/// would pass what is left skipped for the cheaper ones after it. With items left out, the line
+/// that names them. An item whose cost is unknown (not finite) is kept and not counted.
+/// Everything is kept without a cap.
 pub(super) fn within_budget<T>(
     items: Vec<T>,
     cost: impl Fn(&T) -> f64,
@@ -49,32 +51,35 @@ pub(super) fn within_budget<T>(
         return (items, None);
     };
     let n = items.len();
-    let all: f64 = items.iter().map(&cost).filter(|c| c.is_finite()).sum();
+    let known = |c: f64| if c.is_finite() { c } else { 0.0 };
+    let all: f64 = items.iter().map(|i| known(cost(i))).sum();
+    let mut groups: Vec<(String, Vec<T>)> = Vec::new();
+    for item in items {
+        let l = label(&item);
+        match groups.last_mut() {
+            Some((last, g)) if *last == l => g.push(item),
+            _ => groups.push((l, vec![item])),
+        }
+    }
     let mut spent = 0.0;
     let mut kept = Vec::new();
     let mut out = Vec::new();
-    for item in items {
-        let c = cost(&item);
-        if out.is_empty() && (!c.is_finite() || spent + c <= left) {
-            spent += if c.is_finite() { c } else { 0.0 };
-            kept.push(item);
+    for (l, g) in groups {
+        let c: f64 = g.iter().map(|i| known(cost(i))).sum();
+        if spent + c <= left {
+            spent += c;
+            kept.extend(g);
         } else {
-            out.push(item);
+            out.push(format!("{l} ({} item(s), {c:.2e})", g.len()));
         }
     }
     if out.is_empty() {
         return (kept, None);
     }
-    let mut points: Vec<String> = Vec::new();
-    for l in out.iter().map(&label) {
-        if !points.contains(&l) {
-            points.push(l);
-        }
-    }
     let why = format!(
-        "the budget left ({left:.2e} particle-steps) covers the first {} of {n} work item(s) ({spent:.2e} of {all:.2e} particle-steps expected); left out: {}",
+        "the budget left ({left:.2e} particle-steps) covers {} of {n} work item(s) ({spent:.2e} of {all:.2e} particle-steps expected); left out: {}",
         kept.len(),
-        points.join(", ")
+        out.join(", ")
     );
     (kept, Some(why))
 }
@@ -84,32 +89,40 @@ mod tests {
     use super::{out_of_reach, steps_left, within_budget};
 
     #[test]
-    fn a_round_stops_at_the_first_item_the_budget_cannot_pay() {
-        let items = vec![("a", 4e10), ("b", 3e10), ("c", 2e10), ("d", 1e9)];
-        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), Some(8e10));
-        // a + b = 7e10 fit; c would pass 8e10, and d, cheaper, comes after it.
-        assert_eq!(kept, items[..2].to_vec());
+    fn a_round_takes_what_the_budget_pays_for_keeping_each_points_work_whole() {
+        let cost = |i: &(&str, f64)| i.1;
+        let label = |i: &(&str, f64)| i.0.to_string();
+        // a, then b's two replicas (a group), c, d: a + b = 7e10 fit 8e10; c would pass it and
+        // is skipped; d, cheaper, still fits.
+        let items = vec![
+            ("a", 4e10),
+            ("b", 1.5e10),
+            ("b", 1.5e10),
+            ("c", 2e10),
+            ("d", 1e9),
+        ];
+        let (kept, why) = within_budget(items.clone(), cost, label, Some(8e10));
+        assert_eq!(kept, vec![items[0], items[1], items[2], items[4]]);
         let why = why.expect("cut");
         assert!(
-            why.contains("covers the first 2 of 4")
-                && why.contains("7.00e10 of 9.10e10")
-                && why.contains("left out: c, d"),
+            why.contains("covers 4 of 5")
+                && why.contains("7.10e10 of 9.10e10")
+                && why.contains("left out: c (1 item(s), 2.00e10)"),
             "{why}"
         );
-        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), None);
-        assert_eq!((kept.len(), why), (4, None));
-        let (kept, why) = within_budget(items.clone(), |i| i.1, |i| i.0.to_string(), Some(1e12));
-        assert_eq!((kept.len(), why), (4, None));
+        // A group is never split: b's pair does not fit 5.5e10 after a, though one of it would.
+        let (kept, why) = within_budget(items.clone(), cost, label, Some(5.5e10));
+        assert_eq!(kept, vec![items[0], items[4]]);
+        assert!(why.unwrap().contains("b (2 item(s), 3.00e10), c"));
+        let (kept, why) = within_budget(items.clone(), cost, label, None);
+        assert_eq!((kept.len(), why), (5, None));
+        let (kept, why) = within_budget(items.clone(), cost, label, Some(1e12));
+        assert_eq!((kept.len(), why), (5, None));
         // Nothing fits: nothing is added, and the line says so.
-        let (kept, why) = within_budget(items, |i| i.1, |i| i.0.to_string(), Some(1e9));
-        assert!(kept.is_empty() && why.unwrap().contains("first 0 of 4"));
+        let (kept, why) = within_budget(items, cost, label, Some(1e8));
+        assert!(kept.is_empty() && why.unwrap().contains("covers 0 of 5"));
         // A cost not known is kept, uncounted.
-        let (kept, _) = within_budget(
-            vec![("x", f64::NAN), ("y", 5e9)],
-            |i| i.1,
-            |i| i.0.to_string(),
-            Some(6e9),
-        );
+        let (kept, _) = within_budget(vec![("x", f64::NAN), ("y", 5e9)], cost, label, Some(6e9));
         assert_eq!(kept.len(), 2);
     }
 

@@ -246,8 +246,8 @@ pub fn run<S: Study>(
     let cpu0 = S::ledger(&prog).cpu_time_s;
     // The job's CPU time so far: what it had, this thread's since the start (its fill stage
     // included) and the engine's workers'.
-    let cpu_now = |engine: &dyn Backend| {
-        cpu0.map(|c| c + cpu_clock::this_thread_s() - thread_cpu0 + engine.workers_cpu_s())
+    let cpu_now = |engine: &dyn Backend| -> Option<f64> {
+        Some(cpu0? + cpu_clock::this_thread_s()? - thread_cpu0? + engine.workers_cpu_s()?)
     };
     let mut last_beat = Instant::now();
     let save = |engine: &mut Box<dyn Backend>, prog: &S::Progress| {
@@ -263,6 +263,10 @@ pub fn run<S: Study>(
             break;
         }
         if ctx.interrupt.load(Ordering::SeqCst) {
+            // The leg's time since its last chunk (all of it, when it ran none) goes too.
+            let l = S::ledger_mut(&mut prog);
+            l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
+            l.cpu_time_s = cpu_now(engine.as_ref());
             let path = save(&mut engine, &prog)?;
             let l = S::ledger(&prog);
             jobs::heartbeat(

@@ -15,6 +15,7 @@ use super::job::{self, JobContext, JobRun, Ledger, Outcome, Start, Study};
 use super::job_lock::DirLock;
 use crate::campaign::JobSpec;
 use crate::checkpoint::{self, Header};
+use crate::engine::cpu_clock;
 use crate::engine::{Backend, ChunkReport, EngineConfig, State};
 use crate::observe::discharge::Discharge;
 use crate::observe::silo_fields::SiloFieldObserver;
@@ -53,7 +54,7 @@ fn fill_stage(
     spec: &JobSpec,
     scene: &SiloScene,
     ctx: &JobContext,
-) -> anyhow::Result<(State<f64>, u64, f64)> {
+) -> anyhow::Result<(State<f64>, u64, Option<f64>)> {
     let dev = backend::job_device(
         backend::for_job(spec, ctx.backend),
         &ctx.gpu,
@@ -79,7 +80,7 @@ fn fill_stage(
                 &key[..16],
                 path.display()
             ));
-            return Ok((s, 0, 0.0));
+            return Ok((s, 0, Some(0.0)));
         }
         if let Some(lock) = DirLock::try_take(&dir)? {
             // The filler may have finished between the look and the lock.
@@ -116,7 +117,7 @@ fn fill_stage_run(
     dir: &Path,
     key: &str,
     seed: u64,
-) -> anyhow::Result<(State<f64>, u64, f64)> {
+) -> anyhow::Result<(State<f64>, u64, Option<f64>)> {
     let config = scene.engine_config(SiloPhase::Fill);
     let interrupted = || ctx.interrupt.load(Ordering::SeqCst);
     let fill_backend = if dev.is_some() { "gpu" } else { "cpu" };
@@ -127,6 +128,7 @@ fn fill_stage_run(
     for r in refused {
         (ctx.log)(r);
     }
+    let thread0 = cpu_clock::this_thread_s();
     let (init, mut steps, cpu_before) = match found {
         Some((path, _, s, extra)) => {
             (ctx.log)(format!(
@@ -136,7 +138,7 @@ fn fill_stage_run(
                 s.time
             ));
             let spent = serde_json::from_str::<SettlingProgress>(&extra)
-                .map_or((0, 0.0), |p| (p.particle_steps, p.workers_cpu_s));
+                .map_or((0, None), |p| (p.particle_steps, p.cpu_time_s));
             (s, spent.0, spent.1)
         }
         None => (
@@ -144,7 +146,7 @@ fn fill_stage_run(
                 .initial_state_until(seed, &interrupted)
                 .ok_or(Interrupted)?,
             0,
-            0.0,
+            Some(0.0),
         ),
     };
     let mut engine: Box<dyn Backend> = match dev {
@@ -165,21 +167,28 @@ fn fill_stage_run(
     let mut next_checkpoint_s = init.time + ctx.checkpoint_interval_s;
     drop(init);
     let chunk = (0.01 / scene.dt).round().max(1.0) as u64;
-    let save_settling = |s: &State<f64>, steps: u64, workers_cpu_s: f64| -> anyhow::Result<()> {
-        let h = Header {
-            job_hash: key.to_string(),
-            step: s.step,
-            time_s: s.time,
-            backend: fill_backend.into(),
-            precision: spec.precision.name().into(),
-        };
-        let extra = serde_json::to_string(&SettlingProgress {
-            particle_steps: steps,
-            workers_cpu_s,
-        })?;
-        checkpoint::save(&settling, &h, s, &extra)?;
-        Ok(())
+    // The fill's CPU time in a settling checkpoint: the earlier legs', this leg's workers' and
+    // this thread's; what the job is given at the end leaves this leg's thread out (the job
+    // counts its own thread from its start).
+    let cpu_with_thread = |workers: Option<f64>| -> Option<f64> {
+        Some(cpu_before? + workers? + cpu_clock::this_thread_s()? - thread0?)
     };
+    let save_settling =
+        |s: &State<f64>, steps: u64, cpu_time_s: Option<f64>| -> anyhow::Result<()> {
+            let h = Header {
+                job_hash: key.to_string(),
+                step: s.step,
+                time_s: s.time,
+                backend: fill_backend.into(),
+                precision: spec.precision.name().into(),
+            };
+            let extra = serde_json::to_string(&SettlingProgress {
+                particle_steps: steps,
+                cpu_time_s,
+            })?;
+            checkpoint::save(&settling, &h, s, &extra)?;
+            Ok(())
+        };
     let mut s;
     loop {
         let r = engine
@@ -203,11 +212,11 @@ fn fill_stage_run(
         }
         // Every loop that runs the engine stops on an interrupt, here after a checkpoint.
         if interrupted() {
-            save_settling(&s, steps, cpu_before + engine.workers_cpu_s())?;
+            save_settling(&s, steps, cpu_with_thread(engine.workers_cpu_s()))?;
             return Err(Interrupted.into());
         }
         if s.time >= next_checkpoint_s {
-            save_settling(&s, steps, cpu_before + engine.workers_cpu_s())?;
+            save_settling(&s, steps, cpu_with_thread(engine.workers_cpu_s()))?;
             next_checkpoint_s = s.time + ctx.checkpoint_interval_s;
         }
     }
@@ -228,7 +237,8 @@ fn fill_stage_run(
     checkpoint::save(dir, &h, &s, "{}")?;
     // The finished fill is kept: its settling checkpoints are not needed again.
     let _ = std::fs::remove_dir_all(&settling);
-    Ok((s, steps, cpu_before + engine.workers_cpu_s()))
+    let cpu = cpu_before.zip(engine.workers_cpu_s()).map(|(a, b)| a + b);
+    Ok((s, steps, cpu))
 }
 
 /// What a settling checkpoint keeps besides the particles.
@@ -236,9 +246,10 @@ fn fill_stage_run(
 struct SettlingProgress {
     /// Particle-steps the fill has cost so far.
     particle_steps: u64,
-    /// CPU seconds its engines' worker threads have run so far.
+    /// CPU seconds the fill has run so far, its workers' and its callers' (None: part of it ran
+    /// before sweep counted CPU time).
     #[serde(default)]
-    workers_cpu_s: f64,
+    cpu_time_s: Option<f64>,
 }
 
 /// Mass of the free (not fixed) particles of `s` (kg): the silo's charge at opening.
@@ -330,7 +341,7 @@ impl Study for SiloStudy {
             ledger: Ledger {
                 particle_steps: fill_steps,
                 // The fill's workers; the job's own thread counts from the job's start.
-                cpu_time_s: Some(fill_cpu_s),
+                cpu_time_s: fill_cpu_s,
                 ..Ledger::default()
             },
             bulk_density: self.scene.bulk_density(&s),

@@ -222,13 +222,23 @@ fn ingest_attached(
          WHERE id = ?1",
         params![job_id, now(), j.2, j.3, j.4, j.5, j.6, j.7, j.8, j.9, j.10, j.11],
     )?;
+    // The task's threads and CPU time (core-hours and CPU hours are read together); a task
+    // store from before schema 15 leaves the CPU time unknown.
     let result_columns = columns(&tx, "job_result", "jobs")?;
-    if result_columns.iter().any(|c| c == "cpu_time_s") {
-        tx.execute(
-            "UPDATE jobs SET cpu_time_s = (SELECT cpu_time_s FROM job_result.jobs WHERE id = ?1) WHERE id = ?1",
-            [job_id],
-        )?;
-    }
+    let cpu = if result_columns.iter().any(|c| c == "cpu_time_s") {
+        "(SELECT cpu_time_s FROM job_result.jobs WHERE id = ?1)"
+    } else {
+        "NULL"
+    };
+    let threads = if result_columns.iter().any(|c| c == "threads") {
+        "COALESCE((SELECT threads FROM job_result.jobs WHERE id = ?1), threads)"
+    } else {
+        "threads"
+    };
+    tx.execute(
+        &format!("UPDATE jobs SET cpu_time_s = {cpu}, threads = {threads} WHERE id = ?1"),
+        [job_id],
+    )?;
     if result_columns.iter().any(|c| c == "backend_note") {
         tx.execute(
             "UPDATE jobs SET backend_note = (SELECT backend_note FROM job_result.jobs WHERE id = ?1) WHERE id = ?1",

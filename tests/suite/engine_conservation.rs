@@ -327,3 +327,31 @@ fn frictional_collisions_conserve_momentum() {
         "momentum changed by {worst:.3e} of |P0| (limit 1e-10)"
     );
 }
+
+/// Law: the engine's workers count the CPU time of the steps. The steps run on the engine's
+/// pool, not on the caller (it waits), so over an advance of the elastic gas the workers run
+/// most of the wall time and the caller little of it. A failure means a worker thread's clock
+/// is not registered (the job's CPU time would leave out its steps) or is counted twice.
+#[test]
+fn an_engines_workers_count_the_cpu_time_of_its_steps() {
+    let (cfg, s) = gas_setup(frictional_law());
+    let mut e = CpuEngine::new(cfg, s, 2);
+    let before = e.workers_cpu_s().expect("Linux gives thread clocks");
+    let caller0 = sweep::engine::cpu_clock::this_thread_s().unwrap();
+    let t0 = std::time::Instant::now();
+    e.advance(20_000).unwrap();
+    let wall = t0.elapsed().as_secs_f64();
+    let workers = e.workers_cpu_s().unwrap() - before;
+    let caller = sweep::engine::cpu_clock::this_thread_s().unwrap() - caller0;
+    eprintln!("advance: {wall:.3} s wall, workers {workers:.3} s CPU, caller {caller:.3} s");
+    assert!(workers > 0.3 * wall, "workers ran {workers} s of {wall} s");
+    // Two pool threads and one team helper at most.
+    assert!(
+        workers <= 3.0 * wall + 0.05,
+        "workers ran {workers} s of {wall} s"
+    );
+    assert!(
+        caller < 0.2 * wall + 0.02,
+        "the caller ran {caller} s of {wall} s"
+    );
+}

@@ -451,6 +451,15 @@ fn slurm_campaign_with_requeue_and_usr1_equals_the_local_run() {
         "one submission per job, each collected"
     );
     assert_eq!(count(&db, "SELECT COUNT(*) FROM slurm_tasks"), 4);
+    // Each task's CPU time and threads came in with its results, across its requeue.
+    assert_eq!(
+        count(
+            &db,
+            "SELECT COUNT(*) FROM jobs WHERE cpu_time_s > 0 AND threads >= 1"
+        ),
+        4,
+        "CPU time and threads ingested"
+    );
 
     // Exactly once: one "done" per job; a task started again only when it was interrupted, and
     // then from its checkpoint.

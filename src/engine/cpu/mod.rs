@@ -289,7 +289,7 @@ impl<R: Real> CpuEngine<R> {
 }
 
 impl<R: Real> Backend for CpuEngine<R> {
-    fn workers_cpu_s(&self) -> f64 {
+    fn workers_cpu_s(&self) -> Option<f64> {
         self.clocks.total_s()
     }
 
