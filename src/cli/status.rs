@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use sweep::project::{
-    owner_place, Executor, FlowVerdict, JobScope, JobStatus, Liveness, OwnerPlace, Project, Slurm,
-    SlurmTask, StateTotal,
+    owner_place, CpuUse, Executor, FlowVerdict, JobScope, JobStatus, Liveness, OwnerPlace, Project,
+    Slurm, SlurmTask, StateTotal,
 };
 use sweep::runner::job_lock;
 use sweep::runner::slurm::{self, query::SlurmView};
@@ -224,7 +224,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
 /// What the jobs' threads ran against the cores they held: on cores shared with other work
 /// the core-hours (wall time × threads) grow while the CPU hours do not. None before any job
 /// has counted its CPU time.
-fn cpu_line(u: &sweep::store::claims::CpuUse) -> Option<String> {
+fn cpu_line(u: &CpuUse) -> Option<String> {
     (u.counted > 0).then(|| {
         let before = u.ran - u.counted;
         format!(

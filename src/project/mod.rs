@@ -17,7 +17,7 @@ use rusqlite::Connection;
 pub use crate::store::bench_runs::{BenchRun, JobRateQuery, RateQuery};
 pub use crate::store::campaign_reads::CampaignRef;
 pub use crate::store::chute_reads::FlowVerdict;
-pub use crate::store::claims::VerdictRow;
+pub use crate::store::claims::{CpuUse, VerdictRow};
 pub use crate::store::fields::{FieldArray, FieldSet};
 pub use crate::store::forget::ForgetPlan;
 pub use crate::store::job_counts::JobTotals;
