@@ -173,15 +173,16 @@ fn fill_stage_run(
     let cpu_with_thread = |workers: Option<f64>| -> Option<f64> {
         Some(cpu_before? + workers? + cpu_clock::this_thread_s()? - thread0?)
     };
+    let header = |s: &State<f64>| Header {
+        job_hash: key.to_string(),
+        step: s.step,
+        time_s: s.time,
+        backend: fill_backend.into(),
+        precision: spec.precision.name().into(),
+    };
     let save_settling =
         |s: &State<f64>, steps: u64, cpu_time_s: Option<f64>| -> anyhow::Result<()> {
-            let h = Header {
-                job_hash: key.to_string(),
-                step: s.step,
-                time_s: s.time,
-                backend: fill_backend.into(),
-                precision: spec.precision.name().into(),
-            };
+            let h = header(s);
             let extra = serde_json::to_string(&SettlingProgress {
                 particle_steps: steps,
                 cpu_time_s,
@@ -227,14 +228,7 @@ fn fill_stage_run(
             scene.p.cylinder_height_m
         );
     }
-    let h = Header {
-        job_hash: key.to_string(),
-        step: s.step,
-        time_s: s.time,
-        backend: fill_backend.into(),
-        precision: spec.precision.name().into(),
-    };
-    checkpoint::save(dir, &h, &s, "{}")?;
+    checkpoint::save(dir, &header(&s), &s, "{}")?;
     // The finished fill is kept: its settling checkpoints are not needed again.
     let _ = std::fs::remove_dir_all(&settling);
     let cpu = cpu_before.zip(engine.workers_cpu_s()).map(|(a, b)| a + b);

@@ -116,6 +116,18 @@ fn a_fill_cut_by_sigterm_goes_on_from_its_checkpoint_to_the_same_bits() {
     signal(&child, "-TERM");
     assert_eq!(child.wait().unwrap().code(), Some(75));
     assert_eq!(job_field(&db, 1, "status"), "paused");
+    // The settling checkpoint carries the fill's CPU time so far, and the job ends with more.
+    let settled_cpu = std::fs::read_dir(&stages)
+        .unwrap()
+        .flatten()
+        .flat_map(|e| sweep::checkpoint::list(&e.path().join("settling")))
+        .filter_map(|p| {
+            let (_, _, extra) =
+                sweep::checkpoint::decode(&std::fs::read(p).ok()?, "ckpt", None).ok()?;
+            serde_json::from_str::<serde_json::Value>(&extra).ok()?["cpu_time_s"].as_f64()
+        })
+        .fold(0.0, f64::max);
+    assert!(settled_cpu > 0.0, "no CPU time in the settling checkpoint");
     let o = resume(d, &db);
     let out = text(&o);
     assert!(o.status.success(), "resume failed:\n{out}");
@@ -123,6 +135,8 @@ fn a_fill_cut_by_sigterm_goes_on_from_its_checkpoint_to_the_same_bits() {
         out.contains("settling goes on from"),
         "the fill must go on from its checkpoint, not start again:\n{out}"
     );
+    let cpu: f64 = job_field(&db, 1, "cpu_time_s").parse().unwrap();
+    assert!(cpu > settled_cpu, "{cpu} s after a fill of {settled_cpu} s");
     assert_same_results(&reference, &results(&db));
 }
 
