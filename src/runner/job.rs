@@ -249,6 +249,11 @@ pub fn run<S: Study>(
     let cpu_now = |engine: &dyn Backend| -> Option<f64> {
         Some(cpu0? + cpu_clock::this_thread_s()? - thread_cpu0? + engine.workers_cpu_s()?)
     };
+    // The ledger's wall and CPU time up to now.
+    let account = |l: &mut Ledger, engine: &dyn Backend| {
+        l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
+        l.cpu_time_s = cpu_now(engine);
+    };
     let mut last_beat = Instant::now();
     let save = |engine: &mut Box<dyn Backend>, prog: &S::Progress| {
         save_checkpoint(&dir, &job.hash, engine.as_mut(), &info, prog)
@@ -264,9 +269,7 @@ pub fn run<S: Study>(
         }
         if ctx.interrupt.load(Ordering::SeqCst) {
             // The leg's time since its last chunk (all of it, when it ran none) goes too.
-            let l = S::ledger_mut(&mut prog);
-            l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-            l.cpu_time_s = cpu_now(engine.as_ref());
+            account(S::ledger_mut(&mut prog), engine.as_ref());
             let path = save(&mut engine, &prog)?;
             let l = S::ledger(&prog);
             jobs::heartbeat(
@@ -277,9 +280,9 @@ pub fn run<S: Study>(
                 (t / study.end_time(&prog)).min(1.0),
                 l.particle_steps,
                 l.wall_time_s,
+                l.cpu_time_s,
                 Some(&path.display().to_string()),
             )?;
-            jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
             return Ok(Outcome::Paused);
         }
         let t0 = Instant::now();
@@ -303,9 +306,7 @@ pub fn run<S: Study>(
         if let Err(reason) = study.observe(&run, &mut prog, engine.as_mut(), &report, t_now)? {
             return Ok(Outcome::Failed(reason));
         }
-        let l = S::ledger_mut(&mut prog);
-        l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-        l.cpu_time_s = cpu_now(engine.as_ref());
+        account(S::ledger_mut(&mut prog), engine.as_ref());
         let saved = if S::ledger(&prog).chunk % ckpt_every == 0 {
             Some(save(&mut engine, &prog)?)
         } else {
@@ -323,9 +324,9 @@ pub fn run<S: Study>(
                 (t_now / end).min(1.0),
                 l.particle_steps,
                 l.wall_time_s,
+                l.cpu_time_s,
                 path.as_deref(),
             )?;
-            jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
             last_beat = Instant::now();
         }
         if let Some(p) = &ctx.progress {
@@ -333,10 +334,8 @@ pub fn run<S: Study>(
         }
     }
     let t_end = S::ledger(&prog).chunk as f64 * chunk_dt;
-    let l = S::ledger_mut(&mut prog);
-    l.wall_time_s = wall0 + started.elapsed().as_secs_f64();
-    l.cpu_time_s = cpu_now(engine.as_ref());
-    jobs::set_cpu_time(conn, job.id, lease, l.cpu_time_s)?;
+    account(S::ledger_mut(&mut prog), engine.as_ref());
+    jobs::set_cpu_time(conn, job.id, lease, S::ledger(&prog).cpu_time_s)?;
     study.finish(conn, job, ctx, prog, t_end)?;
     Ok(Outcome::Done)
 }

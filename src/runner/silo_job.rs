@@ -46,8 +46,8 @@ struct Progress {
 }
 
 /// Fills and settles the silo (orifice closed, bottom still), or reuses the stored result of the
-/// same fill parameters. Returns the settled state, the particle-steps it cost and the CPU seconds
-/// its engines' workers ran (0 if reused).
+/// same fill parameters. Returns the settled state, the particle-steps it cost (0 if reused) and
+/// the CPU seconds of its workers and earlier legs (None: part of it ran before sweep counted it).
 /// A GPU job fills on its GPU; its fill is stored apart from the CPU's (and each adapter's),
 /// since the bits differ.
 fn fill_stage(

@@ -149,13 +149,14 @@ pub fn heartbeat(
     progress: f64,
     particle_steps: u64,
     wall_time: f64,
+    cpu_time: Option<f64>,
     checkpoint: Option<&str>,
 ) -> anyhow::Result<()> {
     conn.execute(
         "UPDATE jobs SET heartbeat_at = ?3, sim_time_s = ?4, progress = ?5, particle_steps = ?6, wall_time_s = ?7,
-                checkpoint_path = COALESCE(?8, checkpoint_path)
+                cpu_time_s = ?8, checkpoint_path = COALESCE(?9, checkpoint_path)
          WHERE id = ?1 AND lease_owner = ?2",
-        params![id, lease.owner, now(), sim_time, progress, particle_steps as i64, wall_time, checkpoint],
+        params![id, lease.owner, now(), sim_time, progress, particle_steps as i64, wall_time, cpu_time, checkpoint],
     )
     .context("heartbeat")?;
     Ok(())
