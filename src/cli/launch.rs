@@ -330,32 +330,43 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     }
     // A plain resume continues each campaign's latest version; an older one that a new
     // version replaces is left as it is unless named.
-    let scope = match &a.campaign {
-        Some(name) => {
-            JobScope::Campaign(sweep::report::find_campaign(project.conn(), Some(name), None)?.id)
-        }
-        None => JobScope::LatestVersions,
+    let named = named_campaigns(&project, &a.campaign)?;
+    let scopes: Vec<JobScope> = if named.is_empty() {
+        vec![JobScope::LatestVersions]
+    } else {
+        named.iter().map(|&c| JobScope::Campaign(c)).collect()
     };
     let released = project.release_stale_submissions(a.stale_after)?;
-    let decisions = project.requeue(scope, a.max_attempts, |j| {
-        sweep::runner::job_lock::liveness(&work, j, a.stale_after)
-    })?;
+    let mut decisions = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for &scope in &scopes {
+        let found = project.requeue(scope, a.max_attempts, |j| {
+            sweep::runner::job_lock::liveness(&work, j, a.stale_after)
+        })?;
+        // A job two named campaigns share is decided once, with the first.
+        decisions.extend(found.into_iter().filter(|d| seen.insert(d.job.id)));
+    }
     let resumed = decisions.iter().filter(|d| d.action == "pending").count();
-    let (total, done) = match scope {
-        JobScope::Campaign(cid) => campaign_totals(&project, cid)?,
-        _ => {
-            let t = project.totals()?;
-            (t.total, t.done)
+    let in_scope = if named.is_empty() {
+        project.latest_campaign_ids()?
+    } else {
+        named.clone()
+    };
+    let done_text = if named.is_empty() {
+        let t = project.totals()?;
+        format!("{} of {} already done", t.done, t.total)
+    } else {
+        let mut parts = Vec::new();
+        for &cid in &named {
+            let (total, done) = campaign_totals(&project, cid)?;
+            let name = project
+                .campaign_file(cid)?
+                .map_or(cid.to_string(), |f| f.name);
+            parts.push(format!("{name}: {done} of {total} already done"));
         }
+        parts.join("; ")
     };
-    let in_scope = match scope {
-        JobScope::Campaign(c) => vec![c],
-        _ => project.latest_campaign_ids()?,
-    };
-    println!(
-        "{} job(s) to resume, {done} of {total} already done",
-        resumed + released
-    );
+    println!("{} job(s) to resume, {done_text}", resumed + released);
     for d in &decisions {
         if d.why != "not started yet" {
             let what = match d.action {
@@ -366,7 +377,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
             println!("  job {} {what}: {} ({})", d.job.id, d.why, d.job.label);
         }
     }
-    if scope == JobScope::LatestVersions {
+    if named.is_empty() {
         // `decisions` has one row per open job of the latest versions.
         let older = project
             .open_jobs(JobScope::All)?
@@ -381,7 +392,7 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     if let Some(code) = super::submit::resume_on_slurm(&mut project, &a, &in_scope, slurm_used)? {
         return Ok(code);
     }
-    let order = campaigns_in_turn(&project, &in_scope)?;
+    let order = campaigns_in_turn(&project, &in_scope, !named.is_empty())?;
     if order.len() > 1 {
         let mut names = Vec::new();
         for &(open, cid) in &order {
@@ -390,8 +401,13 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
                 .map_or(cid.to_string(), |f| f.name);
             names.push(format!("{name} ({open} open)"));
         }
+        let rule = if named.is_empty() {
+            "the fewest open jobs first"
+        } else {
+            "in the order named"
+        };
         println!(
-            "campaigns in turn, the fewest open jobs first, each through its jobs and its rounds: {}",
+            "campaigns in turn, {rule}, each through its jobs and its rounds: {}",
             names.join(", ")
         );
     }
@@ -445,16 +461,35 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     Ok(code)
 }
 
-/// The campaigns of `in_scope` as (open jobs, id), the fewest open jobs first: a plain resume
-/// takes them in this order, each through its jobs and then its look or its target's rounds, so
-/// a small campaign reaches its verdict without waiting behind every job of a large one.
-fn campaigns_in_turn(project: &Project, in_scope: &[i64]) -> anyhow::Result<Vec<(usize, i64)>> {
+/// The campaigns of `in_scope` as (open jobs, id), in turn: as given when `as_named`, else the
+/// fewest open jobs first. A plain resume takes them in this order, each through its jobs and
+/// then its look or its target's rounds, so a small campaign reaches its verdict without
+/// waiting behind every job of a large one; a user who wants another order names them.
+fn campaigns_in_turn(
+    project: &Project,
+    in_scope: &[i64],
+    as_named: bool,
+) -> anyhow::Result<Vec<(usize, i64)>> {
     let mut order = Vec::new();
     for &cid in in_scope {
         order.push((project.open_jobs(JobScope::Campaign(cid))?.len(), cid));
     }
-    order.sort_unstable();
+    if !as_named {
+        order.sort_unstable();
+    }
     Ok(order)
+}
+
+/// The campaign versions `--campaign` names, in the order named, each once.
+fn named_campaigns(project: &Project, names: &[String]) -> anyhow::Result<Vec<i64>> {
+    let mut ids = Vec::new();
+    for name in names {
+        let id = sweep::report::find_campaign(project.conn(), Some(name), None)?.id;
+        if !ids.contains(&id) {
+            ids.push(id);
+        }
+    }
+    Ok(ids)
 }
 
 /// Runs campaign `cid`'s `open` jobs (jobs it shares with another campaign included), then

@@ -121,10 +121,12 @@ pub struct ResumeArguments {
     /// are resubmitted with the settings of their last submission).
     #[arg(long)]
     pub executor: Option<ExecutorKind>,
-    /// Only this campaign's jobs: NAME (its latest version) or NAME@vK (version K). Others
-    /// stay as they are, e.g. an older version's paused jobs that a new version replaces.
+    /// Only these campaigns' jobs, in the order named: NAME (its latest version) or NAME@vK
+    /// (version K); repeat the flag for several. Others stay as they are,
+    /// e.g. an older version's paused jobs that a new version replaces. Idle workers at one
+    /// campaign's tail run the jobs of the others named.
     #[arg(long, value_name = "NAME[@vK]")]
-    pub campaign: Option<String>,
+    pub campaign: Vec<String>,
     /// Campaigns strictly one after another. By default, while a campaign's last jobs run,
     /// idle workers run the next campaigns' jobs and hand them back at a checkpoint when the
     /// campaign's own jobs have ended.

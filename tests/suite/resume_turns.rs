@@ -132,6 +132,75 @@ fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
     assert_same_results(reference, &got);
 }
 
+/// `--campaign` named more than once takes those campaigns in the order named, whatever their
+/// open jobs, and leaves the campaigns not named as they are.
+#[test]
+fn named_campaigns_run_in_the_order_named_and_no_other() {
+    let dir = TempDir::new().unwrap();
+    let db = dir.path().join("sweep.db");
+    let mut short = campaign("short", &[0.024], &[0.0], 0.05);
+    short["base"]["discharge_time_s"] = json!(0.1);
+    let short = write_campaign(dir.path(), "short.json", &short);
+    let third = write_campaign(
+        dir.path(),
+        "third.json",
+        &campaign("third", &[0.026], &[0.0, 1.0], 0.05),
+    );
+    let tiny = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
+    launch_killed_once_running(dir.path(), &short, &db, "short");
+    launch_killed_once_running(dir.path(), &third, &db, "third");
+    launch_killed_once_running(dir.path(), &tiny, &db, "tiny");
+
+    let o = sweep_cmd(dir.path())
+        .args(["resume", "--db", db.to_str().unwrap(), "--stale-after", "0"])
+        .args([
+            "--campaign",
+            "third",
+            "--campaign",
+            "tiny",
+            "--campaign",
+            "third",
+        ])
+        .args(["--backend", "cpu", "--threads", "1", "--parallel", "1"])
+        .output()
+        .unwrap();
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert!(o.status.success(), "{out}\n{err}");
+    assert!(
+        out.contains("third: 0 of 2 already done; tiny: 0 of 1 already done"),
+        "{out}"
+    );
+    assert!(
+        out.contains("campaigns in turn, in the order named, each through its jobs and its rounds: third (2 open), tiny (1 open)"),
+        "{out}"
+    );
+    let lines: Vec<&str> = out.lines().collect();
+    let at = |id: i64| {
+        lines
+            .iter()
+            .position(|l| l.starts_with(&format!("job {id} started")))
+    };
+    let (j2, j3, j4) = (at(2), at(3), at(4));
+    assert!(
+        j2.is_some() && j3.is_some() && j4.is_some() && j2.max(j3) < j4,
+        "third's jobs (2, 3) before tiny's (4):\n{out}"
+    );
+    assert!(at(1).is_none(), "short was not named:\n{out}");
+    assert_eq!(
+        count(
+            &db,
+            "SELECT COUNT(*) FROM jobs WHERE id = 1 AND status != 'done'"
+        ),
+        1,
+        "short's job is left as it was"
+    );
+    assert_eq!(
+        count(&db, "SELECT COUNT(*) FROM jobs WHERE status = 'done'"),
+        3,
+        "{out}\n{err}"
+    );
+}
+
 /// `launch --register-only` queues a campaign: its jobs are registered and none runs; a later
 /// resume runs them.
 #[test]
