@@ -355,6 +355,9 @@ pub fn resume(a: ResumeArguments) -> anyhow::Result<i32> {
     let done_text = if named.is_empty() {
         let t = project.totals()?;
         format!("{} of {} already done", t.done, t.total)
+    } else if let [cid] = named[..] {
+        let (total, done) = campaign_totals(&project, cid)?;
+        format!("{done} of {total} already done")
     } else {
         let mut parts = Vec::new();
         for &cid in &named {
