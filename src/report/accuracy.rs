@@ -1,7 +1,8 @@
 //! The accuracy–cost map: for an accuracy campaign (one scene, settings that differ in numerical
 //! choices: n_c = t_c/dt, stiffness, precision, where the scene sits, observers, …, each run as
 //! one or more replicas), each setting's shift of its observable against the most accurate
-//! setting, with a 95 % confidence interval, plotted against its measured cost. The reference is
+//! setting, with a 95 % confidence interval, plotted against its measured cost (the CPU time per
+//! replica where every job counted it, else the wall time). The reference is
 //! the f64 setting with the largest stiffness and then the smallest dt (then at the origin,
 //! observed as the paper does); the "paper" setting is the one at the paper's stiffness, f64,
 //! with n_c closest to the paper's (silo: dt = 1 µs; chute: n_c = 50).
@@ -155,6 +156,37 @@ impl<'a> Map<'a> {
         mean_over(self.runs, &self.settings[k], |r| Some(r.wall_s))
     }
 
+    /// The mean CPU time of the setting's replicas, if each of them counted it.
+    fn cpu(&self, k: usize) -> Option<f64> {
+        let s = &self.settings[k];
+        s.iter()
+            .all(|&j| self.runs[j].cpu_s.is_some())
+            .then(|| mean_over(self.runs, s, |r| r.cpu_s))
+            .flatten()
+    }
+
+    /// The map's cost per replica and its axis: the CPU time where every job counted it (what
+    /// the setting costs whatever else shared the cores), else the wall time.
+    fn cost(&self, k: usize) -> Option<f64> {
+        if self.cpu_counted() {
+            self.cpu(k)
+        } else {
+            self.wall(k)
+        }
+    }
+
+    fn cpu_counted(&self) -> bool {
+        self.runs.iter().all(|r| r.cpu_s.is_some())
+    }
+
+    fn cost_axis(&self) -> &'static str {
+        if self.cpu_counted() {
+            "CPU time per replica (s)"
+        } else {
+            "wall time per replica (s)"
+        }
+    }
+
     fn energy(&self, k: usize) -> Option<f64> {
         mean_over(self.runs, &self.settings[k], |r| r.energy)
     }
@@ -220,6 +252,15 @@ impl<'a> Map<'a> {
             self.replicas(),
             self.pooled_count(r0)
         );
+        let _ = writeln!(
+            text,
+            "cost drawn: {}",
+            if self.cpu_counted() {
+                "CPU time per replica (every job counted it)"
+            } else {
+                "wall time per replica (some jobs ran before CPU time was counted, or where the system gives no thread clocks)"
+            }
+        );
         if let Some(p) = self.pooled[r0] {
             let _ = writeln!(
                 text,
@@ -244,6 +285,7 @@ impl<'a> Map<'a> {
             "replicas".into(),
             "reference_replicas".into(),
             "wall_s_per_replica".into(),
+            "cpu_s_per_replica".into(),
             "particle_steps_per_replica".into(),
             "max_overlap_d".into(),
             "kinetic_drift_per_s".into(),
@@ -282,6 +324,7 @@ impl<'a> Map<'a> {
             self.pooled_count(k).to_string(),
             self.pooled_count(against).to_string(),
             fixed(self.wall(k), 1),
+            fixed(self.cpu(k), 1),
             sci(mean_over(runs, s, |r| Some(r.particle_steps)), 3),
             sci(self.overlap(k), 3),
             sci(mean_over(runs, s, |r| r.drift), 3),
@@ -316,10 +359,10 @@ impl<'a> Map<'a> {
         let (r0, name, replicas) = (self.r0, self.name, self.replicas());
         let n = self.settings.len();
         let (lo, hi) = (0..n)
-            .filter_map(|k| self.wall(k))
+            .filter_map(|k| self.cost(k))
             .fold((f64::INFINITY, 0.0f64), |(a, b), w| (a.min(w), b.max(w)));
         let mut p = Panel::new(
-            Axis::log("wall time per replica (s)"),
+            Axis::log(self.cost_axis()),
             Axis::linear(format!("shift of {name} against the reference (%)")),
         );
         p.title = Some(format!("{name}: shift ± 95 % CI vs cost"));
@@ -332,7 +375,7 @@ impl<'a> Map<'a> {
             "reference: its own 95 % CI at 0".into(),
         ];
         for k in 0..n {
-            let Some(w) = self.wall(k) else { continue };
+            let Some(w) = self.cost(k) else { continue };
             let shift = if k == r0 {
                 self.pooled[k].map(|q| (0.0, q.ci95_rel()))
             } else {
@@ -350,13 +393,13 @@ impl<'a> Map<'a> {
                 .push(Series::line(None, 7, vec![lo, hi], vec![0.0, 0.0]));
         }
         let mut ov = Panel::new(
-            Axis::log("wall time per replica (s)"),
+            Axis::log(self.cost_axis()),
             Axis::log("largest overlap / d"),
         );
         ov.title = Some("largest overlap (over replicas) vs cost".into());
         ov.legend = Legend::Hidden;
         for k in 0..n {
-            if let (Some(o), Some(w)) = (self.overlap(k), self.wall(k)) {
+            if let (Some(o), Some(w)) = (self.overlap(k), self.cost(k)) {
                 ov.series.push(Series::points(
                     Some(self.label_of(k)),
                     k % 10,

@@ -22,6 +22,8 @@ pub(super) struct Run {
     /// Its point: the setting it is a replica of.
     pub(super) point: String,
     pub(super) wall_s: f64,
+    /// CPU seconds of its threads, where every part of it counted them.
+    pub(super) cpu_s: Option<f64>,
     pub(super) particle_steps: f64,
     pub(super) dt_s: Option<f64>,
     pub(super) max_overlap: Option<f64>,
@@ -127,6 +129,7 @@ pub(super) fn runs(conn: &Connection, campaign: &CampaignRef) -> Result<Vec<Run>
             spec,
             point: point_key(&row.params_json),
             wall_s,
+            cpu_s: row.cpu_time_s,
             particle_steps: row.particle_steps as f64,
             dt_s: row.dt_s,
             max_overlap: row.max_overlap_ratio,

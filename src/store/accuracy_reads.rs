@@ -14,6 +14,8 @@ pub struct AccuracyRow {
     /// jobs.params_json
     pub params_json: String,
     pub wall_time_s: f64,
+    /// CPU seconds of its threads (None where a part of it ran without counting them).
+    pub cpu_time_s: Option<f64>,
     pub particle_steps: i64,
     /// Time step (s) and largest overlap / radius, from job_numerics (None without a row).
     pub dt_s: Option<f64>,
@@ -33,7 +35,7 @@ pub struct AccuracyRow {
 pub fn accuracy_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<AccuracyRow>> {
     let mut st = conn.prepare(
         "SELECT j.id, cj.label, j.params_json, j.wall_time_s, j.particle_steps, n.dt_s, n.max_overlap_ratio,
-                COALESCE(j.backend, ''), e.mean_kinetic_j, e.drift_per_s
+                COALESCE(j.backend, ''), e.mean_kinetic_j, e.drift_per_s, j.cpu_time_s
          FROM campaign_jobs cj JOIN jobs j ON j.id = cj.job_id LEFT JOIN job_numerics n ON n.job_id = j.id
          LEFT JOIN job_energy e ON e.job_id = j.id
          WHERE cj.campaign_id = ?1 AND j.status = 'done' ORDER BY j.id",
@@ -51,6 +53,7 @@ pub fn accuracy_rows(conn: &Connection, campaign_id: i64) -> Result<Vec<Accuracy
                 backend: r.get(7)?,
                 mean_kinetic_j: r.get(8)?,
                 drift_per_s: r.get(9)?,
+                cpu_time_s: r.get(10)?,
             })
         })?
         .collect::<rusqlite::Result<Vec<_>>>()?;

@@ -63,7 +63,8 @@ fn replicas_are_pooled_and_shifts_carry_welchs_interval() {
             })
             .unwrap();
         conn.execute(
-            "UPDATE jobs SET status = 'done', wall_time_s = ?2, particle_steps = 1000000 WHERE id = ?1",
+            "UPDATE jobs SET status = 'done', wall_time_s = ?2, cpu_time_s = ?2 / 2,
+                 particle_steps = 1000000 WHERE id = ?1",
             params![id, 10.0 * (s + 1) as f64],
         )
         .unwrap();
@@ -108,6 +109,23 @@ fn replicas_are_pooled_and_shifts_carry_welchs_interval() {
     };
     let rows: Vec<Vec<String>> = lines.collect();
     assert_eq!(rows.len(), 4, "one row per setting");
+    // Every job counted its CPU time (half its wall time here): the map draws it as the cost.
+    assert!(
+        rep.table
+            .contains("cost drawn: CPU time per replica (every job counted it)"),
+        "{}",
+        rep.table
+    );
+    for (s, row) in rows.iter().enumerate() {
+        assert_eq!(
+            row[col("wall_s_per_replica")],
+            format!("{:.1}", 10.0 * (s + 1) as f64)
+        );
+        assert_eq!(
+            row[col("cpu_s_per_replica")],
+            format!("{:.1}", 5.0 * (s + 1) as f64)
+        );
+    }
     // By hand: a job's se = CI / t₉; two equal replicas pool to se/√2 (dof 18); the shift's
     // variance is se²/2 + se²/2 = se² with Welch's dof 36.
     let se = CI / student_t_975(BLOCKS as usize - 1);
@@ -244,6 +262,13 @@ fn a_chute_setting_of_one_replica_uses_its_window_errors() {
     };
     let rows: Vec<Vec<String>> = lines.collect();
     assert_eq!(rows.len(), 3, "{}", rep.table);
+    // No job counted its CPU time (ran before it was counted): the wall time is the cost.
+    assert!(
+        rep.table.contains("cost drawn: wall time per replica"),
+        "{}",
+        rep.table
+    );
+    assert!(rows.iter().all(|r| r[col("cpu_s_per_replica")] == "-"));
     // Each central triple has the errors 0.03, 0.04, 0.05 in some order.
     let se_job = (0.03f64.powi(2) + 0.04f64.powi(2) + 0.05f64.powi(2)).sqrt() / 3.0;
     let half = student_t_975(6) * (2.0 * se_job * se_job).sqrt();
