@@ -154,14 +154,7 @@ pub fn run(a: Arguments) -> anyhow::Result<i32> {
             } else {
                 0.0
             };
-            let eta = if r.status != "done" && r.sim_time_s > 0.0 && r.wall_time_s > 0.0 {
-                format!(
-                    "{:.0}",
-                    (r.target_time_s - r.sim_time_s).max(0.0) * r.wall_time_s / r.sim_time_s
-                )
-            } else {
-                "-".into()
-            };
+            let eta = eta_s(r).map_or("-".into(), |e| format!("{e:.0}"));
             println!(
                 "{:>5}  {:<8} {:>6.1} {:>6.2}/{:<7.2} {:>16.3e} {:>10} {:>5}  {} {}",
                 r.id,
@@ -438,9 +431,56 @@ fn describe(t: &SlurmTask, view: Option<&SlurmView>) -> String {
     format!("task {} {slurm}{sweep}", t.slurm_id())
 }
 
+/// The wall seconds a job not done still needs at its pace so far. Its progress is measured
+/// against where it will really end, which a chute job moves from its longest allowed run to its
+/// measurement's end once steady; a job without progress yet is measured against its target.
+fn eta_s(r: &JobStatus) -> Option<f64> {
+    if r.status == "done" || r.wall_time_s <= 0.0 {
+        return None;
+    }
+    if r.progress > 0.0 && r.progress < 1.0 {
+        return Some(r.wall_time_s * (1.0 - r.progress) / r.progress);
+    }
+    (r.sim_time_s > 0.0)
+        .then(|| (r.target_time_s - r.sim_time_s).max(0.0) * r.wall_time_s / r.sim_time_s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_eta_follows_the_jobs_own_end() {
+        // A chute job steady at 175 s measures to 295 s, long before its 720 s cap.
+        let measuring = JobStatus {
+            status: "running".into(),
+            sim_time_s: 186.9,
+            target_time_s: 720.0,
+            progress: 186.9 / 295.0,
+            wall_time_s: 10_000.0,
+            ..JobStatus::default()
+        };
+        let eta = eta_s(&measuring).unwrap();
+        assert!(
+            (eta - 10_000.0 * (295.0 - 186.9) / 186.9).abs() < 1e-6,
+            "{eta}"
+        );
+        // Before any progress is recorded the target stands.
+        let early = JobStatus {
+            progress: 0.0,
+            ..measuring.clone()
+        };
+        let eta = eta_s(&early).unwrap();
+        assert!(
+            (eta - 10_000.0 * (720.0 - 186.9) / 186.9).abs() < 1e-6,
+            "{eta}"
+        );
+        let done = JobStatus {
+            status: "done".into(),
+            ..measuring
+        };
+        assert_eq!(eta_s(&done), None);
+    }
 
     /// A job that ran (on `backend`, with `note`), or one that has not (`backend` None).
     fn row(backend: Option<&str>, note: Option<&str>) -> JobStatus {
