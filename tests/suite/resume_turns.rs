@@ -19,6 +19,24 @@ fn launch_killed_once_running(dir: &Path, file: &Path, db: &Path, name: &str) {
     kill(&mut child);
 }
 
+/// Three campaigns, each launched and killed while running: "short" (job 1, 0.1 s of
+/// discharge), registered first, "third" (jobs 2 and 3) and "tiny" (job 4, the reference's
+/// single job). In turn, tiny comes before third: fewer open jobs.
+fn three_campaigns_interrupted(dir: &Path, db: &Path) {
+    let mut short = campaign("short", &[0.024], &[0.0], 0.05);
+    short["base"]["discharge_time_s"] = json!(0.1);
+    let short = write_campaign(dir, "short.json", &short);
+    let third = write_campaign(
+        dir,
+        "third.json",
+        &campaign("third", &[0.026], &[0.0, 1.0], 0.05),
+    );
+    let tiny = write_campaign(dir, "tiny.json", &one_job(0.05));
+    launch_killed_once_running(dir, &short, db, "short");
+    launch_killed_once_running(dir, &third, db, "third");
+    launch_killed_once_running(dir, &tiny, db, "tiny");
+}
+
 #[test]
 fn a_small_campaign_is_looked_at_before_a_large_one_runs() {
     let dir = TempDir::new().unwrap();
@@ -69,26 +87,13 @@ fn a_small_campaign_is_looked_at_before_a_large_one_runs() {
 
 /// With two workers, the one that finds no job of the first campaign left runs a job of the
 /// next while the first campaign's last job ends, then hands it back at a checkpoint; the next
-/// campaign's turn finishes it with the same results as a run that was never lent.
+/// campaign's turn finishes it with the same results as a run that was never lent. The tiny
+/// campaign's job (4), registered after third's (2, 3) but before them in turn, is lent first.
 #[test]
 fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
     let dir = TempDir::new().unwrap();
     let db = dir.path().join("sweep.db");
-    // One short job (0.1 s of discharge), registered first, then the reference's single job.
-    let mut short = campaign("short", &[0.024], &[0.0], 0.05);
-    short["base"]["discharge_time_s"] = json!(0.1);
-    let short = write_campaign(dir.path(), "short.json", &short);
-    // Two jobs (2, 3) registered before the tiny one (4) but later in turn: the tiny
-    // campaign's job is lent first, as the next in turn.
-    let third = write_campaign(
-        dir.path(),
-        "third.json",
-        &campaign("third", &[0.026], &[0.0, 1.0], 0.05),
-    );
-    let long = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
-    launch_killed_once_running(dir.path(), &short, &db, "short");
-    launch_killed_once_running(dir.path(), &third, &db, "third");
-    launch_killed_once_running(dir.path(), &long, &db, "tiny");
+    three_campaigns_interrupted(dir.path(), &db);
 
     let o = sweep_cmd(dir.path())
         .args(["resume", "--db", db.to_str().unwrap(), "--stale-after", "0"])
@@ -138,18 +143,7 @@ fn an_idle_core_runs_the_next_campaigns_job_and_hands_it_back() {
 fn named_campaigns_run_in_the_order_named_and_no_other() {
     let dir = TempDir::new().unwrap();
     let db = dir.path().join("sweep.db");
-    let mut short = campaign("short", &[0.024], &[0.0], 0.05);
-    short["base"]["discharge_time_s"] = json!(0.1);
-    let short = write_campaign(dir.path(), "short.json", &short);
-    let third = write_campaign(
-        dir.path(),
-        "third.json",
-        &campaign("third", &[0.026], &[0.0, 1.0], 0.05),
-    );
-    let tiny = write_campaign(dir.path(), "tiny.json", &one_job(0.05));
-    launch_killed_once_running(dir.path(), &short, &db, "short");
-    launch_killed_once_running(dir.path(), &third, &db, "third");
-    launch_killed_once_running(dir.path(), &tiny, &db, "tiny");
+    three_campaigns_interrupted(dir.path(), &db);
 
     let o = sweep_cmd(dir.path())
         .args(["resume", "--db", db.to_str().unwrap(), "--stale-after", "0"])
