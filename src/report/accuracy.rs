@@ -252,15 +252,12 @@ impl<'a> Map<'a> {
             self.replicas(),
             self.pooled_count(r0)
         );
-        let _ = writeln!(
-            text,
-            "cost drawn: {}",
-            if self.cpu_counted() {
-                "CPU time per replica (every job counted it)"
-            } else {
-                "wall time per replica (some jobs ran before CPU time was counted, or where the system gives no thread clocks)"
-            }
-        );
+        let why = if self.cpu_counted() {
+            "every job counted it"
+        } else {
+            "some jobs ran before CPU time was counted, or where the system gives no thread clocks"
+        };
+        let _ = writeln!(text, "cost drawn: {} ({why})", self.cost_axis());
         if let Some(p) = self.pooled[r0] {
             let _ = writeln!(
                 text,

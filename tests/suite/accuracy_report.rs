@@ -112,7 +112,7 @@ fn replicas_are_pooled_and_shifts_carry_welchs_interval() {
     // Every job counted its CPU time (half its wall time here): the map draws it as the cost.
     assert!(
         rep.table
-            .contains("cost drawn: CPU time per replica (every job counted it)"),
+            .contains("cost drawn: CPU time per replica (s) (every job counted it)"),
         "{}",
         rep.table
     );
@@ -264,7 +264,8 @@ fn a_chute_setting_of_one_replica_uses_its_window_errors() {
     assert_eq!(rows.len(), 3, "{}", rep.table);
     // No job counted its CPU time (ran before it was counted): the wall time is the cost.
     assert!(
-        rep.table.contains("cost drawn: wall time per replica"),
+        rep.table
+            .contains("cost drawn: wall time per replica (s) (some jobs ran before"),
         "{}",
         rep.table
     );
