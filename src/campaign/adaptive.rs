@@ -41,7 +41,8 @@ pub struct PointState {
     /// and the weight it brings.
     pub replica_cost: f64,
     pub replica_weight: f64,
-    /// A new replica's own end (s): the campaign file's time.
+    /// A new replica's own end (s): the point's longest run (at least the campaign file's
+    /// time), so that it pools with the replicas already run at a like weight.
     pub replica_end_s: f64,
     /// Extensions are rounded up to this (s): a block, so blocks stay whole.
     pub quantum_s: f64,
@@ -52,8 +53,8 @@ pub struct PointState {
 pub enum Work {
     /// Run job `job_id` on from `from_s` to `to_s`.
     Extend { job_id: i64, from_s: f64, to_s: f64 },
-    /// A new replica (its index is the point's next).
-    Replica,
+    /// A new replica (its index is the point's next), run to `to_s`.
+    Replica { to_s: f64 },
 }
 
 /// What the target decides for a point.
@@ -93,7 +94,9 @@ pub fn decide(p: &PointState, t: &Target) -> Decision {
         // Nothing to pool yet (every run clogged before measuring, say): only a replica helps.
         return if can_replicate {
             Decision::Work {
-                work: Work::Replica,
+                work: Work::Replica {
+                    to_s: p.replica_end_s,
+                },
                 ci_rel_before: None,
                 ci_rel_expected: None,
                 cost: p.replica_cost,
@@ -156,7 +159,9 @@ pub fn decide(p: &PointState, t: &Target) -> Decision {
         options.push((
             p.replica_cost / p.replica_weight,
             Decision::Work {
-                work: Work::Replica,
+                work: Work::Replica {
+                    to_s: p.replica_end_s,
+                },
                 ci_rel_before: Some(ci),
                 ci_rel_expected: Some(after),
                 cost: p.replica_cost,
@@ -253,12 +258,12 @@ pub fn forecast(p: &PointState, t: &Target, rounds_left: u32) -> Forecast {
                             r.end_s = to_s;
                         }
                     }
-                    Work::Replica => {
+                    Work::Replica { to_s } => {
                         f.replicas += 1;
                         p.weight += p.replica_weight;
                         p.runs.push(RunState {
                             job_id: -(p.runs.len() as i64) - 1,
-                            end_s: p.replica_end_s,
+                            end_s: to_s,
                             not_extendable: None,
                         });
                     }
@@ -373,7 +378,7 @@ mod tests {
             matches!(
                 d,
                 Decision::Work {
-                    work: Work::Replica,
+                    work: Work::Replica { .. },
                     ..
                 }
             ),
@@ -386,7 +391,7 @@ mod tests {
             matches!(
                 d,
                 Decision::Work {
-                    work: Work::Replica,
+                    work: Work::Replica { .. },
                     ..
                 }
             ),
@@ -416,7 +421,7 @@ mod tests {
             matches!(
                 decide(&p, &t),
                 Decision::Work {
-                    work: Work::Replica,
+                    work: Work::Replica { .. },
                     ..
                 }
             ),
@@ -432,7 +437,7 @@ mod tests {
         assert!(matches!(
             decide(&p, &target()),
             Decision::Work {
-                work: Work::Replica,
+                work: Work::Replica { .. },
                 ci_rel_before: None,
                 ..
             }

@@ -364,7 +364,7 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
             let ci = state.estimate.map_or(1.0, |e| e.ci95_rel());
             match work_for(&state, &ev.target, ci * keep.sqrt()) {
                 Decision::Work {
-                    work: Work::Replica,
+                    work: Work::Replica { to_s },
                     ci_rel_before,
                     ci_rel_expected,
                     cost,
@@ -400,7 +400,7 @@ fn adaptive_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>
                             _ => ci_rel_expected,
                         };
                         let d = Decision::Work {
-                            work: Work::Replica,
+                            work: Work::Replica { to_s },
                             ci_rel_before,
                             ci_rel_expected: expected,
                             cost,
@@ -434,7 +434,9 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
             .iter()
             .filter(|r| r.not_extendable.is_none())
             .min_by(|a, b| a.end_s.total_cmp(&b.end_s).then(a.job_id.cmp(&b.job_id)));
-        let to = run.map(|r| (r.end_s + s.replica_end_s).min(ev.target.max_time_s.unwrap_or(0.0)));
+        // A uniform round runs each point on by the campaign file's own time.
+        let step_s = p.next.own_time_s();
+        let to = run.map(|r| (r.end_s + step_s).min(ev.target.max_time_s.unwrap_or(0.0)));
         let d = match (run, to) {
             (Some(r), Some(to_s)) if to_s > r.end_s + 1e-9 => Decision::Work {
                 work: Work::Extend {
@@ -447,7 +449,9 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
                 cost: (to_s - r.end_s) * s.steps_per_s,
             },
             _ if (s.runs.len() as u32) < ev.target.max_replicas => Decision::Work {
-                work: Work::Replica,
+                work: Work::Replica {
+                    to_s: s.replica_end_s,
+                },
                 ci_rel_before: s.estimate.map(|e| e.ci95_rel()),
                 ci_rel_expected: None,
                 cost: s.replica_cost,
@@ -459,7 +463,7 @@ fn uniform_work(l: &Look, ev: &Evaluation) -> (Vec<(Decision, JobSpec, String)>,
             // A chute point short of steady replicas gets all it lacks, as in the adaptive
             // round (it has no result before then).
             d @ Decision::Work {
-                work: Work::Replica,
+                work: Work::Replica { .. },
                 ..
             } if chute => {
                 let short = l.points[i].replicas_short.max(1);

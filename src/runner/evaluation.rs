@@ -139,6 +139,12 @@ fn silo_point(
     } else {
         sp.particle_count as f64 * sp.settle_max_time_s.min(1.0) / scene.dt
     };
+    // A new replica runs as long as the point's longest run: a short one pooled with long
+    // ones would widen the replicas' interval, not narrow it.
+    let length_s = runs
+        .iter()
+        .map(|r| r.end_s)
+        .fold(sp.discharge_time_s, f64::max);
     let state = PointState {
         label: p.label.clone(),
         estimate,
@@ -146,11 +152,9 @@ fn silo_point(
         weight_per_s: 1.0 / d.block_s,
         runs,
         steps_per_s,
-        replica_cost: fill + steps_per_s * sp.discharge_time_s,
-        replica_weight: ((sp.discharge_time_s - d.skip_initial_s) / d.block_s)
-            .floor()
-            .max(0.0),
-        replica_end_s: sp.discharge_time_s,
+        replica_cost: fill + steps_per_s * length_s,
+        replica_weight: ((length_s - d.skip_initial_s) / d.block_s).floor().max(0.0),
+        replica_end_s: length_s,
         quantum_s: d.block_s,
     };
     let row = point_row(
@@ -186,7 +190,7 @@ fn chute_point(
     let steady = steady_jobs.len();
     // A run's own time is its measurement: its end minus the longest wait for steady flow.
     let measured = |j: &TargetJob| (j.target_time_s - cp.steady_max_time_s).max(cp.measure_time_s);
-    let runs = p
+    let runs: Vec<RunState> = p
         .jobs
         .iter()
         .map(|j| RunState {
@@ -208,6 +212,11 @@ fn chute_point(
     } else {
         waits.iter().sum::<f64>() / waits.len() as f64
     };
+    // A new replica measures as long as the point's longest run, as a silo replica does.
+    let length_s = runs
+        .iter()
+        .map(|r| r.end_s)
+        .fold(cp.measure_time_s, f64::max);
     let state = PointState {
         label: p.label.clone(),
         estimate: widest.filter(|_| steady > 0),
@@ -220,9 +229,9 @@ fn chute_point(
         weight_per_s: 1.0,
         runs,
         steps_per_s,
-        replica_cost: steps_per_s * (wait + cp.measure_time_s),
-        replica_weight: cp.measure_time_s,
-        replica_end_s: cp.measure_time_s,
+        replica_cost: steps_per_s * (wait + length_s),
+        replica_weight: length_s,
+        replica_end_s: length_s,
         quantum_s: 1.0,
     };
     let row = point_row(
@@ -431,10 +440,15 @@ pub(crate) fn register_work(
                 );
                 (job_id, "extend", from_s, to_s)
             }
-            Work::Replica => {
-                let id =
-                    targets::add_replica(tx, campaign_id, &next, i64::from(file.run.max_attempts))?;
-                (id, "replica", 0.0, next.own_time_s())
+            Work::Replica { to_s } => {
+                // A chute job's end adds its longest wait for the steady state, as above.
+                let end_s = match next.chute.as_ref() {
+                    Some(c) => c.steady_max_time_s + to_s,
+                    None => to_s,
+                };
+                let attempts = i64::from(file.run.max_attempts);
+                let id = targets::add_replica(tx, campaign_id, &next, end_s, attempts)?;
+                (id, "replica", 0.0, to_s)
             }
         };
         let row = WorkRow {

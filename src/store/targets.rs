@@ -86,8 +86,8 @@ pub fn extend(tx: &Transaction, job_id: i64, to_s: f64, end_s: f64) -> Result<bo
     Ok(n == 1)
 }
 
-/// Registers `spec` as a job of the campaign added by its target; returns its id (an equal
-/// job already stored is linked, not duplicated).
+/// Registers `spec` as a job of the campaign added by its target, to run to `target_time_s`;
+/// returns its id (an equal job already stored is linked, not duplicated).
 ///
 /// # Errors
 /// Database errors.
@@ -95,6 +95,7 @@ pub fn add_replica(
     tx: &Transaction,
     campaign_id: i64,
     spec: &JobSpec,
+    target_time_s: f64,
     max_attempts: i64,
 ) -> Result<i64> {
     tx.execute(
@@ -105,7 +106,7 @@ pub fn add_replica(
             spec.scene.name(),
             spec.resolved_json(),
             spec.seed() as i64,
-            spec.target_time_s(),
+            target_time_s,
             spec.particle_count() as i64,
             spec.precision.name(),
             env!("CARGO_PKG_VERSION"),

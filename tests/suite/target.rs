@@ -290,3 +290,47 @@ fn a_chute_measurement_run_on_gives_the_bits_of_a_longer_one() {
     );
     assert_eq!(chute_results(&db_a), chute_results(&db_b));
 }
+
+#[test]
+fn a_replica_added_after_run_ons_runs_as_long_as_its_point() {
+    // One point whose single run is run on to max_time_s: the next round can only replicate,
+    // and that replica must run to 1.5 s like its sibling, not the file's 1 s (a short
+    // replica pooled with a long one widens the interval it was added to narrow).
+    let dir = TempDir::new().unwrap();
+    let mut c = tiny_target();
+    c["sweep"]["rotation_frequency_hz"] = json!([0.0]);
+    c["target"] = json!({"q_ci95_rel": 0.001, "max_replicas": 2, "max_time_s": 1.5});
+    let file = write_campaign(dir.path(), "t.json", &c);
+    let db = dir.path().join("sweep.db");
+    let o = launch_ok(dir.path(), &file, &db);
+    let replicas = rows(
+        &db,
+        "SELECT w.to_s, j.target_time_s, j.sim_time_s FROM target_work w
+         JOIN jobs j ON j.id = w.job_id WHERE w.action = 'replica'",
+    );
+    assert_eq!(replicas.len(), 1, "{replicas:?}\n{}", stdout(&o));
+    let first = count(
+        &db,
+        "SELECT COUNT(*) FROM target_work WHERE action = 'extend' AND to_s = 1.5",
+    );
+    assert_eq!(first, 1, "the first run was run on to max_time_s first");
+    let conn = read_db(&db);
+    let (to_s, target_s, sim_s): (f64, f64, f64) = conn
+        .query_row(
+            "SELECT w.to_s, j.target_time_s, j.sim_time_s FROM target_work w
+             JOIN jobs j ON j.id = w.job_id WHERE w.action = 'replica'",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+        )
+        .unwrap();
+    assert_eq!((to_s, target_s), (1.5, 1.5));
+    let sibling: f64 = conn
+        .query_row(
+            "SELECT j.sim_time_s FROM target_work w JOIN jobs j ON j.id = w.job_id
+             WHERE w.action = 'extend'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert_eq!(sim_s, sibling, "the replica ran as far as the run it joins");
+}
