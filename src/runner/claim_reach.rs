@@ -1,7 +1,12 @@
 //! Which undecided claims a claims round can still afford. A claim whose forecast (the
 //! particle-steps its interval needs to clear its bound) exceeds what the budget has left gets
 //! no work: spending the rest of the budget on it would decide nothing, and the cheaper claims
-//! would wait behind it.
+//! would wait behind it. What a claim still needs is forecast here too.
+
+use crate::observe::claims::{PointData, Verdict};
+
+use super::claim_replicas::steady_share;
+use super::evaluation::Evaluation;
 
 /// The particle-steps the budget has left: those under `max_particle_steps`, and the
 /// core-hours under `max_core_hours` at the campaign's own particle-steps per core-hour so far;
@@ -82,6 +87,59 @@ pub(super) fn within_budget<T>(
         out.join(", ")
     );
     (kept, Some(why))
+}
+
+/// Particle-steps still needed to decide an undecided claim, if it can be said: `work` times
+/// what its points ran ([`work_to_decide`]: the errors fall as 1/√work while the degrees of
+/// freedom grow); failing that, its interval's half-width falls as 1/√(work) on its points
+/// and must shrink to the value's distance from the bound. A point without a result first
+/// needs a replica. None on the bound (no amount of work decides a value that sits on it) or
+/// without any estimate.
+pub(super) fn forecast_steps(
+    v: &Verdict,
+    work: Option<f64>,
+    points: &[PointData],
+    ev: &Evaluation,
+) -> Option<f64> {
+    let used: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
+    if !(v.lo.is_finite() && v.hi.is_finite()) {
+        let missing: Vec<usize> = v
+            .points
+            .iter()
+            .copied()
+            .filter(|&i| points[i].missing.is_some() || points[i].results.is_empty())
+            .collect();
+        if missing.is_empty() {
+            return None;
+        }
+        // A chute point short of steady replicas gets them all in one round.
+        return Some(
+            missing
+                .iter()
+                .map(|&i| {
+                    let short = points[i].replicas_short.max(1);
+                    f64::from(short) / point_steady_share(ev, i) * ev.points[i].state.replica_cost
+                })
+                .sum(),
+        );
+    }
+    let (gap, half) = (v.gap(), v.half_width());
+    if !(gap > 0.0 && half > 0.0) {
+        return None;
+    }
+    let factor = work.unwrap_or((half / gap).powi(2)).max(1.1);
+    Some((factor - 1.0) * used)
+}
+
+/// The share of point `i`'s done replicas that were steady ([`steady_share`]); 1 for a silo
+/// point, whose every run gives a result.
+pub(super) fn point_steady_share(ev: &Evaluation, i: usize) -> f64 {
+    let p = &ev.points[i];
+    if ev.file.scene == crate::campaign::SceneKind::Chute {
+        steady_share(p.row.replicas as f64, p.done)
+    } else {
+        1.0
+    }
 }
 
 #[cfg(test)]

@@ -15,8 +15,8 @@ use crate::campaign::adaptive::{decide as decide_work, Decision, PointState, Wor
 use crate::campaign::claims::scene_results;
 use crate::campaign::{Allocation, JobSpec, Target};
 use crate::observe::claims::{
-    decide, seed_of, spending_level, Claim, Decision as Verdictum, PointData, Statistic, Verdict,
-    ALPHA,
+    decide, seed_of, spending_level, work_to_decide, Claim, Decision as Verdictum, PointData,
+    Statistic, Verdict, ALPHA,
 };
 use crate::observe::fits::{Pooled, PooledFrom};
 use crate::store::claims::{self, VerdictRow};
@@ -24,10 +24,10 @@ use crate::store::looks;
 use crate::store::targets::WorkRow;
 
 use super::claim_points::claim_points;
-use super::claim_reach::{out_of_reach, steps_left, within_budget};
-use super::claim_replicas::{
-    after_replicas, cut_short, replicas_for_goal, replicas_to_add, steady_share,
+use super::claim_reach::{
+    forecast_steps, out_of_reach, point_steady_share, steps_left, within_budget,
 };
+use super::claim_replicas::{after_replicas, cut_short, replicas_for_goal, replicas_to_add};
 use super::evaluation::{register_work, Evaluation};
 
 /// The smallest fraction of a point's variance one round aims to keep (a round at most
@@ -122,24 +122,33 @@ pub fn look(
         let level = spending.unwrap_or(1.0);
         let path = format!("claims[{k}]");
         let test = claim.tests().first().map_or("none", |t| t.name());
-        let v = match Statistic::resolve(claim, &path, &points, results, constants) {
-            Ok(_) if spending.is_none() => Verdict {
-                note: format!(
-                    "no error rate left: the {} earlier look(s) spent α = {ALPHA}",
-                    look
-                ),
-                ..Verdict::undecided(level, test)
-            },
-            Ok(stat) => decide(
-                &stat,
-                &points,
-                level,
-                seed_of(&ev.file.name, &claim.id, look),
+        // `work`: the multiple of its points' work that would decide it, if it can be said.
+        let (v, work) = match Statistic::resolve(claim, &path, &points, results, constants) {
+            Ok(_) if spending.is_none() => (
+                Verdict {
+                    note: format!(
+                        "no error rate left: the {} earlier look(s) spent α = {ALPHA}",
+                        look
+                    ),
+                    ..Verdict::undecided(level, test)
+                },
+                None,
             ),
-            Err(e) => Verdict {
-                note: format!("{}: {}", e.field, e.message),
-                ..Verdict::undecided(level, test)
-            },
+            Ok(stat) => {
+                let seed = seed_of(&ev.file.name, &claim.id, look);
+                let v = decide(&stat, &points, level, seed);
+                let k = (v.decision == Verdictum::Undecided && v.lo.is_finite())
+                    .then(|| work_to_decide(&stat, &points, level, seed))
+                    .flatten();
+                (v, k)
+            }
+            Err(e) => (
+                Verdict {
+                    note: format!("{}: {}", e.field, e.message),
+                    ..Verdict::undecided(level, test)
+                },
+                None,
+            ),
         };
         let used_steps: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
         let used_wall: f64 = v
@@ -152,7 +161,7 @@ pub fn look(
             })
             .sum();
         let forecast = (v.decision == Verdictum::Undecided)
-            .then(|| forecast_steps(&v, &points, ev))
+            .then(|| forecast_steps(&v, work, &points, ev))
             .flatten();
         let row = VerdictRow {
             round: look,
@@ -215,52 +224,6 @@ pub fn look(
         no_alpha_left: !any_alpha_left,
         reread,
     })
-}
-
-/// Particle-steps still needed to decide an undecided claim, if it can be said: its interval's
-/// half-width falls as 1/√(work) on its points, and must shrink to the value's distance from
-/// the bound; a point without a result first needs a replica. None on the bound (no amount of
-/// work decides a value that sits on it) or without any estimate.
-fn forecast_steps(v: &Verdict, points: &[PointData], ev: &Evaluation) -> Option<f64> {
-    let used: f64 = v.points.iter().map(|&i| points[i].particle_steps).sum();
-    if !(v.lo.is_finite() && v.hi.is_finite()) {
-        let missing: Vec<usize> = v
-            .points
-            .iter()
-            .copied()
-            .filter(|&i| points[i].missing.is_some() || points[i].results.is_empty())
-            .collect();
-        if missing.is_empty() {
-            return None;
-        }
-        // A chute point short of steady replicas gets them all in one round.
-        return Some(
-            missing
-                .iter()
-                .map(|&i| {
-                    let short = points[i].replicas_short.max(1);
-                    f64::from(short) / point_steady_share(ev, i) * ev.points[i].state.replica_cost
-                })
-                .sum(),
-        );
-    }
-    let (gap, half) = (v.gap(), v.half_width());
-    if !(gap > 0.0 && half > 0.0) {
-        return None;
-    }
-    let factor = (half / gap).powi(2).max(1.1);
-    Some((factor - 1.0) * used)
-}
-
-/// The share of point `i`'s done replicas that were steady ([`steady_share`]); 1 for a silo
-/// point, whose every run gives a result.
-fn point_steady_share(ev: &Evaluation, i: usize) -> f64 {
-    let p = &ev.points[i];
-    if ev.file.scene == crate::campaign::SceneKind::Chute {
-        steady_share(p.row.replicas as f64, p.done)
-    } else {
-        1.0
-    }
 }
 
 /// Work for one point: a target whose interval goal for the point is `goal` (relative), under

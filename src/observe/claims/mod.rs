@@ -6,6 +6,9 @@
 mod data;
 mod fit_resolve;
 mod fit_value;
+mod forecast;
+#[cfg(test)]
+mod forecast_tests;
 #[cfg(test)]
 mod profile_tests;
 mod resolve;
@@ -20,6 +23,7 @@ pub use data::{
     matches, result_key, same_value, select, Estimate, PointData, SceneConstants, CHUTE_BED_ONLY,
     CHUTE_RESULTS, SILO_RESULTS,
 };
+pub use forecast::work_to_decide;
 pub use resolve::ALONG_BLOCKS;
 pub use scope::{at_text, Unresolved};
 pub use spec::{
